@@ -1,0 +1,103 @@
+// millsim run SCENE.json [--out DIR] [--quiet]
+// Validates the scene (all errors at once, exit 2, nothing written), runs it with a progress
+// line on a terminal, prints the JSON summary on stdout and writes DIR/{run.h5, run.xdmf,
+// result.json}. Default DIR: out/<scene name>.
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+
+#include "commands.h"
+#include "core/errors.h"
+#include "scene/scene_json.h"
+#include "sim/run.h"
+#include "sim/simulation.h"
+
+namespace millsim::cli {
+namespace {
+
+struct RunArgs {
+  std::string scene_path;
+  std::string out_dir;
+  bool quiet = false;
+};
+
+bool parse_run_args(const std::vector<std::string>& args, RunArgs& out) {
+  for (std::size_t k = 0; k < args.size(); ++k) {
+    const std::string& a = args[k];
+    if (a == "--out" && k + 1 < args.size()) {
+      out.out_dir = args[++k];
+    } else if (a.rfind("--out=", 0) == 0) {
+      out.out_dir = a.substr(6);
+    } else if (a == "--quiet" || a == "-q") {
+      out.quiet = true;
+    } else if (!a.empty() && a[0] == '-') {
+      std::fprintf(stderr, "millsim run: unknown option \"%s\"; allowed: --out DIR, --quiet\n",
+                   a.c_str());
+      return false;
+    } else if (out.scene_path.empty()) {
+      out.scene_path = a;
+    } else {
+      std::fprintf(stderr, "millsim run: unexpected argument \"%s\"; one scene file is allowed\n",
+                   a.c_str());
+      return false;
+    }
+  }
+  if (out.scene_path.empty()) {
+    std::fprintf(stderr, "usage: millsim run SCENE.json [--out DIR] [--quiet]\n");
+    return false;
+  }
+  return true;
+}
+
+void print_progress(const RunProgress& p) {
+  const double percent = 100.0 * double(p.step) / double(std::max<std::int64_t>(1, p.total_steps));
+  std::fprintf(
+      stderr,
+      "\r[%5.1f%%] step %lld/%lld  t = %.4g s  particles %zu  elapsed %.1f s  ETA %.1f s   ",
+      percent, static_cast<long long>(p.step), static_cast<long long>(p.total_steps), p.time_s,
+      p.particles, p.elapsed_s, p.eta_s);
+  if (p.step == p.total_steps) std::fprintf(stderr, "\n");
+  std::fflush(stderr);
+}
+
+}  // namespace
+
+int cmd_run(const std::vector<std::string>& args) {
+  RunArgs run_args;
+  if (!parse_run_args(args, run_args)) return kBadInput;
+  try {
+    const SceneConfig scene = load_scene(run_args.scene_path);
+    Simulation sim(scene);
+    RunOptions options;
+    options.out_dir = run_args.out_dir.empty() ? std::filesystem::path("out") / scene.name
+                                               : std::filesystem::path(run_args.out_dir);
+    if (!run_args.quiet && isatty(STDERR_FILENO)) options.on_progress = print_progress;
+    if (!run_args.quiet)
+      std::fprintf(stderr, "millsim run: %s, %zu particles, dt = %.4g s (%s), %lld steps -> %s\n",
+                   scene.name.c_str(), sim.particles().size(), sim.time_step().step_s,
+                   sim.time_step().automatic ? "auto" : "fixed",
+                   static_cast<long long>(sim.total_steps()), options.out_dir.c_str());
+    const RunOutcome outcome = run_simulation(sim, scene, options);
+    std::cout << outcome.summary.dump(2) << std::endl;
+    if (outcome.failure) {
+      std::fprintf(stderr, "\nrun stopped at step %lld (t = %.4g s): %s\n",
+                   static_cast<long long>(outcome.failure->step), outcome.failure->time_s,
+                   outcome.failure->detail.c_str());
+      return kUnstable;
+    }
+    return kOk;
+  } catch (const InputErrorList& e) {
+    std::fprintf(stderr, "%s\n", format_input_errors(run_args.scene_path, e.errors()).c_str());
+    return kBadInput;
+  } catch (const IoError& e) {
+    std::fprintf(stderr, "millsim run: %s\n", e.what());
+    return kEnvironment;
+  } catch (const std::filesystem::filesystem_error& e) {
+    std::fprintf(stderr, "millsim run: %s\n", e.what());
+    return kEnvironment;
+  }
+}
+
+}  // namespace millsim::cli

@@ -1,0 +1,58 @@
+// millsim: the command-line front end. A table of verbs; each verb lives in cmd_<verb>.cpp.
+#include <cstdio>
+#include <exception>
+#include <string>
+#include <vector>
+
+#include "commands.h"
+#include "sim/run.h"
+
+namespace {
+
+struct Verb {
+  const char* name;
+  int (*run)(const std::vector<std::string>&);
+  const char* summary;
+};
+
+constexpr Verb kVerbs[] = {
+    {"run", millsim::cli::cmd_run, "run one scene: millsim run SCENE.json [--out DIR] [--quiet]"},
+};
+
+void usage(std::FILE* to) {
+  std::fprintf(to, "millsim %s: CFD-DEM for wide particle size distributions\n\nusage:\n",
+               millsim::kMillsimVersion);
+  for (const Verb& v : kVerbs) std::fprintf(to, "  %-8s %s\n", v.name, v.summary);
+  std::fprintf(to, "  %-8s %s\n", "version", "print the version");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2) {
+    usage(stderr);
+    return millsim::cli::kBadInput;
+  }
+  const std::string verb = argv[1];
+  if (verb == "-h" || verb == "--help" || verb == "help") {
+    usage(stdout);
+    return 0;
+  }
+  if (verb == "version" || verb == "--version") {
+    std::printf("millsim %s\n", millsim::kMillsimVersion);
+    return 0;
+  }
+  const std::vector<std::string> args(argv + 2, argv + argc);
+  for (const Verb& v : kVerbs) {
+    if (verb != v.name) continue;
+    try {
+      return v.run(args);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "millsim %s: unexpected error: %s\n", v.name, e.what());
+      return millsim::cli::kUnexpected;
+    }
+  }
+  std::fprintf(stderr, "millsim: unknown command \"%s\"\n", verb.c_str());
+  usage(stderr);
+  return millsim::cli::kBadInput;
+}

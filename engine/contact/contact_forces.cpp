@@ -1,0 +1,197 @@
+#include "contact/contact_forces.h"
+
+#include "contact/contact_law.h"
+
+namespace millsim {
+namespace {
+
+// Tangential spring, friction and torques of one contact; returns the tangential force on the
+// first body. `n` points from the second body to the first; v_t is the tangential slip velocity.
+inline Vec3 tangential_force(const PairSprings& s, double sqrt_overlap, double normal_force,
+                             double friction, const Vec3& n, const Vec3& v_t, double dt,
+                             Vec3& history) {
+  // Keep the stored displacement in the current tangent plane, with its length (rotation).
+  const double len2 = norm2(history);
+  if (len2 > 0.0) {
+    history -= n * dot(history, n);
+    const double new_len2 = norm2(history);
+    if (new_len2 > 0.0) history *= std::sqrt(len2 / new_len2);
+  }
+  history += v_t * dt;
+  const double kt = s.tangential_stiffness * sqrt_overlap;
+  const double etat = s.tangential_damping * std::sqrt(sqrt_overlap);
+  Vec3 ft = -(history * kt) - v_t * etat;
+  const double ft_max = friction * normal_force;
+  const double ft2 = norm2(ft);
+  if (ft2 > ft_max * ft_max) {
+    // Sliding: cap at μ F_n and set the spring to what that force implies (LAMMPS/LIGGGHTS).
+    ft *= ft2 > 0.0 ? ft_max / std::sqrt(ft2) : 0.0;
+    history = kt > 0.0 ? -(ft + v_t * etat) * (1.0 / kt) : Vec3{};
+  }
+  return ft;
+}
+
+template <class Law, bool kPeriodic>
+void pair_loop(const Law& law, const MaterialTable& materials, const PeriodicBox& box, double dt,
+               ParticleStore& p, NeighborList& nl, ContactStepStats& stats) {
+  const std::size_t count = nl.pairs.size();
+  const std::uint32_t* first = nl.pairs.first.data();
+  const std::uint32_t* second = nl.pairs.second.data();
+  Vec3* history = nl.pair_history_m.data();
+  const Vec3* x = p.position_m.data();
+  const Vec3* v = p.velocity_m_per_s.data();
+  const Vec3* w = p.angular_velocity_rad_per_s.data();
+  const double* r = p.radius_m.data();
+  const double* m = p.mass_kg.data();
+  const std::uint16_t* mat = p.material.data();
+  Vec3* f = p.force_n.data();
+  Vec3* tq = p.torque_n_m.data();
+  std::uint64_t touching = 0;
+  double max_ratio = 0.0;
+  std::size_t max_pair = 0;
+
+  for (std::size_t k = 0; k < count; ++k) {
+    const std::uint32_t i = first[k], j = second[k];
+    Vec3 d = x[i] - x[j];
+    if constexpr (kPeriodic) d = box.minimum_image(d);
+    const double dist2 = norm2(d), rsum = r[i] + r[j];
+    if (dist2 >= rsum * rsum) {
+      history[k] = {};
+      continue;
+    }
+    ++touching;
+    const double dist = std::sqrt(dist2);
+    const Vec3 n = d * (1.0 / dist);
+    const double overlap = rsum - dist;
+    const double sqrt_overlap = std::sqrt(overlap);
+    const PairConstants& pc = materials.pair(mat[i], mat[j]);
+    const PairSprings s = law(i, j, r[i], r[j], m[i], m[j], pc);
+
+    // Velocity of the contact point of i relative to j; contact point at −r_i n from i, +r_j n from
+    // j.
+    const Vec3 v_rel = v[i] - v[j] - cross(w[i] * r[i] + w[j] * r[j], n);
+    const double vn = dot(v_rel, n);
+    const Vec3 v_t = v_rel - n * vn;
+    const double fn = hertz_normal_force_n(s, overlap, sqrt_overlap, vn);
+    const Vec3 ft = tangential_force(s, sqrt_overlap, fn, pc.friction, n, v_t, dt, history[k]);
+    const Vec3 force = n * fn + ft;
+    f[i] += force;
+    f[j] -= force;
+    const Vec3 n_cross_ft = cross(n, ft);
+    tq[i] -= n_cross_ft * (r[i] - 0.5 * overlap);
+    tq[j] -= n_cross_ft * (r[j] - 0.5 * overlap);
+    if (pc.rolling_friction > 0.0) {
+      // Constant directional torque (Zhou et al. 1999): −μ_r R* F_n ω_rel/|ω_rel|.
+      const Vec3 w_rel = w[i] - w[j];
+      const double w_len = norm(w_rel);
+      if (w_len > 0.0) {
+        const Vec3 t = w_rel * (pc.rolling_friction * (r[i] * r[j] / rsum) * fn / w_len);
+        tq[i] -= t;
+        tq[j] += t;
+      }
+    }
+    const double ratio = overlap / (2.0 * std::min(r[i], r[j]));
+    if (ratio > max_ratio) max_ratio = ratio, max_pair = k;
+  }
+  stats.touching_pairs = touching;
+  if (max_ratio > stats.max_overlap_ratio) {
+    stats.max_overlap_ratio = max_ratio;
+    const std::uint32_t i = first[max_pair], j = second[max_pair];
+    stats.max_overlap_particle = p.id[r[i] <= r[j] ? i : j];
+  }
+}
+
+template <class Law>
+void pair_loop_any_box(const Law& law, const MaterialTable& materials, const PeriodicBox& box,
+                       double dt, ParticleStore& p, NeighborList& nl, ContactStepStats& stats) {
+  if (box.any_periodic())
+    pair_loop<Law, true>(law, materials, box, dt, p, nl, stats);
+  else
+    pair_loop<Law, false>(law, materials, box, dt, p, nl, stats);
+}
+
+}  // namespace
+
+void compute_pair_forces(ContactModel model, const MaterialTable& materials, const PeriodicBox& box,
+                         double dt, ParticleStore& p, NeighborList& nl, ContactStepStats& stats) {
+  switch (model) {
+    case ContactModel::SeriesSprings:
+      return pair_loop_any_box(
+          SeriesSprings{p.normal_stiffness.data(), p.normal_damping.data(),
+                        p.tangential_stiffness.data(), p.tangential_damping.data()},
+          materials, box, dt, p, nl, stats);
+    case ContactModel::EquivalentProperties:
+      return pair_loop_any_box(EquivalentProperties{}, materials, box, dt, p, nl, stats);
+  }
+}
+
+void compute_wall_forces(const MaterialTable& materials, const std::vector<PlaneWall>& walls,
+                         double dt, ParticleStore& p, NeighborList& nl, ContactStepStats& stats) {
+  std::uint64_t touching = 0;
+  for (std::size_t k = 0; k < nl.wall_particle.size(); ++k) {
+    const std::uint32_t i = nl.wall_particle[k];
+    const PlaneWall& wall = walls[nl.wall_index[k]];
+    const double r = p.radius_m[i];
+    const double overlap = r - wall_distance_m(wall, p.position_m[i]);
+    if (overlap <= 0.0) {
+      nl.wall_history_m[k] = {};
+      continue;
+    }
+    ++touching;
+    const Vec3& n = wall.normal;
+    const PairConstants& pc = materials.wall_pair(wall.pair_table, p.material[i]);
+    const PairSprings s = wall_springs(r, p.mass_kg[i], pc);
+    const double sqrt_overlap = std::sqrt(overlap);
+    const Vec3 v_rel = p.velocity_m_per_s[i] - cross(p.angular_velocity_rad_per_s[i] * r, n);
+    const double vn = dot(v_rel, n);
+    const Vec3 v_t = v_rel - n * vn;
+    const double fn = hertz_normal_force_n(s, overlap, sqrt_overlap, vn);
+    const Vec3 ft =
+        tangential_force(s, sqrt_overlap, fn, pc.friction, n, v_t, dt, nl.wall_history_m[k]);
+    p.force_n[i] += n * fn + ft;
+    p.torque_n_m[i] -= cross(n, ft) * (r - 0.5 * overlap);
+    if (pc.rolling_friction > 0.0) {
+      const Vec3& w = p.angular_velocity_rad_per_s[i];
+      const double w_len = norm(w);
+      if (w_len > 0.0) p.torque_n_m[i] -= w * (pc.rolling_friction * r * fn / w_len);
+    }
+    const double ratio = overlap / (2.0 * r);
+    if (ratio > stats.max_overlap_ratio)
+      stats.max_overlap_ratio = ratio, stats.max_overlap_particle = p.id[i];
+  }
+  stats.touching_walls = touching;
+}
+
+double contact_elastic_energy_j(ContactModel model, const MaterialTable& materials,
+                                const PeriodicBox& box, const std::vector<PlaneWall>& walls,
+                                const ParticleStore& p, const NeighborList& nl) {
+  const SeriesSprings series_law{p.normal_stiffness.data(), p.normal_damping.data(),
+                                 p.tangential_stiffness.data(), p.tangential_damping.data()};
+  double energy = 0.0;
+  for (std::size_t k = 0; k < nl.pairs.size(); ++k) {
+    const std::uint32_t i = nl.pairs.first[k], j = nl.pairs.second[k];
+    const double dist = norm(box.minimum_image(p.position_m[i] - p.position_m[j]));
+    const double overlap = p.radius_m[i] + p.radius_m[j] - dist;
+    if (overlap <= 0.0) continue;
+    const PairConstants& pc = materials.pair(p.material[i], p.material[j]);
+    const PairSprings s = model == ContactModel::SeriesSprings
+                              ? series_law(i, j, 0, 0, 0, 0, pc)
+                              : EquivalentProperties{}(i, j, p.radius_m[i], p.radius_m[j],
+                                                       p.mass_kg[i], p.mass_kg[j], pc);
+    energy += 0.4 * s.normal_stiffness * overlap * overlap * std::sqrt(overlap) +
+              0.5 * s.tangential_stiffness * std::sqrt(overlap) * norm2(nl.pair_history_m[k]);
+  }
+  for (std::size_t k = 0; k < nl.wall_particle.size(); ++k) {
+    const std::uint32_t i = nl.wall_particle[k];
+    const PlaneWall& wall = walls[nl.wall_index[k]];
+    const double overlap = p.radius_m[i] - wall_distance_m(wall, p.position_m[i]);
+    if (overlap <= 0.0) continue;
+    const PairSprings s = wall_springs(p.radius_m[i], p.mass_kg[i],
+                                       materials.wall_pair(wall.pair_table, p.material[i]));
+    energy += 0.4 * s.normal_stiffness * overlap * overlap * std::sqrt(overlap) +
+              0.5 * s.tangential_stiffness * std::sqrt(overlap) * norm2(nl.wall_history_m[k]);
+  }
+  return energy;
+}
+
+}  // namespace millsim

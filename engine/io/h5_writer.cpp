@@ -1,0 +1,149 @@
+#include "io/h5_writer.h"
+
+#include <hdf5.h>
+
+#include <cstdio>
+#include <fstream>
+
+#include "core/errors.h"
+
+namespace millsim {
+namespace {
+
+void check(herr_t status, const std::string& what, const std::filesystem::path& path) {
+  if (status < 0) throw IoError("HDF5: " + what + " failed in " + path.string());
+}
+
+void write_dataset(hid_t group, const char* name, hid_t mem_type, hid_t file_type, int rank,
+                   const hsize_t* dims, const void* data, const std::filesystem::path& path) {
+  const hid_t space = H5Screate_simple(rank, dims, nullptr);
+  const hid_t set =
+      H5Dcreate2(group, name, file_type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (set < 0) {
+    H5Sclose(space);
+    throw IoError(std::string("HDF5: cannot create dataset ") + name + " in " + path.string());
+  }
+  const herr_t status =
+      dims[0] == 0 ? 0 : H5Dwrite(set, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data);
+  H5Dclose(set);
+  H5Sclose(space);
+  check(status, std::string("writing ") + name, path);
+}
+
+template <class T>
+void write_scalar_attribute(hid_t object, const char* name, hid_t type, T value) {
+  const hid_t space = H5Screate(H5S_SCALAR);
+  const hid_t attr = H5Acreate2(object, name, type, space, H5P_DEFAULT, H5P_DEFAULT);
+  H5Awrite(attr, type, &value);
+  H5Aclose(attr);
+  H5Sclose(space);
+}
+
+}  // namespace
+
+H5Writer::H5Writer(const std::filesystem::path& path) : path_(path) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors become IoError, not stderr noise
+  file_ = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  if (file_ < 0) throw IoError("cannot create " + path.string());
+  const hid_t g = H5Gcreate2(file_, "/snapshots", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (g < 0) throw IoError("HDF5: cannot create /snapshots in " + path.string());
+  H5Gclose(g);
+}
+
+H5Writer::~H5Writer() {
+  if (file_ >= 0) H5Fclose(file_);
+}
+
+void H5Writer::write_root_attribute(const std::string& name, const std::string& value) {
+  const hid_t type = H5Tcopy(H5T_C_S1);
+  H5Tset_size(type, value.size() + 1);
+  const hid_t space = H5Screate(H5S_SCALAR);
+  const hid_t attr = H5Acreate2(file_, name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT);
+  const herr_t status = H5Awrite(attr, type, value.c_str());
+  H5Aclose(attr), H5Sclose(space), H5Tclose(type);
+  check(status, "attribute " + name, path_);
+}
+
+void H5Writer::write_snapshot(std::int64_t step, double time_s, const ParticleStore& p) {
+  char name[64];
+  std::snprintf(name, sizeof name, "/snapshots/s%09lld", static_cast<long long>(step));
+  const hid_t g = H5Gcreate2(file_, name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (g < 0) throw IoError(std::string("HDF5: cannot create ") + name + " in " + path_.string());
+  const std::size_t n = p.size();
+  const hsize_t dims3[2] = {n, 3}, dims1[1] = {n};
+  static_assert(sizeof(Vec3) == 3 * sizeof(double));
+  std::vector<double> diameter(n);
+  std::vector<int> material(n);
+  for (std::size_t i = 0; i < n; ++i)
+    diameter[i] = 2.0 * p.radius_m[i], material[i] = p.material[i];
+  try {
+    write_dataset(g, "position", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, 2, dims3, p.position_m.data(),
+                  path_);
+    write_dataset(g, "velocity", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, 2, dims3,
+                  p.velocity_m_per_s.data(), path_);
+    write_dataset(g, "angular_velocity", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, 2, dims3,
+                  p.angular_velocity_rad_per_s.data(), path_);
+    write_dataset(g, "diameter", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, 1, dims1, diameter.data(),
+                  path_);
+    write_dataset(g, "id", H5T_NATIVE_UINT64, H5T_STD_U64LE, 1, dims1, p.id.data(), path_);
+    write_dataset(g, "material", H5T_NATIVE_INT, H5T_STD_I32LE, 1, dims1, material.data(), path_);
+    write_scalar_attribute(g, "step", H5T_NATIVE_INT64, static_cast<std::int64_t>(step));
+    write_scalar_attribute(g, "time_s", H5T_NATIVE_DOUBLE, time_s);
+  } catch (...) {
+    H5Gclose(g);
+    throw;
+  }
+  H5Gclose(g);
+  snapshots_.push_back({name, step, time_s, n});
+}
+
+void H5Writer::write_timeseries(const std::vector<std::string>& names,
+                                const std::vector<std::vector<double>>& columns) {
+  const hid_t g = H5Gcreate2(file_, "/timeseries", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (g < 0) throw IoError("HDF5: cannot create /timeseries in " + path_.string());
+  for (std::size_t c = 0; c < names.size(); ++c) {
+    const hsize_t dims[1] = {columns[c].size()};
+    write_dataset(g, names[c].c_str(), H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, 1, dims,
+                  columns[c].data(), path_);
+  }
+  H5Gclose(g);
+}
+
+void H5Writer::close() {
+  if (file_ < 0) return;
+  const herr_t status = H5Fclose(file_);
+  file_ = -1;
+  check(status, "closing the file", path_);
+}
+
+void write_xdmf(const std::filesystem::path& xdmf_path, const std::string& h5_name,
+                const std::vector<SnapshotInfo>& snapshots) {
+  std::ofstream out(xdmf_path);
+  if (!out) throw IoError("cannot write " + xdmf_path.string());
+  out << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n"
+         "  <Grid Name=\"particles\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  auto item = [&](const SnapshotInfo& s, const char* field, const char* dims) {
+    out << "      <DataItem Dimensions=\"" << dims << "\" NumberType=\"Float\" Precision=\"8\" "
+        << "Format=\"HDF\">" << h5_name << ":" << s.group << "/" << field << "</DataItem>\n";
+  };
+  for (const SnapshotInfo& s : snapshots) {
+    const std::string n = std::to_string(s.particle_count), n3 = n + " 3";
+    out << "   <Grid Name=\"" << s.group.substr(s.group.rfind('/') + 1)
+        << "\" GridType=\"Uniform\">\n"
+        << "    <Time Value=\"" << s.time_s << "\"/>\n"
+        << "    <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << n << "\"/>\n"
+        << "    <Geometry GeometryType=\"XYZ\">\n";
+    item(s, "position", n3.c_str());
+    out << "    </Geometry>\n    <Attribute Name=\"diameter\" AttributeType=\"Scalar\" "
+           "Center=\"Node\">\n";
+    item(s, "diameter", n.c_str());
+    out << "    </Attribute>\n    <Attribute Name=\"velocity\" AttributeType=\"Vector\" "
+           "Center=\"Node\">\n";
+    item(s, "velocity", n3.c_str());
+    out << "    </Attribute>\n   </Grid>\n";
+  }
+  out << "  </Grid>\n </Domain>\n</Xdmf>\n";
+  if (!out) throw IoError("cannot write " + xdmf_path.string());
+}
+
+}  // namespace millsim

@@ -1,0 +1,52 @@
+// run.h5 writer: particle snapshots and time series, plus the XDMF index that lets ParaView
+// open the snapshots as a time series of point clouds. The only file that includes HDF5.
+//
+// Layout:  /snapshots/sNNNNNNNNN/{position, velocity, angular_velocity (N×3), diameter (N),
+//                                  id (N, uint64), material (N, int32)}, attributes step, time_s
+//          /timeseries/<column> (one 1-D dataset per column; "time_s" first)
+//          root attributes: scene, millsim_version
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "particles/particle_store.h"
+
+namespace millsim {
+
+struct SnapshotInfo {
+  std::string group;  // "/snapshots/s000000000"
+  std::int64_t step;
+  double time_s;
+  std::size_t particle_count;
+};
+
+class H5Writer {
+ public:
+  // Creates (truncates) the file; throws IoError when it cannot.
+  explicit H5Writer(const std::filesystem::path& path);
+  ~H5Writer();
+  H5Writer(const H5Writer&) = delete;
+  H5Writer& operator=(const H5Writer&) = delete;
+
+  void write_root_attribute(const std::string& name, const std::string& value);
+  void write_snapshot(std::int64_t step, double time_s, const ParticleStore& particles);
+  void write_timeseries(const std::vector<std::string>& names,
+                        const std::vector<std::vector<double>>& columns);
+  void close();  // flushes; throws IoError on failure
+
+  const std::vector<SnapshotInfo>& snapshots() const { return snapshots_; }
+
+ private:
+  std::filesystem::path path_;
+  std::int64_t file_ = -1;
+  std::vector<SnapshotInfo> snapshots_;
+};
+
+// Writes the XDMF 3 index for `h5_name` (a path relative to the XDMF file).
+void write_xdmf(const std::filesystem::path& xdmf_path, const std::string& h5_name,
+                const std::vector<SnapshotInfo>& snapshots);
+
+}  // namespace millsim

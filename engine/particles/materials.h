@@ -1,0 +1,68 @@
+// MaterialTable: per-material constants and the per-pair tables derived from them, built once
+// per run. Owns the mixing rules for unlike materials (documented in docs/contact-model.md):
+// friction, rolling friction and restitution of a pair are the means of the two materials';
+// particle–wall values default to the particle's material unless the wall overrides them.
+// Elastic constants always combine exactly (E*, G* of Hertz–Mindlin).
+#pragma once
+
+#include <vector>
+
+#include "scene/scene_config.h"
+
+namespace millsim {
+
+struct MaterialConstants {
+  double youngs_modulus_pa;
+  double poisson_ratio;
+  double density_kg_per_m3;
+  double restitution;
+  double friction;
+  double rolling_friction;
+  double damping_ratio;  // α(e): F_damp = α √(m* k) δ^{1/4} v (restitution.h)
+};
+
+// Per-particle springs of §3.2 (Eq. 2–3, square roots as in DESIGN.md errata).
+struct ParticleSprings {
+  double normal_stiffness;  // k_np = 2√(2r)·E / (3(1−ν²))
+  double normal_damping;  // η_np = α √(k_np m): two equal particles in series give α √(k_n m*)
+  double tangential_stiffness;  // k_tp/δ^½ = √(2r)·E / (2(2−ν)(1+ν))
+  double tangential_damping;    // η_tp/δ^¼ = (α/2) √(k_tp m): in parallel, α √(k_t m*)
+};
+ParticleSprings particle_springs(const MaterialConstants& m, double radius_m, double mass_kg);
+
+// What a contact between two materials (or a material and a wall) needs beyond the particles.
+struct PairConstants {
+  double effective_modulus_pa;        // E* = 1 / ((1−ν₁²)/E₁ + (1−ν₂²)/E₂)
+  double effective_shear_modulus_pa;  // G* = 1 / ((2−ν₁)/G₁ + (2−ν₂)/G₂)
+  double damping_ratio;               // α of the pair's restitution
+  double restitution;
+  double friction;
+  double rolling_friction;
+};
+
+class MaterialTable {
+ public:
+  MaterialTable() = default;
+  explicit MaterialTable(const SceneConfig& scene);
+
+  int count() const { return int(materials_.size()); }
+  const MaterialConstants& material(int m) const { return materials_[m]; }
+  const PairConstants& pair(int a, int b) const { return pairs_[a * count() + b]; }
+  // Particle of material m against wall w (w indexes the run's wall list).
+  const PairConstants& wall_pair(int wall, int m) const { return wall_pairs_[wall * count() + m]; }
+  int wall_count() const { return count() ? int(wall_pairs_.size()) / count() : 0; }
+
+  // Adds a wall made of `wall_material`, with optional e/μ overrides; returns its index.
+  int add_wall(int wall_material, std::optional<double> restitution,
+               std::optional<double> friction);
+
+ private:
+  std::vector<MaterialConstants> materials_;
+  std::vector<PairConstants> pairs_;       // count × count
+  std::vector<PairConstants> wall_pairs_;  // walls × count
+};
+
+PairConstants combine_materials(const MaterialConstants& a, const MaterialConstants& b,
+                                double restitution, double friction, double rolling_friction);
+
+}  // namespace millsim

@@ -1,0 +1,43 @@
+// Particle sources of a scene: explicit lists, particle files in the shared benchmark format
+// (shared/bench/FORMAT.md), and random non-overlapping packings drawn from a size distribution.
+// Produces ParticleSpecs only; ParticleStore::add turns them into particles.
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "core/errors.h"
+#include "core/rng.h"
+#include "dem/box.h"
+#include "scene/scene_config.h"
+
+namespace millsim {
+
+struct ParticleFile {
+  std::map<std::string, std::string> header;  // "# key: value" lines
+  std::vector<ParticleSpec> particles;
+  std::vector<std::uint64_t> ids;
+};
+
+// Reads a particle file; throws InputErrorList naming file:line for malformed content and
+// IoError when it cannot be opened.
+ParticleFile read_particle_file(const std::filesystem::path& path);
+
+// Builds a scene from a benchmark particle file's header (box, boundary, material, gravity, dt):
+// one material "bench", the file as the only source, fixed time step, end after `steps` steps.
+SceneConfig scene_from_particle_file(const std::filesystem::path& path, std::int64_t steps);
+
+// Draws one diameter from the distribution.
+double sample_diameter(const SizeDistribution& sizes, Rng& rng);
+
+// Random sequential addition: `count` spheres inside the region, overlapping neither each other
+// nor `existing` (under the periodic box's minimum image). On an axis where the region spans a
+// periodic domain, centres fill the whole length; elsewhere each sphere lies wholly inside the
+// region. Reports an InputError at `path` when the region is too full.
+std::vector<ParticleSpec> random_packing(const SourceConfig& source, const PeriodicBox& box,
+                                         const std::vector<ParticleSpec>& existing, Rng& rng,
+                                         const std::string& path, InputErrors& errors);
+
+}  // namespace millsim

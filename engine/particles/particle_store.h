@@ -1,0 +1,48 @@
+// ParticleStore: the DEM state of every live particle, one array per field (slot = index).
+// Per-particle spring and damper constants (§3.2, Eq. 2–3) are set once, in add(), from the
+// MaterialTable, never per contact. Slots are not stable (removal swaps in the last particle);
+// `id` is, and is the name used in every message.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/vec3.h"
+#include "particles/materials.h"
+
+namespace millsim {
+
+using ParticleId = std::uint64_t;
+
+struct ParticleStore {
+  // hot: read or written every step
+  std::vector<Vec3> position_m;
+  std::vector<Vec3> velocity_m_per_s;
+  std::vector<Vec3> force_n;
+  std::vector<Vec3> angular_velocity_rad_per_s;
+  std::vector<Vec3> torque_n_m;
+  std::vector<double> radius_m;
+  std::vector<double> inv_mass_per_kg;
+  std::vector<double> inv_inertia_per_kg_m2;
+  std::vector<double> normal_stiffness;  // k_np, N/m^1.5 (Eq. 2)
+  std::vector<double> normal_damping;    // η_np, N s/m^1.25 (Eq. 2, damping from restitution.h)
+  std::vector<double> tangential_stiffness;  // k_tp / δ_n^{1/2}, N/m^1.5 (Eq. 3)
+  std::vector<double> tangential_damping;    // η_tp / δ_n^{1/4}, N s/m^1.25 (Eq. 3)
+  std::vector<std::uint16_t> material;
+  // cold
+  std::vector<double> mass_kg;
+  std::vector<ParticleId> id;
+
+  std::size_t size() const { return id.size(); }
+  void reserve(std::size_t n);
+
+  // Appends a particle and computes its contact constants. Returns its slot.
+  std::size_t add(const MaterialTable& materials, int material_index, ParticleId particle_id,
+                  const Vec3& position, const Vec3& velocity, const Vec3& angular_velocity,
+                  double diameter_m);
+
+  // Removes the particle in `slot` by moving the last one into it.
+  void remove_swap(std::size_t slot);
+};
+
+}  // namespace millsim

@@ -1,0 +1,122 @@
+// SceneConfig: everything a run needs, as plain structs with SI units and defaults.
+// Filled from scene JSON by load_scene() (scene_json.cpp), which also validates every field;
+// docs/scene-format.md documents each key. Optional modules are std::optional: an absent
+// section builds nothing (DESIGN.md, "leave out what a scene does not need").
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/vec3.h"
+
+namespace millsim {
+
+struct MaterialConfig {
+  std::string name;
+  double youngs_modulus_pa = 0.0;  // E
+  double poisson_ratio = 0.0;      // ν
+  double density_kg_per_m3 = 0.0;  // ρ
+  double restitution = 1.0;        // e, normal coefficient of restitution, [0.05, 1]
+  double friction = 0.0;           // μ, Coulomb sliding friction
+  double rolling_friction = 0.0;   // μ_r, constant-torque rolling resistance; 0 = off
+};
+
+// An infinite plane; particles live on the side the normal points to.
+struct PlaneWallConfig {
+  std::string name;
+  Vec3 point_m;
+  Vec3 normal;  // normalised on load
+  int material = 0;
+  std::optional<double> restitution;  // particle–wall e; default: the particle's material
+  std::optional<double> friction;     // particle–wall μ; default: the particle's material
+};
+
+struct DomainConfig {
+  Vec3 min_m, max_m;
+  std::array<bool, 3> periodic{false, false, false};
+  // Box faces on non-periodic axes are walls made of this material.
+  int wall_material = 0;
+  std::optional<double> wall_restitution;
+  std::optional<double> wall_friction;
+};
+
+struct ParticleSpec {
+  Vec3 position_m;
+  Vec3 velocity_m_per_s;
+  Vec3 angular_velocity_rad_per_s;
+  double diameter_m = 0.0;
+};
+
+enum class SizeDistributionKind { Fixed, Uniform, LogNormal, PowerLaw };
+
+struct SizeDistribution {
+  SizeDistributionKind kind = SizeDistributionKind::Fixed;
+  double diameter_m = 0.0;     // fixed
+  double min_m = 0.0;          // uniform, power_law; lower truncation for log_normal
+  double max_m = 0.0;          // uniform, power_law; upper truncation for log_normal
+  double median_m = 0.0;       // log_normal
+  double geometric_std = 1.0;  // log_normal, σ_g >= 1
+  double exponent = -2.5;      // power_law: number density n(d) ∝ d^exponent
+};
+
+enum class SourceKind { List, File, Random };
+
+struct SourceConfig {
+  SourceKind kind = SourceKind::List;
+  int material = 0;
+  // list
+  std::vector<ParticleSpec> particles;
+  // file (shared/bench/FORMAT.md); a relative path is relative to the scene file
+  std::filesystem::path file_path;
+  // random: non-overlapping random sequential placement inside a region
+  std::int64_t count = 0;
+  Vec3 region_min_m, region_max_m;
+  SizeDistribution sizes;
+  Vec3 velocity_m_per_s;
+  double velocity_spread_m_per_s = 0.0;  // std. dev. of each component, Gaussian
+};
+
+struct TimeConfig {
+  double end_s = 0.0;
+  std::optional<double> step_s;  // fixed step; absent = automatic
+  double safety_factor = 0.2;    // automatic step = factor × smallest Rayleigh time
+};
+
+enum class ContactModel { SeriesSprings, EquivalentProperties };
+
+struct ContactConfig {
+  ContactModel model = ContactModel::SeriesSprings;  // §3.2, Eq. 2–3; or Eq. 1
+};
+
+struct SearchConfig {
+  std::optional<double> skin_m;       // Verlet skin; absent = automatic
+  std::optional<double> cell_size_m;  // grid cell edge; absent = automatic
+};
+
+struct OutputConfig {
+  std::optional<double> snapshot_interval_s;    // absent = end/10
+  std::optional<double> timeseries_interval_s;  // absent = end/200
+  bool write_h5 = true;
+};
+
+struct SceneConfig {
+  std::string name;
+  std::string description;
+  std::uint64_t seed = 1;
+  DomainConfig domain;
+  std::vector<PlaneWallConfig> walls;
+  std::vector<MaterialConfig> materials;
+  std::vector<SourceConfig> sources;
+  Vec3 gravity_m_per_s2;
+  TimeConfig time;
+  ContactConfig contact;
+  SearchConfig search;
+  OutputConfig output;
+  std::filesystem::path base_dir;  // directory of the scene file, for relative paths
+};
+
+}  // namespace millsim

@@ -1,0 +1,339 @@
+#include "scene/scene_json.h"
+
+#include <fstream>
+#include <sstream>
+
+#include "core/json_reader.h"
+
+namespace millsim {
+namespace {
+
+using nlohmann::json;
+
+const NumberRange kRestitution = NumberRange::closed(0.05, 1.0);
+
+int find_material(const std::vector<MaterialConfig>& materials, JsonObjectReader& reader,
+                  std::string_view key, InputErrors& errors, bool required) {
+  const json* v = reader.child(key);
+  if (!v) {
+    if (required && reader.is_object())
+      errors.push_back({reader.path_of(key), "", "missing; expected a material name"});
+    return 0;
+  }
+  std::string names;
+  for (std::size_t m = 0; m < materials.size(); ++m) {
+    if (v->is_string() && v->get<std::string>() == materials[m].name) return int(m);
+    names += (names.empty() ? "" : " ") + materials[m].name;
+  }
+  errors.push_back({reader.path_of(key), json_value_text(*v),
+                    materials.empty() ? std::string("no materials are defined")
+                                      : "expected one of the material names: " + names});
+  return 0;
+}
+
+std::vector<MaterialConfig> parse_materials(JsonObjectReader& top, InputErrors& errors) {
+  std::vector<MaterialConfig> out;
+  const json* list = top.array("materials");
+  if (!list) {
+    if (top.is_object() && !top.has("materials"))
+      errors.push_back({"/materials", "", "missing; expected an array of materials"});
+    return out;
+  }
+  if (list->empty()) errors.push_back({"/materials", "[]", "expected at least one material"});
+  for (std::size_t i = 0; i < list->size(); ++i) {
+    JsonObjectReader r((*list)[i], json_pointer_join("/materials", i), errors);
+    MaterialConfig m;
+    m.name = r.required_string("name");
+    m.youngs_modulus_pa = r.required_number("youngs_modulus_pa", NumberRange::closed(1e3, 1e13));
+    m.poisson_ratio = r.required_number("poisson_ratio", NumberRange::open(-1.0, 0.5));
+    m.density_kg_per_m3 = r.required_number("density_kg_per_m3", NumberRange::closed(1.0, 1e5));
+    m.restitution = r.number("restitution", 1.0, kRestitution);
+    m.friction = r.number("friction", 0.0, NumberRange::closed(0.0, 10.0));
+    m.rolling_friction = r.number("rolling_friction", 0.0, NumberRange::closed(0.0, 10.0));
+    r.finish();
+    for (const MaterialConfig& earlier : out)
+      if (!m.name.empty() && earlier.name == m.name)
+        errors.push_back({json_pointer_join(r.path(), "name"), "\"" + m.name + "\"",
+                          "material names must be unique"});
+    out.push_back(m);
+  }
+  return out;
+}
+
+DomainConfig parse_domain(JsonObjectReader& top, const std::vector<MaterialConfig>& materials,
+                          InputErrors& errors) {
+  DomainConfig d;
+  const json* v = top.child("domain");
+  if (!v) {
+    errors.push_back({"/domain", "", "missing; expected an object with min_m and max_m"});
+    return d;
+  }
+  JsonObjectReader r(*v, "/domain", errors);
+  auto lo = r.optional_vec3("min_m");
+  auto hi = r.optional_vec3("max_m");
+  if (r.is_object() && !lo && !r.has("min_m"))
+    errors.push_back({"/domain/min_m", "", "missing; expected an array of 3 numbers"});
+  if (r.is_object() && !hi && !r.has("max_m"))
+    errors.push_back({"/domain/max_m", "", "missing; expected an array of 3 numbers"});
+  if (lo) d.min_m = *lo;
+  if (hi) d.max_m = *hi;
+  if (lo && hi)
+    for (int a = 0; a < 3; ++a)
+      if (!(d.max_m[a] > d.min_m[a]))
+        errors.push_back({json_pointer_join("/domain/max_m", std::size_t(a)), concat(d.max_m[a]),
+                          concat("expected a number > min_m[", a, "] = ", d.min_m[a])});
+  d.periodic = r.bool3("periodic", {false, false, false});
+  if (r.has("wall_material"))
+    d.wall_material = find_material(materials, r, "wall_material", errors, false);
+  d.wall_restitution = r.optional_number("wall_restitution", kRestitution);
+  d.wall_friction = r.optional_number("wall_friction", NumberRange::closed(0.0, 10.0));
+  r.finish();
+  return d;
+}
+
+std::vector<PlaneWallConfig> parse_walls(JsonObjectReader& top,
+                                         const std::vector<MaterialConfig>& materials,
+                                         InputErrors& errors) {
+  std::vector<PlaneWallConfig> out;
+  const json* list = top.array("walls");
+  if (!list) return out;
+  for (std::size_t i = 0; i < list->size(); ++i) {
+    JsonObjectReader r((*list)[i], json_pointer_join("/walls", i), errors);
+    PlaneWallConfig w;
+    w.name = r.string("name", concat("wall", i));
+    const std::string type = r.string("type", "plane", {"plane"});
+    w.point_m = r.vec3("point_m", {});
+    if (!r.has("point_m"))
+      errors.push_back({r.path_of("point_m"), "", "missing; expected an array of 3 numbers"});
+    auto n = r.optional_vec3("normal");
+    if (!n && !r.has("normal"))
+      errors.push_back({r.path_of("normal"), "", "missing; expected an array of 3 numbers"});
+    if (n) {
+      const double len = norm(*n);
+      if (len < 1e-12)
+        errors.push_back({r.path_of("normal"), "[0,0,0]", "expected a non-zero vector"});
+      else
+        w.normal = *n * (1.0 / len);
+    }
+    w.material = find_material(materials, r, "material", errors, true);
+    w.restitution = r.optional_number("restitution", kRestitution);
+    w.friction = r.optional_number("friction", NumberRange::closed(0.0, 10.0));
+    r.finish();
+    out.push_back(w);
+  }
+  return out;
+}
+
+SizeDistribution parse_sizes(const json& v, const std::string& path, InputErrors& errors) {
+  SizeDistribution s;
+  JsonObjectReader r(v, path, errors);
+  const std::string kind =
+      r.required_string("distribution", {"fixed", "uniform", "log_normal", "power_law"});
+  const NumberRange size_range = NumberRange::open_closed(0.0, 10.0);
+  if (kind == "fixed") {
+    s.kind = SizeDistributionKind::Fixed;
+    s.diameter_m = r.required_number("diameter_m", size_range);
+  } else if (kind == "uniform" || kind == "power_law") {
+    s.kind = kind == "uniform" ? SizeDistributionKind::Uniform : SizeDistributionKind::PowerLaw;
+    s.min_m = r.required_number("min_m", size_range);
+    s.max_m = r.required_number("max_m", size_range);
+    if (kind == "power_law") s.exponent = r.number("exponent", -2.5, NumberRange::closed(-10, 10));
+    if (s.max_m < s.min_m)
+      errors.push_back(
+          {r.path_of("max_m"), concat(s.max_m), concat("expected >= min_m = ", s.min_m)});
+  } else if (kind == "log_normal") {
+    s.kind = SizeDistributionKind::LogNormal;
+    s.median_m = r.required_number("median_m", size_range);
+    s.geometric_std = r.required_number("geometric_std", NumberRange::closed(1.0, 10.0));
+    s.min_m = r.number("min_m", 0.0, NumberRange::closed(0.0, 10.0));
+    s.max_m = r.number("max_m", 10.0, size_range);
+  }
+  r.finish();
+  return s;
+}
+
+ParticleSpec parse_particle(const json& v, const std::string& path, InputErrors& errors) {
+  ParticleSpec p;
+  JsonObjectReader r(v, path, errors);
+  p.position_m = r.vec3("position_m", {});
+  if (r.is_object() && !r.has("position_m"))
+    errors.push_back({r.path_of("position_m"), "", "missing; expected an array of 3 numbers"});
+  p.velocity_m_per_s = r.vec3("velocity_m_per_s", {});
+  p.angular_velocity_rad_per_s = r.vec3("angular_velocity_rad_per_s", {});
+  p.diameter_m = r.required_number("diameter_m", NumberRange::open_closed(0.0, 10.0));
+  r.finish();
+  return p;
+}
+
+std::vector<SourceConfig> parse_sources(JsonObjectReader& top,
+                                        const std::vector<MaterialConfig>& materials,
+                                        const std::filesystem::path& base_dir,
+                                        InputErrors& errors) {
+  std::vector<SourceConfig> out;
+  const json* list = top.array("sources");
+  if (!list) {
+    if (top.is_object() && !top.has("sources"))
+      errors.push_back({"/sources", "", "missing; expected an array of particle sources"});
+    return out;
+  }
+  for (std::size_t i = 0; i < list->size(); ++i) {
+    JsonObjectReader r((*list)[i], json_pointer_join("/sources", i), errors);
+    SourceConfig s;
+    const std::string type = r.required_string("type", {"list", "file", "random"});
+    s.material = find_material(materials, r, "material", errors, true);
+    if (type == "list") {
+      s.kind = SourceKind::List;
+      const json* particles = r.array("particles");
+      if (!particles && r.is_object() && !r.has("particles"))
+        errors.push_back({r.path_of("particles"), "", "missing; expected an array of particles"});
+      if (particles)
+        for (std::size_t k = 0; k < particles->size(); ++k)
+          s.particles.push_back(parse_particle(
+              (*particles)[k], json_pointer_join(r.path_of("particles"), k), errors));
+    } else if (type == "file") {
+      s.kind = SourceKind::File;
+      const std::string file = r.required_string("path");
+      s.file_path =
+          std::filesystem::path(file).is_absolute() ? std::filesystem::path(file) : base_dir / file;
+      if (!file.empty() && !std::filesystem::exists(s.file_path))
+        errors.push_back(
+            {r.path_of("path"), "\"" + file + "\"",
+             "expected a readable particle file (looked at " + s.file_path.string() + ")"});
+    } else if (type == "random") {
+      s.kind = SourceKind::Random;
+      s.count = r.integer("count", 0, 1, 100'000'000);
+      if (!r.has("count"))
+        errors.push_back({r.path_of("count"), "", "missing; expected an integer >= 1"});
+      if (const json* region = r.child("region")) {
+        JsonObjectReader rr(*region, r.path_of("region"), errors);
+        s.region_min_m = rr.vec3("min_m", {});
+        s.region_max_m = rr.vec3("max_m", {});
+        if (rr.is_object() && (!rr.has("min_m") || !rr.has("max_m")))
+          errors.push_back({rr.path(), "", "expected both min_m and max_m"});
+        rr.finish();
+        for (int a = 0; a < 3; ++a)
+          if (!(s.region_max_m[a] > s.region_min_m[a]))
+            errors.push_back({rr.path_of("max_m"), concat(s.region_max_m[a]),
+                              concat("expected each component > min_m (axis ", a, ")")});
+      } else {
+        errors.push_back({r.path_of("region"), "", "missing; expected {min_m, max_m}"});
+      }
+      if (const json* sizes = r.child("sizes"))
+        s.sizes = parse_sizes(*sizes, r.path_of("sizes"), errors);
+      else
+        errors.push_back({r.path_of("sizes"), "", "missing; expected a size distribution"});
+      s.velocity_m_per_s = r.vec3("velocity_m_per_s", {});
+      s.velocity_spread_m_per_s =
+          r.number("velocity_spread_m_per_s", 0.0, NumberRange::closed(0.0, 1e4));
+    }
+    r.finish();
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
+TimeConfig parse_time(JsonObjectReader& top, InputErrors& errors) {
+  TimeConfig t;
+  const json* v = top.child("time");
+  if (!v) {
+    errors.push_back({"/time", "", "missing; expected an object with end_s"});
+    return t;
+  }
+  JsonObjectReader r(*v, "/time", errors);
+  t.end_s = r.required_number("end_s", NumberRange::open_closed(0.0, 1e6));
+  if (const json* step = r.child("step_s")) {
+    if (step->is_string() && step->get<std::string>() == "auto") {
+    } else {
+      t.step_s =
+          read_number(*step, r.path_of("step_s"), NumberRange::open_closed(0.0, 1.0), errors);
+      if (!step->is_number()) errors.back().allowed = "expected \"auto\" or a number in (0, 1]";
+    }
+  }
+  t.safety_factor = r.number("safety_factor", 0.2, NumberRange::open_closed(0.0, 1.0));
+  r.finish();
+  return t;
+}
+
+}  // namespace
+
+const std::vector<std::string>& known_scene_sections() {
+  static const std::vector<std::string> sections = {
+      "name",    "description",      "seed", "domain",  "walls",  "materials",
+      "sources", "gravity_m_per_s2", "time", "contact", "search", "output"};
+  return sections;
+}
+
+SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
+                        InputErrors& errors) {
+  SceneConfig scene;
+  scene.base_dir = base_dir;
+  JsonObjectReader top(doc, "", errors);
+  if (!top.is_object()) return scene;
+  scene.name = top.string("name", "scene");
+  scene.description = top.string("description", "");
+  scene.seed = std::uint64_t(top.integer("seed", 1, 0, (1LL << 62)));
+  scene.materials = parse_materials(top, errors);
+  scene.domain = parse_domain(top, scene.materials, errors);
+  scene.walls = parse_walls(top, scene.materials, errors);
+  scene.sources = parse_sources(top, scene.materials, base_dir, errors);
+  scene.gravity_m_per_s2 = top.vec3("gravity_m_per_s2", {}, NumberRange::closed(-1e6, 1e6));
+  scene.time = parse_time(top, errors);
+
+  if (const json* v = top.child("contact")) {
+    JsonObjectReader r(*v, "/contact", errors);
+    const std::string model = r.string("model", "series", {"series", "equivalent"});
+    scene.contact.model =
+        model == "equivalent" ? ContactModel::EquivalentProperties : ContactModel::SeriesSprings;
+    r.finish();
+  }
+  if (const json* v = top.child("search")) {
+    JsonObjectReader r(*v, "/search", errors);
+    scene.search.skin_m = r.optional_number("skin_m", NumberRange::non_negative());
+    scene.search.cell_size_m = r.optional_number("cell_size_m", NumberRange::positive());
+    r.finish();
+  }
+  if (const json* v = top.child("output")) {
+    JsonObjectReader r(*v, "/output", errors);
+    scene.output.snapshot_interval_s =
+        r.optional_number("snapshot_interval_s", NumberRange::positive());
+    scene.output.timeseries_interval_s =
+        r.optional_number("timeseries_interval_s", NumberRange::positive());
+    scene.output.write_h5 = r.boolean("h5", true);
+    r.finish();
+  }
+  top.finish();
+
+  // Cross-field checks that need more than one section.
+  for (std::size_t i = 0; i < scene.sources.size(); ++i) {
+    const SourceConfig& s = scene.sources[i];
+    if (s.kind != SourceKind::Random) continue;
+    for (int a = 0; a < 3; ++a)
+      if (s.region_min_m[a] < scene.domain.min_m[a] || s.region_max_m[a] > scene.domain.max_m[a]) {
+        errors.push_back({concat("/sources/", i, "/region"), "",
+                          "expected the region to lie inside the domain box"});
+        break;
+      }
+  }
+  return scene;
+}
+
+SceneConfig load_scene(const std::filesystem::path& path) {
+  if (!std::filesystem::is_regular_file(path))
+    throw InputErrorList({{path.string(), "", "no such scene file"}});
+  std::ifstream in(path);
+  if (!in) throw IoError("cannot read scene file " + path.string());
+  std::stringstream text;
+  text << in.rdbuf();
+  json doc;
+  try {
+    doc = json::parse(text.str());
+  } catch (const json::parse_error& e) {
+    throw InputErrorList({{"", "", std::string("not valid JSON: ") + e.what()}});
+  }
+  InputErrors errors;
+  SceneConfig scene = parse_scene(doc, path.parent_path(), errors);
+  if (!errors.empty()) throw InputErrorList(std::move(errors));
+  return scene;
+}
+
+}  // namespace millsim

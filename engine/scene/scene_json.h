@@ -1,0 +1,23 @@
+// Scene loading: JSON text → validated SceneConfig. All problems are collected (key path, value,
+// what is allowed) and thrown together as InputErrorList; nothing is half-built.
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "core/errors.h"
+#include "scene/scene_config.h"
+
+namespace millsim {
+
+// Reads and validates; throws InputErrorList (bad content) or IoError (unreadable file).
+SceneConfig load_scene(const std::filesystem::path& path);
+
+// Validates a parsed document; `base_dir` resolves relative particle-file paths.
+SceneConfig parse_scene(const nlohmann::json& doc, const std::filesystem::path& base_dir,
+                        InputErrors& errors);
+
+// The top-level sections a scene may have (for messages and docs).
+const std::vector<std::string>& known_scene_sections();
+
+}  // namespace millsim

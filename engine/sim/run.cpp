@@ -1,0 +1,170 @@
+#include "sim/run.h"
+
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <memory>
+
+#include "io/h5_writer.h"
+
+namespace millsim {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct TimeSeries {
+  std::vector<std::string> names = {
+      "time_s",         "kinetic_j", "rotational_j",  "potential_j",   "elastic_j",
+      "total_energy_j", "particles", "contact_pairs", "wall_contacts", "max_overlap_ratio"};
+  std::vector<std::vector<double>> columns = std::vector<std::vector<double>>(names.size());
+
+  void record(const Simulation& sim) {
+    const EnergyReport e = sim.energy();
+    const ContactStepStats& c = sim.contact_stats();
+    const double row[] = {sim.time_s(),
+                          e.kinetic_j,
+                          e.rotational_j,
+                          e.potential_j,
+                          e.elastic_j,
+                          e.total_j(),
+                          double(sim.particles().size()),
+                          double(c.touching_pairs),
+                          double(c.touching_walls),
+                          c.max_overlap_ratio};
+    for (std::size_t k = 0; k < names.size(); ++k) columns[k].push_back(row[k]);
+  }
+};
+
+void write_text_atomically(const std::filesystem::path& path, const std::string& text) {
+  const std::filesystem::path partial = path.string() + ".partial";
+  {
+    std::ofstream out(partial, std::ios::trunc);
+    out << text;
+    out.flush();
+    if (!out) throw IoError("cannot write " + partial.string());
+  }
+  std::filesystem::rename(partial, path);
+}
+
+std::int64_t steps_per_interval(std::optional<double> interval_s, double fallback_s, double dt) {
+  return std::max<std::int64_t>(1,
+                                std::int64_t(std::llround(interval_s.value_or(fallback_s) / dt)));
+}
+
+}  // namespace
+
+nlohmann::ordered_json energy_json(const EnergyReport& e) {
+  return {{"kinetic_j", e.kinetic_j},
+          {"rotational_j", e.rotational_j},
+          {"potential_j", e.potential_j},
+          {"elastic_j", e.elastic_j},
+          {"total_j", e.total_j()}};
+}
+
+RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOptions& options) {
+  const auto start = Clock::now();
+  const double dt = sim.time_step().step_s;
+  const std::int64_t total = sim.total_steps();
+  const std::int64_t snapshot_every =
+      steps_per_interval(scene.output.snapshot_interval_s, scene.time.end_s / 10.0, dt);
+  const std::int64_t series_every =
+      steps_per_interval(scene.output.timeseries_interval_s, scene.time.end_s / 200.0, dt);
+  const bool write_files = !options.out_dir.empty();
+  const bool write_h5 = write_files && scene.output.write_h5;
+  if (write_files) std::filesystem::create_directories(options.out_dir);
+
+  std::unique_ptr<H5Writer> h5;
+  const std::filesystem::path h5_partial = options.out_dir / "run.h5.partial";
+  if (write_h5) {
+    h5 = std::make_unique<H5Writer>(h5_partial);
+    h5->write_root_attribute("scene", scene.name);
+    h5->write_root_attribute("millsim_version", kMillsimVersion);
+  }
+
+  const std::size_t initial_particles = sim.particles().size();
+  const EnergyReport initial_energy = sim.energy();
+  TimeSeries series;
+  series.record(sim);
+  if (h5) h5->write_snapshot(0, 0.0, sim.particles());
+
+  RunOutcome outcome;
+  auto last_progress = Clock::now();
+  while (sim.step_index() < total) {
+    outcome.failure = sim.step();
+    const std::int64_t step = sim.step_index();
+    const bool last = step == total || outcome.failure;
+    if (step % series_every == 0 || last)
+      sim.profile().time(Phase::Output, [&] { series.record(sim); });
+    if (h5 && (step % snapshot_every == 0 || last))
+      sim.profile().time(Phase::Output,
+                         [&] { h5->write_snapshot(step, sim.time_s(), sim.particles()); });
+    if (options.on_progress &&
+        (last || Clock::now() - last_progress >
+                     std::chrono::duration<double>(options.progress_interval_s))) {
+      last_progress = Clock::now();
+      const double elapsed = std::chrono::duration<double>(last_progress - start).count();
+      options.on_progress({step, total, sim.time_s(), sim.particles().size(), elapsed,
+                           elapsed / double(step) * double(total - step)});
+    }
+    if (outcome.failure) break;
+  }
+  const double wall_s = std::chrono::duration<double>(Clock::now() - start).count();
+
+  const EnergyReport final_energy = sim.energy();
+  nlohmann::ordered_json& s = outcome.summary;
+  s["millsim_version"] = kMillsimVersion;
+  s["scene"] = scene.name;
+  s["status"] = outcome.failure ? "failed" : "ok";
+  if (outcome.failure) {
+    const StepFailure& f = *outcome.failure;
+    s["failure"] = {{"step", f.step},
+                    {"time_s", f.time_s},
+                    {"particle_id", f.particle_id},
+                    {"cause", f.cause},
+                    {"message", f.detail}};
+  }
+  s["particles"] = {{"initial", initial_particles}, {"final", sim.particles().size()}};
+  s["steps"] = sim.step_index();
+  s["steps_planned"] = total;
+  s["time_step_s"] = dt;
+  s["time_step_automatic"] = sim.time_step().automatic;
+  s["rayleigh_time_min_s"] = sim.time_step().rayleigh_min_s;
+  s["simulated_time_s"] = sim.time_s();
+  s["wall_time_s"] = wall_s;
+  const double step_seconds = sim.profile().total();
+  s["particle_steps_per_second"] =
+      step_seconds > 0 ? double(initial_particles) * double(sim.step_index()) / step_seconds : 0.0;
+  nlohmann::ordered_json phases = nlohmann::ordered_json::object();
+  for (std::size_t k = 0; k < kPhaseNames.size(); ++k)
+    phases[std::string(kPhaseNames[k])] = sim.profile().seconds[k];
+  s["phase_seconds"] = phases;
+  const ContactStepStats& c = sim.contact_stats();
+  s["contacts"] = {{"pairs", c.touching_pairs},
+                   {"walls", c.touching_walls},
+                   {"max_overlap_ratio", c.max_overlap_ratio}};
+  const NeighborStats& n = sim.neighbors().stats();
+  s["search"] = {
+      {"skin_m", sim.neighbors().skin_m()}, {"rebuilds", n.rebuilds},
+      {"distance_tests", n.distance_tests}, {"candidate_pairs", sim.neighbors().pairs.size()},
+      {"cells", n.last_search.cells},       {"half_shell", n.last_search.half_shell}};
+  s["energy"] = {{"initial", energy_json(initial_energy)},
+                 {"final", energy_json(final_energy)},
+                 {"dissipated_j", initial_energy.total_j() - final_energy.total_j()}};
+
+  if (write_files) {
+    nlohmann::ordered_json outputs = nlohmann::ordered_json::object();
+    if (h5) {
+      h5->write_timeseries(series.names, series.columns);
+      h5->close();
+      std::filesystem::rename(h5_partial, options.out_dir / "run.h5");
+      write_xdmf(options.out_dir / "run.xdmf", "run.h5", h5->snapshots());
+      outputs = {{"h5", "run.h5"}, {"xdmf", "run.xdmf"}, {"snapshots", h5->snapshots().size()}};
+    }
+    outputs["result"] = "result.json";
+    s["outputs"] = outputs;
+    write_text_atomically(options.out_dir / "result.json", s.dump(2) + "\n");
+  }
+  return outcome;
+}
+
+}  // namespace millsim

@@ -1,0 +1,43 @@
+// The run loop: steps a Simulation to its end time, reports progress, writes snapshots and the
+// time series to run.h5 (+ run.xdmf), and builds the JSON summary (result.json). Files appear
+// under their final names only when complete (written as *.partial, then renamed).
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <optional>
+
+#include "scene/scene_config.h"
+#include "sim/simulation.h"
+
+namespace millsim {
+
+inline constexpr const char* kMillsimVersion = "0.1.0";
+
+struct RunProgress {
+  std::int64_t step = 0;
+  std::int64_t total_steps = 0;
+  double time_s = 0.0;
+  std::size_t particles = 0;
+  double elapsed_s = 0.0;
+  double eta_s = 0.0;
+};
+
+struct RunOptions {
+  std::filesystem::path out_dir;  // empty: write no files
+  std::function<void(const RunProgress&)> on_progress;
+  double progress_interval_s = 0.2;
+};
+
+struct RunOutcome {
+  std::optional<StepFailure> failure;
+  nlohmann::ordered_json summary;
+};
+
+// Throws IoError when an output file cannot be written.
+RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOptions& options);
+
+nlohmann::ordered_json energy_json(const EnergyReport& e);
+
+}  // namespace millsim

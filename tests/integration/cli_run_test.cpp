@@ -1,0 +1,108 @@
+// `millsim run` as a real process: exit codes (0 ok, 2 bad input, 3 stopped by the stability
+// guard), the summary on stdout, the files it writes, and that bad input writes nothing.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "support/scenes.h"
+
+namespace millsim {
+namespace {
+
+struct CommandResult {
+  int exit_code = -1;
+  std::string out, err;
+};
+
+CommandResult run_millsim(const std::string& args, const std::filesystem::path& work) {
+  const std::filesystem::path err_file = work / "stderr.txt";
+  const std::string command = std::string("cd '") + work.string() + "' && '" MILLSIM_BINARY "' " +
+                              args + " 2>'" + err_file.string() + "' </dev/null";
+  CommandResult result;
+  FILE* pipe = popen(command.c_str(), "r");
+  char buffer[4096];
+  for (std::size_t n; (n = std::fread(buffer, 1, sizeof buffer, pipe)) > 0;)
+    result.out.append(buffer, n);
+  const int status = pclose(pipe);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::ifstream err(err_file);
+  std::stringstream text;
+  text << err.rdbuf();
+  result.err = text.str();
+  return result;
+}
+
+void write_file(const std::filesystem::path& path, const std::string& text) {
+  std::ofstream(path) << text;
+}
+
+TEST(CliRun, ImpactCaseRunsAndWritesResults) {
+  test::TempDir dir;
+  const CommandResult r = run_millsim(
+      "run '" MILLSIM_SOURCE_DIR "/cases/impact_two_spheres.json' --out out", dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json summary = nlohmann::json::parse(r.out);
+  EXPECT_EQ(summary["status"], "ok");
+  EXPECT_EQ(summary["particles"]["final"], 2);
+  // The case has e = 0.5: kinetic energy after the rebound is e² of the initial.
+  const double ratio = summary["energy"]["final"]["kinetic_j"].get<double>() /
+                       summary["energy"]["initial"]["kinetic_j"].get<double>();
+  EXPECT_NEAR(ratio, 0.25, 0.02 * 0.25);
+  EXPECT_TRUE(std::filesystem::exists(dir.path() / "out/run.h5"));
+  EXPECT_TRUE(std::filesystem::exists(dir.path() / "out/run.xdmf"));
+  EXPECT_TRUE(std::filesystem::exists(dir.path() / "out/result.json"));
+}
+
+TEST(CliRun, BadSceneExitsTwoNamesTheKeyAndWritesNothing) {
+  test::TempDir dir;
+  std::ifstream in(MILLSIM_SOURCE_DIR "/cases/impact_two_spheres.json");
+  nlohmann::json scene = nlohmann::json::parse(in);
+  scene["materials"][0]["poisson_ratio"] = 0.7;
+  scene["time"]["ned_s"] = 1;
+  write_file(dir.path() / "bad.json", scene.dump());
+  const CommandResult r = run_millsim("run bad.json --out out", dir.path());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("/materials/0/poisson_ratio = 0.7: expected a number in (-1, 0.5)"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("/time/ned_s"), std::string::npos) << r.err;
+  EXPECT_TRUE(r.out.empty());
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "out"));
+}
+
+TEST(CliRun, MalformedJsonAndMissingFileAreBadInput) {
+  test::TempDir dir;
+  write_file(dir.path() / "broken.json", "{\"name\": ");
+  EXPECT_EQ(run_millsim("run broken.json", dir.path()).exit_code, 2);
+  const CommandResult missing = run_millsim("run nowhere.json", dir.path());
+  EXPECT_EQ(missing.exit_code, 2);
+  EXPECT_NE(missing.err.find("no such scene file"), std::string::npos);
+  EXPECT_EQ(run_millsim("run a.json --frobnicate", dir.path()).exit_code, 2);
+}
+
+TEST(CliRun, BlowUpStopsWithExitThreeAndAMessage) {
+  // A 100 µm particle driven into a wall at 2 km/s with the largest allowed step (the Rayleigh
+  // time): the Hertz contact lasts about one step, so the guard must stop the run.
+  test::TempDir dir;
+  std::ifstream in(MILLSIM_SOURCE_DIR "/cases/impact_two_spheres.json");
+  nlohmann::json scene = nlohmann::json::parse(in);
+  scene["sources"][0]["particles"] = nlohmann::json::parse(
+      R"([{"position_m": [0, 0, -0.0009], "velocity_m_per_s": [0, 0, -2000], "diameter_m": 1e-4}])");
+  scene["time"] = {{"end_s", 1e-5}, {"step_s", 3.8e-7}};
+  write_file(dir.path() / "fast.json", scene.dump());
+  const CommandResult r = run_millsim("run fast.json --out out", dir.path());
+  EXPECT_EQ(r.exit_code, 3) << r.err;
+  EXPECT_NE(r.err.find("run stopped at step"), std::string::npos) << r.err;
+  const nlohmann::json summary = nlohmann::json::parse(r.out);
+  EXPECT_EQ(summary["status"], "failed");
+  EXPECT_EQ(summary["failure"]["particle_id"], 1);
+  std::ifstream result(dir.path() / "out/result.json");
+  EXPECT_EQ(nlohmann::json::parse(result)["status"], "failed");
+}
+
+}  // namespace
+}  // namespace millsim

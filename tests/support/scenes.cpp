@@ -1,0 +1,53 @@
+#include "support/scenes.h"
+
+#include <unistd.h>
+#include <random>
+
+namespace millsim::test {
+
+MaterialConfig table1_material(double restitution, double friction) {
+  MaterialConfig m;
+  m.name = "table1";
+  m.youngs_modulus_pa = 1e9;
+  m.poisson_ratio = 0.3;
+  m.density_kg_per_m3 = 2000.0;
+  m.restitution = restitution;
+  m.friction = friction;
+  return m;
+}
+
+SceneConfig empty_scene(Vec3 min_m, Vec3 max_m, const MaterialConfig& material,
+                        std::array<bool, 3> periodic) {
+  SceneConfig s;
+  s.name = "test";
+  s.domain.min_m = min_m;
+  s.domain.max_m = max_m;
+  s.domain.periodic = periodic;
+  s.materials.push_back(material);
+  s.time.end_s = 1.0;
+  s.output.write_h5 = false;
+  return s;
+}
+
+void add_particle(SceneConfig& scene, Vec3 position_m, Vec3 velocity_m_per_s, double diameter_m,
+                  int material) {
+  SourceConfig source;
+  source.kind = SourceKind::List;
+  source.material = material;
+  source.particles.push_back({position_m, velocity_m_per_s, {}, diameter_m});
+  scene.sources.push_back(source);
+}
+
+TempDir::TempDir() {
+  std::random_device seed;
+  path_ = std::filesystem::temp_directory_path() /
+          ("millsim-test-" + std::to_string(getpid()) + "-" + std::to_string(seed()));
+  std::filesystem::create_directories(path_);
+}
+
+TempDir::~TempDir() {
+  std::error_code ignored;
+  std::filesystem::remove_all(path_, ignored);
+}
+
+}  // namespace millsim::test

@@ -1,0 +1,33 @@
+// Scene builders for tests: small SceneConfigs written in code, so each test states its own
+// setup. Properties default to Table 1 of the paper.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include "scene/scene_config.h"
+
+namespace millsim::test {
+
+MaterialConfig table1_material(double restitution = 0.5, double friction = 0.0);
+
+// A closed (walled) or periodic box with one material and no particles.
+SceneConfig empty_scene(Vec3 min_m, Vec3 max_m, const MaterialConfig& material,
+                        std::array<bool, 3> periodic = {false, false, false});
+
+// Adds one list source with a particle.
+void add_particle(SceneConfig& scene, Vec3 position_m, Vec3 velocity_m_per_s, double diameter_m,
+                  int material = 0);
+
+// A fresh empty directory under the system temp dir, removed with its contents on destruction.
+class TempDir {
+ public:
+  TempDir();
+  ~TempDir();
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+}  // namespace millsim::test
