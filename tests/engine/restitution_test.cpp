@@ -33,5 +33,12 @@ TEST(Restitution, DampingRatioRoundTripsAndIsMonotonic) {
   EXPECT_EQ(damping_ratio_for_restitution(1.0), 0.0);
 }
 
+TEST(Restitution, PaperDampingOvershootsWithClippedForce) {
+  // Expectation: DESIGN.md errata, "e = 0.5 rebounds at ... 0.58 when the contact force is
+  // clipped" for α = 2γ(e), γ = −ln e / √(π² + ln² e).
+  const double e = 0.5, gamma = -std::log(e) / std::sqrt(M_PI * M_PI + std::log(e) * std::log(e));
+  EXPECT_NEAR(simulate_dimensionless_impact(2.0 * gamma).restitution, 0.58, 0.005);
+}
+
 }  // namespace
 }  // namespace millsim

@@ -1,0 +1,105 @@
+// bench_step: the full DEM step (search + Hertz–Mindlin forces + integration) on a shared
+// benchmark scene (shared/bench/FORMAT.md), one core, at the file's time step.
+//
+//   bench_step SCENE.txt [--steps N] [--json]
+//
+// Prints particle-steps per second, pair distance tests per true contact, neighbour-list
+// rebuilds and their cost, resident memory per particle, the phase breakdown, and the physics
+// sanity figures the peers report (kinetic-energy ratio final/initial, contacts at the end).
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "core/errors.h"
+#include "particles/particle_sources.h"
+#include "sim/simulation.h"
+
+namespace {
+
+long resident_kib() {
+  std::ifstream status("/proc/self/status");
+  for (std::string line; std::getline(status, line);)
+    if (line.rfind("VmRSS:", 0) == 0) return std::stol(line.substr(6));
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace millsim;
+  if (argc < 2) {
+    std::fprintf(stderr, "usage: bench_step SCENE.txt [--steps N] [--json]\n");
+    return 2;
+  }
+  std::int64_t steps = 1000;
+  bool as_json = false;
+  for (int k = 2; k < argc; ++k) {
+    const std::string a = argv[k];
+    if (a == "--steps" && k + 1 < argc)
+      steps = std::stoll(argv[++k]);
+    else if (a == "--json")
+      as_json = true;
+    else {
+      std::fprintf(stderr, "bench_step: unknown option %s\n", a.c_str());
+      return 2;
+    }
+  }
+  try {
+    const long rss_before = resident_kib();
+    const SceneConfig scene = scene_from_particle_file(argv[1], steps);
+    Simulation sim(scene);
+    const double ke0 = sim.energy().kinetic_j;
+    const auto neighbor_before = sim.neighbors().stats();
+    const auto start = std::chrono::steady_clock::now();
+    std::uint64_t contact_steps = 0;
+    while (sim.step_index() < steps) {
+      if (auto failure = sim.step()) {
+        std::fprintf(stderr, "bench_step: %s\n", failure->detail.c_str());
+        return 3;
+      }
+      contact_steps += sim.contact_stats().touching_pairs;
+    }
+    const double loop_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const long rss_after = resident_kib();
+    const std::size_t n = sim.particles().size();
+    const auto& ns = sim.neighbors().stats();
+    nlohmann::ordered_json out;
+    out["scene"] = scene.name;
+    out["particles"] = n;
+    out["steps"] = steps;
+    out["time_step_s"] = sim.time_step().step_s;
+    out["loop_seconds"] = loop_s;
+    out["particle_steps_per_second"] = double(n) * double(steps) / loop_s;
+    out["neighbor_rebuilds"] = ns.rebuilds - neighbor_before.rebuilds;
+    out["skin_m"] = sim.neighbors().skin_m();
+    out["distance_tests_per_contact"] =
+        double(ns.distance_tests - neighbor_before.distance_tests) / double(std::max<std::uint64_t>(1, contact_steps));
+    out["candidate_pairs"] = sim.neighbors().pairs.size();
+    out["candidates_per_contact"] =
+        double(sim.neighbors().pairs.size()) / double(std::max<std::uint64_t>(1, sim.contact_stats().touching_pairs));
+    out["resident_bytes_per_particle"] = 1024.0 * double(rss_after - rss_before) / double(n);
+    nlohmann::ordered_json phases;
+    for (std::size_t k = 0; k < kPhaseNames.size(); ++k)
+      phases[std::string(kPhaseNames[k])] = sim.profile().seconds[k];
+    out["phase_seconds"] = phases;
+    out["kinetic_energy_ratio"] = sim.energy().kinetic_j / ke0;
+    out["contacts_final"] = sim.contact_stats().touching_pairs;
+    if (as_json) {
+      std::cout << out.dump(2) << "\n";
+    } else {
+      for (const auto& [key, value] : out.items()) std::cout << key << ": " << value.dump() << "\n";
+    }
+    return 0;
+  } catch (const InputErrorList& e) {
+    std::fprintf(stderr, "%s\n", format_input_errors(argv[1], e.errors()).c_str());
+    return 2;
+  } catch (const IoError& e) {
+    std::fprintf(stderr, "bench_step: %s\n", e.what());
+    return 4;
+  }
+}

@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# The README's quick start. On a fresh Debian 12 machine (as root, or with sudo):
+#   bash deploy/quickstart.sh run        build, then run the default scene and print its summary
+#   bash deploy/quickstart.sh test       build, then run the whole test suite
+#   bash deploy/quickstart.sh sanitize   build with AddressSanitizer + UBSan, then run the tests
+# Installs missing Debian packages first (deploy/install-deps.sh).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+mode=${1:-run}
+jobs=$(nproc 2>/dev/null || echo 2)
+bash deploy/install-deps.sh
+
+build() {  # build DIR [cmake options...]
+  local dir=$1
+  shift
+  cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
+  cmake --build "$dir" -j"$jobs" >/dev/null
+}
+
+case "$mode" in
+  run)
+    build build
+    ./build/cli/millsim run cases/settling_column.json --out out/settling_column
+    ;;
+  test)
+    build build
+    (cd build && ctest -j"$jobs" --output-on-failure)
+    ;;
+  sanitize)
+    build build-sanitize -DMILLSIM_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMILLSIM_BUILD_BENCH=OFF
+    (cd build-sanitize && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
+       ctest -j"$jobs" --output-on-failure)
+    ;;
+  *)
+    echo "usage: bash deploy/quickstart.sh run|test|sanitize" >&2
+    exit 2
+    ;;
+esac
