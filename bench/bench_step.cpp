@@ -64,7 +64,8 @@ int main(int argc, char** argv) {
       }
       contact_steps += sim.contact_stats().touching_pairs;
     }
-    const double loop_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double loop_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     const long rss_after = resident_kib();
     const std::size_t n = sim.particles().size();
     const auto& ns = sim.neighbors().stats();
@@ -77,11 +78,12 @@ int main(int argc, char** argv) {
     out["particle_steps_per_second"] = double(n) * double(steps) / loop_s;
     out["neighbor_rebuilds"] = ns.rebuilds - neighbor_before.rebuilds;
     out["skin_m"] = sim.neighbors().skin_m();
-    out["distance_tests_per_contact"] =
-        double(ns.distance_tests - neighbor_before.distance_tests) / double(std::max<std::uint64_t>(1, contact_steps));
+    out["distance_tests_per_contact"] = double(ns.distance_tests - neighbor_before.distance_tests) /
+                                        double(std::max<std::uint64_t>(1, contact_steps));
     out["candidate_pairs"] = sim.neighbors().pairs.size();
     out["candidates_per_contact"] =
-        double(sim.neighbors().pairs.size()) / double(std::max<std::uint64_t>(1, sim.contact_stats().touching_pairs));
+        double(sim.neighbors().pairs.size()) /
+        double(std::max<std::uint64_t>(1, sim.contact_stats().touching_pairs));
     out["resident_bytes_per_particle"] = 1024.0 * double(rss_after - rss_before) / double(n);
     nlohmann::ordered_json phases;
     for (std::size_t k = 0; k < kPhaseNames.size(); ++k)

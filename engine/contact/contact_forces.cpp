@@ -33,7 +33,7 @@ inline Vec3 tangential_force(const PairSprings& s, double sqrt_overlap, double n
 
 template <class Law, bool kPeriodic>
 void pair_loop(const Law& law, const MaterialTable& materials, const PeriodicBox& box, double dt,
-               ParticleStore& p, NeighborList& nl, ContactStepStats& stats) {
+               double limit, ParticleStore& p, NeighborList& nl, ContactStepStats& stats) {
   const std::size_t count = nl.pairs.size();
   const std::uint32_t* first = nl.pairs.first.data();
   const std::uint32_t* second = nl.pairs.second.data();
@@ -42,7 +42,6 @@ void pair_loop(const Law& law, const MaterialTable& materials, const PeriodicBox
   const Vec3* v = p.velocity_m_per_s.data();
   const Vec3* w = p.angular_velocity_rad_per_s.data();
   const double* r = p.radius_m.data();
-  const double* m = p.mass_kg.data();
   const std::uint16_t* mat = p.material.data();
   Vec3* f = p.force_n.data();
   Vec3* tq = p.torque_n_m.data();
@@ -65,10 +64,10 @@ void pair_loop(const Law& law, const MaterialTable& materials, const PeriodicBox
     const double overlap = rsum - dist;
     const double sqrt_overlap = std::sqrt(overlap);
     const PairConstants& pc = materials.pair(mat[i], mat[j]);
-    const PairSprings s = law(i, j, r[i], r[j], m[i], m[j], pc);
+    const PairSprings s = law(i, j, pc);
 
-    // Velocity of the contact point of i relative to j; contact point at −r_i n from i, +r_j n from
-    // j.
+    // Velocity of the contact point of i relative to j; contact point at −r_i n from i, +r_j n
+    // from j.
     const Vec3 v_rel = v[i] - v[j] - cross(w[i] * r[i] + w[j] * r[j], n);
     const double vn = dot(v_rel, n);
     const Vec3 v_t = v_rel - n * vn;
@@ -91,42 +90,46 @@ void pair_loop(const Law& law, const MaterialTable& materials, const PeriodicBox
       }
     }
     const double ratio = overlap / (2.0 * std::min(r[i], r[j]));
+    if (ratio > limit) stats.pairs_over_limit.push_back(std::uint32_t(k));
     if (ratio > max_ratio) max_ratio = ratio, max_pair = k;
   }
   stats.touching_pairs = touching;
   if (max_ratio > stats.max_overlap_ratio) {
     stats.max_overlap_ratio = max_ratio;
     const std::uint32_t i = first[max_pair], j = second[max_pair];
-    stats.max_overlap_particle = p.id[r[i] <= r[j] ? i : j];
+    const bool i_smaller = r[i] <= r[j];
+    stats.max_overlap_particle = p.id[i_smaller ? i : j];
+    stats.max_overlap_partner = p.id[i_smaller ? j : i];
+    stats.max_overlap_wall = -1;
   }
 }
 
 template <class Law>
 void pair_loop_any_box(const Law& law, const MaterialTable& materials, const PeriodicBox& box,
-                       double dt, ParticleStore& p, NeighborList& nl, ContactStepStats& stats) {
+                       double dt, double limit, ParticleStore& p, NeighborList& nl,
+                       ContactStepStats& stats) {
   if (box.any_periodic())
-    pair_loop<Law, true>(law, materials, box, dt, p, nl, stats);
+    pair_loop<Law, true>(law, materials, box, dt, limit, p, nl, stats);
   else
-    pair_loop<Law, false>(law, materials, box, dt, p, nl, stats);
+    pair_loop<Law, false>(law, materials, box, dt, limit, p, nl, stats);
 }
 
 }  // namespace
 
 void compute_pair_forces(ContactModel model, const MaterialTable& materials, const PeriodicBox& box,
-                         double dt, ParticleStore& p, NeighborList& nl, ContactStepStats& stats) {
+                         double dt, double limit, ParticleStore& p, NeighborList& nl,
+                         ContactStepStats& stats) {
   switch (model) {
     case ContactModel::SeriesSprings:
-      return pair_loop_any_box(
-          SeriesSprings{p.normal_stiffness.data(), p.normal_damping.data(),
-                        p.tangential_stiffness.data(), p.tangential_damping.data()},
-          materials, box, dt, p, nl, stats);
+      return pair_loop_any_box(SeriesSprings(p), materials, box, dt, limit, p, nl, stats);
     case ContactModel::EquivalentProperties:
-      return pair_loop_any_box(EquivalentProperties{}, materials, box, dt, p, nl, stats);
+      return pair_loop_any_box(EquivalentProperties(p), materials, box, dt, limit, p, nl, stats);
   }
 }
 
 void compute_wall_forces(const MaterialTable& materials, const std::vector<PlaneWall>& walls,
-                         double dt, ParticleStore& p, NeighborList& nl, ContactStepStats& stats) {
+                         double dt, double limit, ParticleStore& p, NeighborList& nl,
+                         ContactStepStats& stats) {
   std::uint64_t touching = 0;
   for (std::size_t k = 0; k < nl.wall_particle.size(); ++k) {
     const std::uint32_t i = nl.wall_particle[k];
@@ -140,7 +143,7 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Plane
     ++touching;
     const Vec3& n = wall.normal;
     const PairConstants& pc = materials.wall_pair(wall.pair_table, p.material[i]);
-    const PairSprings s = wall_springs(r, p.mass_kg[i], pc);
+    const PairSprings s = wall_springs(p, i, pc);
     const double sqrt_overlap = std::sqrt(overlap);
     const Vec3 v_rel = p.velocity_m_per_s[i] - cross(p.angular_velocity_rad_per_s[i] * r, n);
     const double vn = dot(v_rel, n);
@@ -156,8 +159,13 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Plane
       if (w_len > 0.0) p.torque_n_m[i] -= w * (pc.rolling_friction * r * fn / w_len);
     }
     const double ratio = overlap / (2.0 * r);
-    if (ratio > stats.max_overlap_ratio)
-      stats.max_overlap_ratio = ratio, stats.max_overlap_particle = p.id[i];
+    if (ratio > limit) stats.walls_over_limit.push_back(std::uint32_t(k));
+    if (ratio > stats.max_overlap_ratio) {
+      stats.max_overlap_ratio = ratio;
+      stats.max_overlap_particle = p.id[i];
+      stats.max_overlap_partner = 0;
+      stats.max_overlap_wall = int(nl.wall_index[k]);
+    }
   }
   stats.touching_walls = touching;
 }
@@ -165,8 +173,8 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Plane
 double contact_elastic_energy_j(ContactModel model, const MaterialTable& materials,
                                 const PeriodicBox& box, const std::vector<PlaneWall>& walls,
                                 const ParticleStore& p, const NeighborList& nl) {
-  const SeriesSprings series_law{p.normal_stiffness.data(), p.normal_damping.data(),
-                                 p.tangential_stiffness.data(), p.tangential_damping.data()};
+  const SeriesSprings series_law(p);
+  const EquivalentProperties equivalent_law(p);
   double energy = 0.0;
   for (std::size_t k = 0; k < nl.pairs.size(); ++k) {
     const std::uint32_t i = nl.pairs.first[k], j = nl.pairs.second[k];
@@ -174,10 +182,8 @@ double contact_elastic_energy_j(ContactModel model, const MaterialTable& materia
     const double overlap = p.radius_m[i] + p.radius_m[j] - dist;
     if (overlap <= 0.0) continue;
     const PairConstants& pc = materials.pair(p.material[i], p.material[j]);
-    const PairSprings s = model == ContactModel::SeriesSprings
-                              ? series_law(i, j, 0, 0, 0, 0, pc)
-                              : EquivalentProperties{}(i, j, p.radius_m[i], p.radius_m[j],
-                                                       p.mass_kg[i], p.mass_kg[j], pc);
+    const PairSprings s =
+        model == ContactModel::SeriesSprings ? series_law(i, j, pc) : equivalent_law(i, j, pc);
     energy += 0.4 * s.normal_stiffness * overlap * overlap * std::sqrt(overlap) +
               0.5 * s.tangential_stiffness * std::sqrt(overlap) * norm2(nl.pair_history_m[k]);
   }
@@ -186,8 +192,7 @@ double contact_elastic_energy_j(ContactModel model, const MaterialTable& materia
     const PlaneWall& wall = walls[nl.wall_index[k]];
     const double overlap = p.radius_m[i] - wall_distance_m(wall, p.position_m[i]);
     if (overlap <= 0.0) continue;
-    const PairSprings s = wall_springs(p.radius_m[i], p.mass_kg[i],
-                                       materials.wall_pair(wall.pair_table, p.material[i]));
+    const PairSprings s = wall_springs(p, i, materials.wall_pair(wall.pair_table, p.material[i]));
     energy += 0.4 * s.normal_stiffness * overlap * overlap * std::sqrt(overlap) +
               0.5 * s.tangential_stiffness * std::sqrt(overlap) * norm2(nl.wall_history_m[k]);
   }

@@ -2,6 +2,7 @@
 // touching (and forgets their tangential history), and adds Hertz–Mindlin normal, tangential
 // (Coulomb-limited spring with history) and optional rolling-resistance forces and torques to
 // both partners. No virtual call and no model branch per contact: the law is a template.
+// Contacts past the penetration limit are listed for the limiter (contact/penetration_limit.h).
 #pragma once
 
 #include <cstdint>
@@ -19,16 +20,30 @@ struct ContactStepStats {
   std::uint64_t touching_pairs = 0;
   std::uint64_t touching_walls = 0;
   double max_overlap_ratio = 0.0;          // δ / d of the smaller partner
-  std::uint64_t max_overlap_particle = 0;  // id
+  std::uint64_t max_overlap_particle = 0;  // id of the smaller partner
+  std::uint64_t max_overlap_partner = 0;   // id of the other particle; 0 for a wall
+  int max_overlap_wall = -1;               // wall index when the partner is a wall
+  // Contacts past the penetration limit (indices into the neighbour list), for Eq. 8.
+  std::vector<std::uint32_t> pairs_over_limit;
+  std::vector<std::uint32_t> walls_over_limit;
+
+  void reset() {
+    max_overlap_ratio = 0.0;
+    max_overlap_particle = max_overlap_partner = 0;
+    max_overlap_wall = -1;
+    pairs_over_limit.clear();
+    walls_over_limit.clear();
+  }
 };
 
+// `penetration_limit`: overlap / smaller diameter past which a contact is listed for Eq. 8.
 void compute_pair_forces(ContactModel model, const MaterialTable& materials, const PeriodicBox& box,
-                         double dt_s, ParticleStore& particles, NeighborList& neighbors,
-                         ContactStepStats& stats);
+                         double dt_s, double penetration_limit, ParticleStore& particles,
+                         NeighborList& neighbors, ContactStepStats& stats);
 
 void compute_wall_forces(const MaterialTable& materials, const std::vector<PlaneWall>& walls,
-                         double dt_s, ParticleStore& particles, NeighborList& neighbors,
-                         ContactStepStats& stats);
+                         double dt_s, double penetration_limit, ParticleStore& particles,
+                         NeighborList& neighbors, ContactStepStats& stats);
 
 // Elastic energy stored in the touching contacts: Σ (2/5) kn δ^{5/2} + ½ kt δ^{1/2} |ξ|².
 double contact_elastic_energy_j(ContactModel model, const MaterialTable& materials,

@@ -10,6 +10,7 @@
 #include <cmath>
 
 #include "particles/materials.h"
+#include "particles/particle_store.h"
 
 namespace millsim {
 
@@ -33,28 +34,47 @@ struct SeriesSprings {
   const double* etan;
   const double* kt;
   const double* etat;
-  PairSprings operator()(std::size_t i, std::size_t j, double, double, double, double,
-                         const PairConstants&) const {
+  explicit SeriesSprings(const ParticleStore& p)
+      : kn(p.normal_stiffness.data()),
+        etan(p.normal_damping.data()),
+        kt(p.tangential_stiffness.data()),
+        etat(p.tangential_damping.data()) {}
+  PairSprings operator()(std::size_t i, std::size_t j, const PairConstants&) const {
     return {series(kn[i], kn[j]), series(etan[i], etan[j]), kt[i] + kt[j], etat[i] + etat[j]};
   }
 };
 
+// Hertz–Mindlin springs from effective properties.
+inline PairSprings hertz_mindlin_springs(double effective_modulus_pa, double effective_shear_pa,
+                                         double r_eff, double m_eff, double damping_ratio) {
+  const double sqrt_r = std::sqrt(r_eff);
+  const double kn = 4.0 / 3.0 * effective_modulus_pa * sqrt_r;
+  const double kt = 8.0 * effective_shear_pa * sqrt_r;
+  return {kn, damping_ratio * std::sqrt(kn * m_eff), kt, damping_ratio * std::sqrt(kt * m_eff)};
+}
+
 struct EquivalentProperties {
-  PairSprings operator()(std::size_t, std::size_t, double ri, double rj, double mi, double mj,
-                         const PairConstants& pair) const {
-    const double r_eff = ri * rj / (ri + rj), m_eff = mi * mj / (mi + mj);
-    const double kn = 4.0 / 3.0 * pair.effective_modulus_pa * std::sqrt(r_eff);
-    const double kt = 8.0 * pair.effective_shear_modulus_pa * std::sqrt(r_eff);
-    return {kn, pair.damping_ratio * std::sqrt(kn * m_eff), kt,
-            pair.damping_ratio * std::sqrt(kt * m_eff)};
+  const double* r;
+  const double* m;
+  const double* cn;
+  const double* cs;
+  explicit EquivalentProperties(const ParticleStore& p)
+      : r(p.radius_m.data()),
+        m(p.mass_kg.data()),
+        cn(p.normal_compliance.data()),
+        cs(p.shear_compliance.data()) {}
+  PairSprings operator()(std::size_t i, std::size_t j, const PairConstants& pair) const {
+    return hertz_mindlin_springs(1.0 / (cn[i] + cn[j]), 1.0 / (cs[i] + cs[j]),
+                                 r[i] * r[j] / (r[i] + r[j]), m[i] * m[j] / (m[i] + m[j]),
+                                 pair.damping_ratio);
   }
 };
 
 // Particle against an infinite-mass, flat wall: exact Hertz with R* = r, m* = m (Eq. 5).
-inline PairSprings wall_springs(double r, double m, const PairConstants& pair) {
-  const double kn = 4.0 / 3.0 * pair.effective_modulus_pa * std::sqrt(r);
-  const double kt = 8.0 * pair.effective_shear_modulus_pa * std::sqrt(r);
-  return {kn, pair.damping_ratio * std::sqrt(kn * m), kt, pair.damping_ratio * std::sqrt(kt * m)};
+inline PairSprings wall_springs(const ParticleStore& p, std::size_t i, const PairConstants& wall) {
+  return hertz_mindlin_springs(1.0 / (p.normal_compliance[i] + wall.wall_normal_compliance),
+                               1.0 / (p.shear_compliance[i] + wall.wall_shear_compliance),
+                               p.radius_m[i], p.mass_kg[i], wall.damping_ratio);
 }
 
 inline double hertz_normal_force_n(const PairSprings& s, double overlap_m, double sqrt_overlap,

@@ -1,5 +1,6 @@
 #include "dem/time_step.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -16,6 +17,52 @@ double hertz_contact_time_s(double m_eff, double k, double v) {
   const double integral = std::tgamma(0.4) * std::tgamma(0.5) / (2.5 * std::tgamma(0.9));
   const double max_overlap = std::pow(5.0 * m_eff * v * v / (4.0 * k), 0.4);
   return 2.0 * integral * max_overlap / v;
+}
+
+TimeStepBounds time_step_bounds_impl(const ParticleStore& p, const MaterialTable& materials,
+                                     const std::vector<PlaneWall>& walls, double speed,
+                                     const std::vector<double>& scale) {
+  TimeStepBounds b;
+  // The stiffest wall has the smallest compliance; its compliance depends on the wall only.
+  double wall_compliance = -1.0;
+  for (const PlaneWall& w : walls) {
+    const double c = materials.wall_pair(w.pair_table, 0).wall_normal_compliance;
+    if (wall_compliance < 0.0 || c < wall_compliance) wall_compliance = c;
+  }
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const MaterialConstants& m = materials.material(p.material[i]);
+    const double r = p.radius_m[i], s = scale[i];
+    const double t_r =
+        rayleigh_time_s(r, s * m.youngs_modulus_pa, m.poisson_ratio, m.density_kg_per_m3);
+    if (t_r < b.rayleigh_s) b.rayleigh_s = t_r, b.rayleigh_particle = p.id[i];
+    const double compliance = m.normal_compliance / s;
+    // Against an equal particle: E* = 1/(2c), R* = r/2, m* = m/2.
+    const double k_pair = 4.0 / 3.0 / (2.0 * compliance) * std::sqrt(0.5 * r);
+    const double t_pair = hertz_contact_time_s(0.5 * p.mass_kg[i], k_pair, speed);
+    if (t_pair < b.contact_s)
+      b.contact_s = t_pair, b.contact_particle = p.id[i], b.contact_with_wall = false;
+    if (wall_compliance >= 0.0) {
+      const double k_wall = 4.0 / 3.0 / (compliance + wall_compliance) * std::sqrt(r);
+      const double t_wall = hertz_contact_time_s(p.mass_kg[i], k_wall, speed);
+      if (t_wall < b.contact_s)
+        b.contact_s = t_wall, b.contact_particle = p.id[i], b.contact_with_wall = true;
+    }
+  }
+  return b;
+}
+
+double default_max_impact_speed_m_per_s(const ParticleStore& p, const Vec3& gravity,
+                                        const PeriodicBox& box) {
+  double fastest = 0.0;
+  for (const Vec3& v : p.velocity_m_per_s) fastest = std::max(fastest, norm(v));
+  const double g = norm(gravity);
+  double fall = 0.0;
+  if (g > 0.0) {
+    double extent = 0.0;  // the box's extent along gravity
+    for (int a = 0; a < 3; ++a) extent += std::abs(gravity[a] / g) * box.length(a);
+    fall = std::sqrt(2.0 * g * extent);
+  }
+  return std::max(1.0, 2.0 * fastest + fall);
 }
 
 }  // namespace millsim

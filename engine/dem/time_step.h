@@ -1,15 +1,58 @@
-// Time-step bounds (§4, Eq. 4–5). The automatic step is safety_factor × the Rayleigh time of
-// the smallest particle of each material, t_R = π r √(ρ/G) / (0.1631 ν + 0.8766), the
-// customary DEM bound (it is ∝ d, while the Hertz bound of Eq. 5 is ∝ d^1.25 at a given speed).
+// Time-step bounds (§4, Eq. 4–5). Two limits, both from the smallest, stiffest contacts:
+//   the Rayleigh time t_R = π r √(ρ/G) / (0.1631 ν + 0.8766) (the customary DEM bound, ∝ d);
+//   the Hertz contact time at the expected impact speed V, t_c = 2.943 (m*/k)^{2/5} V^{-1/5}
+//   (from Eq. 12 and the Hertz force law; ∝ d at fixed V), against the stiffest wall and
+//   against an equal particle. A step must resolve each contact in several steps.
+// Reduced stiffness enters through each particle's compliance (scale s lowers E and G by s).
 #pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "contact/walls.h"
+#include "dem/box.h"
+#include "particles/materials.h"
+#include "particles/particle_store.h"
 
 namespace millsim {
 
 double rayleigh_time_s(double radius_m, double youngs_modulus_pa, double poisson_ratio,
                        double density_kg_per_m3);
 
-// Hertz contact duration of a head-on impact at `speed` with stiffness k = (4/3)E*√R* and
-// reduced mass m*: t_c = 2.943 (m*/k)^{2/5} v^{-1/5} (from Eq. 12 and the Hertz force law).
+// Hertz contact duration of a head-on impact at `speed` with stiffness k and reduced mass m*.
 double hertz_contact_time_s(double reduced_mass_kg, double stiffness, double speed_m_per_s);
+
+struct TimeStepBounds {
+  double rayleigh_s = 1e300;  // smallest Rayleigh time
+  std::uint64_t rayleigh_particle = 0;
+  double contact_s = 1e300;  // shortest Hertz contact time at the impact speed
+  std::uint64_t contact_particle = 0;
+  bool contact_with_wall = false;
+};
+
+// `stiffness_scale(i)` gives particle i's reduced-stiffness scale (1 = real stiffness).
+template <class Scale>
+TimeStepBounds time_step_bounds(const ParticleStore& p, const MaterialTable& materials,
+                                const std::vector<PlaneWall>& walls, double impact_speed_m_per_s,
+                                Scale stiffness_scale);
+
+// Twice the fastest initial speed (a head-on pair) plus the free-fall speed over the domain's
+// extent along gravity; at least 1 m/s.
+double default_max_impact_speed_m_per_s(const ParticleStore& p, const Vec3& gravity,
+                                        const PeriodicBox& box);
+
+// ---- implementation of the template
+
+TimeStepBounds time_step_bounds_impl(const ParticleStore& p, const MaterialTable& materials,
+                                     const std::vector<PlaneWall>& walls, double speed,
+                                     const std::vector<double>& scale);
+
+template <class Scale>
+TimeStepBounds time_step_bounds(const ParticleStore& p, const MaterialTable& materials,
+                                const std::vector<PlaneWall>& walls, double speed, Scale s) {
+  std::vector<double> scale(p.size());
+  for (std::size_t i = 0; i < p.size(); ++i) scale[i] = s(i);
+  return time_step_bounds_impl(p, materials, walls, speed, scale);
+}
 
 }  // namespace millsim

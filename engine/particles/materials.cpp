@@ -1,13 +1,22 @@
 #include "particles/materials.h"
 
 #include <cmath>
+#include <numbers>
 
 #include "particles/restitution.h"
 
 namespace millsim {
 
-ParticleSprings particle_springs(const MaterialConstants& m, double r, double mass) {
-  const double E = m.youngs_modulus_pa, nu = m.poisson_ratio;
+double damping_ratio(DampingModel model, double e) {
+  if (model == DampingModel::Restitution) return damping_ratio_for_restitution(e);
+  const double log_e = std::log(e);
+  const double pi = std::numbers::pi;
+  return 2.0 * (-log_e) / std::sqrt(pi * pi + log_e * log_e);
+}
+
+ParticleSprings particle_springs(const MaterialConstants& m, double r, double mass,
+                                 double stiffness_scale) {
+  const double E = stiffness_scale * m.youngs_modulus_pa, nu = m.poisson_ratio;
   ParticleSprings s;
   s.normal_stiffness = 2.0 * std::sqrt(2.0 * r) * E / (3.0 * (1.0 - nu * nu));
   s.normal_damping = m.damping_ratio * std::sqrt(s.normal_stiffness * mass);
@@ -16,35 +25,31 @@ ParticleSprings particle_springs(const MaterialConstants& m, double r, double ma
   return s;
 }
 
-PairConstants combine_materials(const MaterialConstants& a, const MaterialConstants& b,
-                                double restitution, double friction, double rolling_friction) {
-  const double ga = a.youngs_modulus_pa / (2.0 * (1.0 + a.poisson_ratio));
-  const double gb = b.youngs_modulus_pa / (2.0 * (1.0 + b.poisson_ratio));
+PairConstants pair_constants(DampingModel model, double restitution, double friction,
+                             double rolling_friction) {
   PairConstants p;
-  p.effective_modulus_pa = 1.0 / ((1.0 - a.poisson_ratio * a.poisson_ratio) / a.youngs_modulus_pa +
-                                  (1.0 - b.poisson_ratio * b.poisson_ratio) / b.youngs_modulus_pa);
-  p.effective_shear_modulus_pa =
-      1.0 / ((2.0 - a.poisson_ratio) / ga + (2.0 - b.poisson_ratio) / gb);
   p.restitution = restitution;
-  p.damping_ratio = damping_ratio_for_restitution(restitution);
+  p.damping_ratio = damping_ratio(model, restitution);
   p.friction = friction;
   p.rolling_friction = rolling_friction;
   return p;
 }
 
-MaterialTable::MaterialTable(const SceneConfig& scene) {
-  for (const MaterialConfig& c : scene.materials)
-    materials_.push_back({c.youngs_modulus_pa, c.poisson_ratio, c.density_kg_per_m3, c.restitution,
-                          c.friction, c.rolling_friction,
-                          damping_ratio_for_restitution(c.restitution)});
+MaterialTable::MaterialTable(const SceneConfig& scene) : damping_model_(scene.contact.damping) {
+  for (const MaterialConfig& c : scene.materials) {
+    const double E = c.youngs_modulus_pa, nu = c.poisson_ratio, G = E / (2.0 * (1.0 + nu));
+    materials_.push_back({E, nu, c.density_kg_per_m3, c.restitution, c.friction, c.rolling_friction,
+                          damping_ratio(damping_model_, c.restitution), (1.0 - nu * nu) / E,
+                          (2.0 - nu) / G});
+  }
   const int n = count();
   pairs_.resize(std::size_t(n) * n);
   for (int a = 0; a < n; ++a)
     for (int b = 0; b < n; ++b) {
       const MaterialConstants &ma = materials_[a], &mb = materials_[b];
-      pairs_[a * n + b] = combine_materials(ma, mb, 0.5 * (ma.restitution + mb.restitution),
-                                            0.5 * (ma.friction + mb.friction),
-                                            0.5 * (ma.rolling_friction + mb.rolling_friction));
+      pairs_[a * n + b] = pair_constants(damping_model_, 0.5 * (ma.restitution + mb.restitution),
+                                         0.5 * (ma.friction + mb.friction),
+                                         0.5 * (ma.rolling_friction + mb.rolling_friction));
     }
 }
 
@@ -52,9 +57,13 @@ int MaterialTable::add_wall(int wall_material, std::optional<double> restitution
                             std::optional<double> friction) {
   const int index = wall_count();
   const MaterialConstants& w = materials_[wall_material];
-  for (const MaterialConstants& m : materials_)
-    wall_pairs_.push_back(combine_materials(m, w, restitution.value_or(m.restitution),
-                                            friction.value_or(m.friction), m.rolling_friction));
+  for (const MaterialConstants& m : materials_) {
+    PairConstants p = pair_constants(damping_model_, restitution.value_or(m.restitution),
+                                     friction.value_or(m.friction), m.rolling_friction);
+    p.wall_normal_compliance = w.normal_compliance;
+    p.wall_shear_compliance = w.shear_compliance;
+    wall_pairs_.push_back(p);
+  }
   return index;
 }
 

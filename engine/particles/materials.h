@@ -18,32 +18,41 @@ struct MaterialConstants {
   double restitution;
   double friction;
   double rolling_friction;
-  double damping_ratio;  // α(e): F_damp = α √(m* k) δ^{1/4} v (restitution.h)
+  double damping_ratio;      // α(e): F_damp = α √(m* k) δ^{1/4} v (restitution.h)
+  double normal_compliance;  // (1−ν²)/E, 1/Pa: E* = 1/(c₁ + c₂)
+  double shear_compliance;   // (2−ν)/G, 1/Pa: G* = 1/(c₁ + c₂)
 };
 
-// Per-particle springs of §3.2 (Eq. 2–3, square roots as in DESIGN.md errata).
+double damping_ratio(DampingModel model, double restitution);
+
+// Per-particle springs of §3.2 (Eq. 2–3, square roots as in DESIGN.md errata). A particle with
+// reduced stiffness (§4, Eq. 6–7) has E replaced by stiffness_scale × E.
 struct ParticleSprings {
   double normal_stiffness;  // k_np = 2√(2r)·E / (3(1−ν²))
   double normal_damping;  // η_np = α √(k_np m): two equal particles in series give α √(k_n m*)
   double tangential_stiffness;  // k_tp/δ^½ = √(2r)·E / (2(2−ν)(1+ν))
   double tangential_damping;    // η_tp/δ^¼ = (α/2) √(k_tp m): in parallel, α √(k_t m*)
 };
-ParticleSprings particle_springs(const MaterialConstants& m, double radius_m, double mass_kg);
+ParticleSprings particle_springs(const MaterialConstants& m, double radius_m, double mass_kg,
+                                 double stiffness_scale = 1.0);
 
 // What a contact between two materials (or a material and a wall) needs beyond the particles.
+// Elastic constants come from the partners' compliances (per particle, since reduced stiffness
+// makes them size dependent); a wall's own compliances are stored here.
 struct PairConstants {
-  double effective_modulus_pa;        // E* = 1 / ((1−ν₁²)/E₁ + (1−ν₂²)/E₂)
-  double effective_shear_modulus_pa;  // G* = 1 / ((2−ν₁)/G₁ + (2−ν₂)/G₂)
-  double damping_ratio;               // α of the pair's restitution
+  double damping_ratio;  // α of the pair's restitution
   double restitution;
   double friction;
   double rolling_friction;
+  double wall_normal_compliance = 0.0;  // walls only: (1−ν²)/E of the wall
+  double wall_shear_compliance = 0.0;   // walls only: (2−ν)/G of the wall
 };
 
 class MaterialTable {
  public:
   MaterialTable() = default;
   explicit MaterialTable(const SceneConfig& scene);
+  DampingModel damping_model() const { return damping_model_; }
 
   int count() const { return int(materials_.size()); }
   const MaterialConstants& material(int m) const { return materials_[m]; }
@@ -57,12 +66,13 @@ class MaterialTable {
                std::optional<double> friction);
 
  private:
+  DampingModel damping_model_ = DampingModel::Restitution;
   std::vector<MaterialConstants> materials_;
   std::vector<PairConstants> pairs_;       // count × count
   std::vector<PairConstants> wall_pairs_;  // walls × count
 };
 
-PairConstants combine_materials(const MaterialConstants& a, const MaterialConstants& b,
-                                double restitution, double friction, double rolling_friction);
+PairConstants pair_constants(DampingModel model, double restitution, double friction,
+                             double rolling_friction);
 
 }  // namespace millsim

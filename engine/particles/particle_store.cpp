@@ -10,16 +10,18 @@ void ParticleStore::reserve(std::size_t n) {
   radius_m.reserve(n), inv_mass_per_kg.reserve(n), inv_inertia_per_kg_m2.reserve(n);
   normal_stiffness.reserve(n), normal_damping.reserve(n);
   tangential_stiffness.reserve(n), tangential_damping.reserve(n);
+  normal_compliance.reserve(n), shear_compliance.reserve(n);
   material.reserve(n), mass_kg.reserve(n), id.reserve(n);
 }
 
 std::size_t ParticleStore::add(const MaterialTable& materials, int material_index,
                                ParticleId particle_id, const Vec3& position, const Vec3& velocity,
-                               const Vec3& angular_velocity, double diameter_m) {
+                               const Vec3& angular_velocity, double diameter_m,
+                               double stiffness_scale) {
   const MaterialConstants& m = materials.material(material_index);
   const double r = 0.5 * diameter_m;
   const double mass = m.density_kg_per_m3 * 4.0 / 3.0 * std::numbers::pi * r * r * r;
-  const ParticleSprings springs = particle_springs(m, r, mass);
+  const ParticleSprings springs = particle_springs(m, r, mass, stiffness_scale);
 
   position_m.push_back(position);
   velocity_m_per_s.push_back(velocity);
@@ -33,6 +35,8 @@ std::size_t ParticleStore::add(const MaterialTable& materials, int material_inde
   normal_damping.push_back(springs.normal_damping);
   tangential_stiffness.push_back(springs.tangential_stiffness);
   tangential_damping.push_back(springs.tangential_damping);
+  normal_compliance.push_back(m.normal_compliance / stiffness_scale);
+  shear_compliance.push_back(m.shear_compliance / stiffness_scale);
   material.push_back(std::uint16_t(material_index));
   mass_kg.push_back(mass);
   id.push_back(particle_id);
@@ -50,6 +54,7 @@ void ParticleStore::remove_swap(std::size_t slot) {
   move_last(radius_m), move_last(inv_mass_per_kg), move_last(inv_inertia_per_kg_m2);
   move_last(normal_stiffness), move_last(normal_damping);
   move_last(tangential_stiffness), move_last(tangential_damping);
+  move_last(normal_compliance), move_last(shear_compliance);
   move_last(material), move_last(mass_kg), move_last(id);
 }
 

@@ -28,6 +28,8 @@ struct ParticleStore {
   std::vector<double> normal_damping;    // η_np, N s/m^1.25 (Eq. 2, damping from restitution.h)
   std::vector<double> tangential_stiffness;  // k_tp / δ_n^{1/2}, N/m^1.5 (Eq. 3)
   std::vector<double> tangential_damping;    // η_tp / δ_n^{1/4}, N s/m^1.25 (Eq. 3)
+  std::vector<double> normal_compliance;     // (1−ν²)/(s·E), 1/Pa; s = reduced-stiffness scale
+  std::vector<double> shear_compliance;      // (2−ν)/(s·G), 1/Pa
   std::vector<std::uint16_t> material;
   // cold
   std::vector<double> mass_kg;
@@ -36,10 +38,11 @@ struct ParticleStore {
   std::size_t size() const { return id.size(); }
   void reserve(std::size_t n);
 
-  // Appends a particle and computes its contact constants. Returns its slot.
+  // Appends a particle and computes its contact constants; `stiffness_scale` multiplies its
+  // Young's modulus (reduced stiffness, §4 Eq. 6–7). Returns its slot.
   std::size_t add(const MaterialTable& materials, int material_index, ParticleId particle_id,
                   const Vec3& position, const Vec3& velocity, const Vec3& angular_velocity,
-                  double diameter_m);
+                  double diameter_m, double stiffness_scale = 1.0);
 
   // Removes the particle in `slot` by moving the last one into it.
   void remove_swap(std::size_t slot);

@@ -82,14 +82,32 @@ struct SourceConfig {
 
 struct TimeConfig {
   double end_s = 0.0;
-  std::optional<double> step_s;  // fixed step; absent = automatic
-  double safety_factor = 0.2;    // automatic step = factor × smallest Rayleigh time
+  std::optional<double> step_s;   // fixed step; absent = automatic
+  double safety_factor = 0.2;     // automatic step <= factor × smallest Rayleigh time
+  double steps_per_contact = 20;  // automatic step <= shortest Hertz contact time / this
 };
 
 enum class ContactModel { SeriesSprings, EquivalentProperties };
 
+// How the damping ratio α follows from the restitution e (particles/materials.h).
+enum class DampingModel {
+  Restitution,  // α calibrated so a clipped Hertz impact rebounds with exactly e (default)
+  Paper,        // α = 2γ(e), γ = −ln e/√(π² + ln² e): the damping Eq. 13 was fitted for
+};
+
+// Reduced stiffness for the finest particles (§4, Eq. 6–7).
+struct ReducedStiffnessConfig {
+  std::optional<double> threshold_diameter_m;  // absent = automatic from the penetration limit
+};
+
 struct ContactConfig {
   ContactModel model = ContactModel::SeriesSprings;  // §3.2, Eq. 2–3; or Eq. 1
+  DampingModel damping = DampingModel::Restitution;
+  // Expected largest normal impact speed; absent = derived from the initial state (time_step.h).
+  std::optional<double> max_impact_speed_m_per_s;
+  double penetration_limit = 0.15;  // allowed overlap / diameter of the smaller partner (§4)
+  bool penetration_limiter = true;  // Eq. 8: reverse the normal velocity (×e) past the limit
+  std::optional<ReducedStiffnessConfig> reduced_stiffness;  // absent = off
 };
 
 struct SearchConfig {

@@ -250,8 +250,39 @@ TimeConfig parse_time(JsonObjectReader& top, InputErrors& errors) {
     }
   }
   t.safety_factor = r.number("safety_factor", 0.2, NumberRange::open_closed(0.0, 1.0));
+  t.steps_per_contact = r.number("steps_per_contact", 20.0, NumberRange::closed(4.0, 1e4));
   r.finish();
   return t;
+}
+
+ContactConfig parse_contact(const json& v, InputErrors& errors) {
+  ContactConfig c;
+  JsonObjectReader r(v, "/contact", errors);
+  c.model = r.string("model", "series", {"series", "equivalent"}) == "equivalent"
+                ? ContactModel::EquivalentProperties
+                : ContactModel::SeriesSprings;
+  c.damping = r.string("damping", "restitution", {"restitution", "paper"}) == "paper"
+                  ? DampingModel::Paper
+                  : DampingModel::Restitution;
+  c.max_impact_speed_m_per_s =
+      r.optional_number("max_impact_speed_m_per_s", NumberRange::open_closed(0.0, 1e4));
+  c.penetration_limit = r.number("penetration_limit", 0.15, NumberRange::open(0.0, 0.5));
+  c.penetration_limiter = r.boolean("penetration_limiter", true);
+  if (const json* rs = r.child("reduced_stiffness")) {
+    JsonObjectReader rr(*rs, r.path_of("reduced_stiffness"), errors);
+    ReducedStiffnessConfig config;
+    if (const json* t = rr.child("threshold_diameter_m")) {
+      if (!(t->is_string() && t->get<std::string>() == "auto")) {
+        config.threshold_diameter_m = read_number(*t, rr.path_of("threshold_diameter_m"),
+                                                  NumberRange::open_closed(0.0, 10.0), errors);
+        if (!t->is_number()) errors.back().allowed = "expected \"auto\" or a number in (0, 10]";
+      }
+    }
+    rr.finish();
+    c.reduced_stiffness = config;
+  }
+  r.finish();
+  return c;
 }
 
 }  // namespace
@@ -279,13 +310,7 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
   scene.gravity_m_per_s2 = top.vec3("gravity_m_per_s2", {}, NumberRange::closed(-1e6, 1e6));
   scene.time = parse_time(top, errors);
 
-  if (const json* v = top.child("contact")) {
-    JsonObjectReader r(*v, "/contact", errors);
-    const std::string model = r.string("model", "series", {"series", "equivalent"});
-    scene.contact.model =
-        model == "equivalent" ? ContactModel::EquivalentProperties : ContactModel::SeriesSprings;
-    r.finish();
-  }
+  if (const json* v = top.child("contact")) scene.contact = parse_contact(*v, errors);
   if (const json* v = top.child("search")) {
     JsonObjectReader r(*v, "/search", errors);
     scene.search.skin_m = r.optional_number("skin_m", NumberRange::non_negative());

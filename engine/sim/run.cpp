@@ -126,9 +126,21 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
   s["particles"] = {{"initial", initial_particles}, {"final", sim.particles().size()}};
   s["steps"] = sim.step_index();
   s["steps_planned"] = total;
+  const TimeStepInfo& ts = sim.time_step();
   s["time_step_s"] = dt;
-  s["time_step_automatic"] = sim.time_step().automatic;
-  s["rayleigh_time_min_s"] = sim.time_step().rayleigh_min_s;
+  s["time_step"] = {{"step_s", dt},
+                    {"automatic", ts.automatic},
+                    {"rayleigh_time_min_s", ts.bounds.rayleigh_s},
+                    {"contact_time_min_s", ts.bounds.contact_s},
+                    {"impact_speed_m_per_s", ts.impact_speed_m_per_s},
+                    {"stable_bound_s", ts.stable_bound_s}};
+  if (const auto& rs = sim.reduced_stiffness())
+    s["reduced_stiffness"] = {{"threshold_diameter_m", rs->threshold_diameter_m},
+                              {"automatic", rs->automatic},
+                              {"reduced_particles", rs->reduced_particles},
+                              {"predicted_penetration_ratio", rs->predicted_penetration_ratio},
+                              {"limited_by_real_stiffness", rs->limited_by_real_stiffness},
+                              {"time_step_gain", rs->time_step_gain}};
   s["simulated_time_s"] = sim.time_s();
   s["wall_time_s"] = wall_s;
   const double step_seconds = sim.profile().total();
@@ -141,7 +153,8 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
   const ContactStepStats& c = sim.contact_stats();
   s["contacts"] = {{"pairs", c.touching_pairs},
                    {"walls", c.touching_walls},
-                   {"max_overlap_ratio", c.max_overlap_ratio}};
+                   {"max_overlap_ratio", c.max_overlap_ratio},
+                   {"penetration_limiter_events", sim.penetration_limiter_events()}};
   const NeighborStats& n = sim.neighbors().stats();
   s["search"] = {
       {"skin_m", sim.neighbors().skin_m()}, {"rebuilds", n.rebuilds},

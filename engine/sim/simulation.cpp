@@ -3,19 +3,24 @@
 #include <algorithm>
 #include <cmath>
 
+#include "contact/penetration_limit.h"
+#include "contact/reduced_stiffness.h"
 #include "dem/integrator.h"
-#include "dem/time_step.h"
 #include "particles/particle_sources.h"
 
 namespace millsim {
 namespace {
 
+struct SourceParticles {
+  std::vector<ParticleSpec> specs;
+  std::vector<int> material;
+};
+
 // Collects every source's particles; reports problems per source path.
-void add_sources(const SceneConfig& scene, const MaterialTable& materials, const PeriodicBox& box,
-                 ParticleStore& out, InputErrors& errors) {
+SourceParticles collect_sources(const SceneConfig& scene, const PeriodicBox& box,
+                                InputErrors& errors) {
   Rng rng(scene.seed);
-  std::vector<ParticleSpec> all;
-  std::vector<int> material_of;
+  SourceParticles out;
   for (std::size_t s = 0; s < scene.sources.size(); ++s) {
     const SourceConfig& source = scene.sources[s];
     const std::string path = concat("/sources/", s);
@@ -34,15 +39,13 @@ void add_sources(const SceneConfig& scene, const MaterialTable& materials, const
         }
         break;
       case SourceKind::Random:
-        specs = random_packing(source, box, all, rng, path + "/count", errors);
+        specs = random_packing(source, box, out.specs, rng, path + "/count", errors);
         break;
     }
-    for (const ParticleSpec& p : specs) all.push_back(p), material_of.push_back(source.material);
+    for (const ParticleSpec& p : specs)
+      out.specs.push_back(p), out.material.push_back(source.material);
   }
-  out.reserve(all.size());
-  for (std::size_t k = 0; k < all.size(); ++k)
-    out.add(materials, material_of[k], ParticleId(k + 1), all[k].position_m,
-            all[k].velocity_m_per_s, all[k].angular_velocity_rad_per_s, all[k].diameter_m);
+  return out;
 }
 
 void check_inside_domain(const SceneConfig& scene, ParticleStore& p, const PeriodicBox& box,
@@ -62,54 +65,92 @@ void check_inside_domain(const SceneConfig& scene, ParticleStore& p, const Perio
   }
 }
 
+// The stiffest wall (smallest compliance), or −1 without walls.
+int stiffest_wall(const MaterialTable& materials, const std::vector<PlaneWall>& walls) {
+  int best = -1;
+  for (std::size_t w = 0; w < walls.size(); ++w)
+    if (best < 0 ||
+        materials.wall_pair(walls[w].pair_table, 0).wall_normal_compliance <
+            materials.wall_pair(walls[std::size_t(best)].pair_table, 0).wall_normal_compliance)
+      best = int(w);
+  return best;
+}
+
 }  // namespace
 
 Simulation::Simulation(const SceneConfig& scene)
-    : materials_(scene),
-      contact_model_(scene.contact.model),
-      gravity_m_per_s2_(scene.gravity_m_per_s2) {
+    : materials_(scene), contact_(scene.contact), gravity_m_per_s2_(scene.gravity_m_per_s2) {
   InputErrors errors;
   box_ = {scene.domain.min_m, scene.domain.max_m, scene.domain.periodic};
   walls_ = build_walls(scene, materials_);
-  add_sources(scene, materials_, box_, particles_, errors);
+  const SourceParticles sources = collect_sources(scene, box_, errors);
   if (!errors.empty()) throw InputErrorList(std::move(errors));
-  if (particles_.size() == 0)
-    errors.push_back({"/sources", "", "the sources produced no particles"});
-  check_inside_domain(scene, particles_, box_, errors);
+  if (sources.specs.empty())
+    throw InputErrorList({{"/sources", "", "the sources produced no particles"}});
 
-  // Time step: Rayleigh bound of the smallest particle (per material).
-  time_.rayleigh_min_s = 1e300;
-  double d_min = 1e300, d_max = 0.0;
-  for (std::size_t i = 0; i < particles_.size(); ++i) {
-    const MaterialConstants& m = materials_.material(particles_.material[i]);
-    const double t = rayleigh_time_s(particles_.radius_m[i], m.youngs_modulus_pa, m.poisson_ratio,
-                                     m.density_kg_per_m3);
-    if (t < time_.rayleigh_min_s)
-      time_.rayleigh_min_s = t, time_.rayleigh_particle = particles_.id[i];
-    d_min = std::min(d_min, 2.0 * particles_.radius_m[i]);
-    d_max = std::max(d_max, 2.0 * particles_.radius_m[i]);
+  double d_min = 1e300, d_max = 0.0, fastest = 0.0;
+  std::size_t smallest = 0;
+  for (std::size_t k = 0; k < sources.specs.size(); ++k) {
+    const double d = sources.specs[k].diameter_m;
+    if (d < d_min) d_min = d, smallest = k;
+    d_max = std::max(d_max, d);
+    fastest = std::max(fastest, norm(sources.specs[k].velocity_m_per_s));
   }
-  if (scene.time.step_s) {
-    time_.automatic = false;
-    time_.step_s = *scene.time.step_s;
-    if (particles_.size() && time_.step_s > time_.rayleigh_min_s)
-      errors.push_back({"/time/step_s", concat(time_.step_s),
-                        concat("expected at most the Rayleigh time of the smallest particle, ",
-                               time_.rayleigh_min_s, " s (particle ", time_.rayleigh_particle,
-                               "); lower it or use \"auto\"")});
-  } else {
-    time_.step_s = scene.time.safety_factor * time_.rayleigh_min_s;
+
+  // Particles first at full stiffness: the impact speed and the threshold need them.
+  particles_.reserve(sources.specs.size());
+  for (std::size_t k = 0; k < sources.specs.size(); ++k) {
+    const ParticleSpec& s = sources.specs[k];
+    particles_.add(materials_, sources.material[k], ParticleId(k + 1), s.position_m,
+                   s.velocity_m_per_s, s.angular_velocity_rad_per_s, s.diameter_m);
   }
-  total_steps_ =
-      std::max<std::int64_t>(1, std::int64_t(std::ceil(scene.time.end_s / time_.step_s - 1e-9)));
-  if (particles_.size() && total_steps_ > 2'000'000'000LL)
-    errors.push_back({"/time/end_s", concat(scene.time.end_s),
-                      concat("expected at most 2e9 steps of ", time_.step_s, " s")});
+  time_.impact_speed_m_per_s = contact_.max_impact_speed_m_per_s.value_or(
+      default_max_impact_speed_m_per_s(particles_, gravity_m_per_s2_, box_));
+
+  if (contact_.reduced_stiffness) {
+    ReducedStiffnessInfo info;
+    const int material = sources.material[smallest];
+    const int wall = stiffest_wall(materials_, walls_);
+    double wall_c = -1.0, e = materials_.material(material).restitution;
+    if (wall >= 0) {
+      const PairConstants& wp =
+          materials_.wall_pair(walls_[std::size_t(wall)].pair_table, material);
+      wall_c = wp.wall_normal_compliance;
+      e = wp.restitution;
+    }
+    const PenetrationCase worst{
+        &materials_.material(material), d_min, wall_c, e, time_.impact_speed_m_per_s,
+        materials_.damping_model()};
+    if (contact_.reduced_stiffness->threshold_diameter_m) {
+      info.threshold_diameter_m = *contact_.reduced_stiffness->threshold_diameter_m;
+      info.predicted_penetration_ratio =
+          predicted_penetration_ratio(worst, stiffness_scale(d_min, info.threshold_diameter_m));
+    } else {
+      const ThresholdChoice choice = automatic_threshold(worst, d_max, contact_.penetration_limit);
+      info.automatic = true;
+      info.threshold_diameter_m = choice.threshold_diameter_m;
+      info.predicted_penetration_ratio = choice.penetration_ratio;
+      info.limited_by_real_stiffness = choice.limited_by_real_stiffness;
+    }
+    ParticleStore reduced;
+    reduced.reserve(particles_.size());
+    for (std::size_t k = 0; k < sources.specs.size(); ++k) {
+      const ParticleSpec& s = sources.specs[k];
+      const double scale = stiffness_scale(s.diameter_m, info.threshold_diameter_m);
+      if (scale < 1.0) ++info.reduced_particles;
+      reduced.add(materials_, sources.material[k], ParticleId(k + 1), s.position_m,
+                  s.velocity_m_per_s, s.angular_velocity_rad_per_s, s.diameter_m, scale);
+    }
+    particles_ = std::move(reduced);
+    reduced_ = info;
+  }
+  check_inside_domain(scene, particles_, box_, errors);
+  choose_time_step(scene, errors);
 
   // Skin: a quarter of the smallest diameter unless set; the periodic minimum image needs each
   // periodic length to exceed 2 (d_max + skin).
   double skin = scene.search.skin_m.value_or(0.25 * d_min);
-  for (int a = 0; a < 3 && particles_.size(); ++a) {
+  for (int a = 0; a < 3; ++a) {
     if (!box_.periodic[a]) continue;
     if (box_.length(a) <= 2.0 * d_max)
       errors.push_back({concat("/domain/max_m/", a), concat(box_.max_m[a]),
@@ -121,14 +162,85 @@ Simulation::Simulation(const SceneConfig& scene)
   neighbors_ = NeighborList(std::max(skin, 0.0), scene.search.cell_size_m);
   neighbors_.update(particles_, box_, walls_, true);
   compute_forces();
+  if (contact_stats_.max_overlap_ratio > contact_.penetration_limit)
+    throw InputErrorList({{"/sources", "",
+                           concat(describe_worst_overlap(), " at the start; at most ",
+                                  100.0 * contact_.penetration_limit,
+                                  " % is allowed (/contact/penetration_limit): move them apart, "
+                                  "or use a random source, which never overlaps")}});
+
+  const EnergyReport e0 = energy();
+  energy_reference_j_ = e0.total_j();
+  double mass = 0.0;
+  for (double m : particles_.mass_kg) mass += m;
+  double height = 0.0;
+  const double g = norm(gravity_m_per_s2_);
+  for (int a = 0; a < 3 && g > 0.0; ++a) {
+    height += std::abs(gravity_m_per_s2_[a] / g) * box_.length(a);
+    if (box_.periodic[a] && gravity_m_per_s2_[a] != 0.0) check_energy_ = false;  // no potential
+  }
+  energy_scale_j_ = e0.kinetic_j + e0.rotational_j + e0.elastic_j + mass * g * height + 1e-300;
+}
+
+void Simulation::choose_time_step(const SceneConfig& scene, InputErrors& errors) {
+  const double v = time_.impact_speed_m_per_s;
+  time_.bounds = time_step_bounds(particles_, materials_, walls_, v, [&](std::size_t i) {
+    return reduced_ ? stiffness_scale(2.0 * particles_.radius_m[i], reduced_->threshold_diameter_m)
+                    : 1.0;
+  });
+  const TimeStepBounds& b = time_.bounds;
+  time_.stable_bound_s = std::min(b.rayleigh_s, b.contact_s / 4.0);
+  const double automatic =
+      std::min(scene.time.safety_factor * b.rayleigh_s, b.contact_s / scene.time.steps_per_contact);
+  if (reduced_) {
+    const TimeStepBounds real =
+        time_step_bounds(particles_, materials_, walls_, v, [](std::size_t) { return 1.0; });
+    reduced_->time_step_gain = automatic / std::min(scene.time.safety_factor * real.rayleigh_s,
+                                                    real.contact_s / scene.time.steps_per_contact);
+  }
+  if (scene.time.step_s) {
+    time_.automatic = false;
+    time_.step_s = *scene.time.step_s;
+    if (time_.step_s > b.rayleigh_s)
+      errors.push_back({"/time/step_s", concat(time_.step_s),
+                        concat("expected at most the Rayleigh time of the smallest particle, ",
+                               b.rayleigh_s, " s (particle ", b.rayleigh_particle,
+                               "); lower it, use \"auto\", or reduce the stiffness of the finest "
+                               "particles (/contact/reduced_stiffness)")});
+    else if (time_.step_s > b.contact_s / 4.0)
+      errors.push_back(
+          {"/time/step_s", concat(time_.step_s),
+           concat("expected at most a quarter of the shortest Hertz contact time, ",
+                  b.contact_s / 4.0, " s (particle ", b.contact_particle, " against ",
+                  b.contact_with_wall ? "the stiffest wall" : "an equal particle", " at ", v,
+                  " m/s, /contact/max_impact_speed_m_per_s); lower it or "
+                  "use \"auto\"")});
+  } else {
+    time_.step_s = automatic;
+  }
+  total_steps_ =
+      std::max<std::int64_t>(1, std::int64_t(std::ceil(scene.time.end_s / time_.step_s - 1e-9)));
+  if (total_steps_ > 2'000'000'000LL)
+    errors.push_back({"/time/end_s", concat(scene.time.end_s),
+                      concat("expected at most 2e9 steps of ", time_.step_s, " s")});
+}
+
+std::string Simulation::describe_worst_overlap() const {
+  const ContactStepStats& c = contact_stats_;
+  const std::string partner = c.max_overlap_wall >= 0
+                                  ? "wall \"" + walls_[std::size_t(c.max_overlap_wall)].name + "\""
+                                  : concat("particle ", c.max_overlap_partner);
+  return concat("particle ", c.max_overlap_particle, " overlaps ", partner, " by ",
+                100.0 * c.max_overlap_ratio, " % of its diameter");
 }
 
 void Simulation::compute_forces() {
   clear_forces(particles_, gravity_m_per_s2_);
-  contact_stats_.max_overlap_ratio = 0.0;
-  compute_pair_forces(contact_model_, materials_, box_, time_.step_s, particles_, neighbors_,
-                      contact_stats_);
-  compute_wall_forces(materials_, walls_, time_.step_s, particles_, neighbors_, contact_stats_);
+  contact_stats_.reset();
+  compute_pair_forces(contact_.model, materials_, box_, time_.step_s, contact_.penetration_limit,
+                      particles_, neighbors_, contact_stats_);
+  compute_wall_forces(materials_, walls_, time_.step_s, contact_.penetration_limit, particles_,
+                      neighbors_, contact_stats_);
 }
 
 void Simulation::refresh_forces() {
@@ -145,50 +257,68 @@ std::optional<StepFailure> Simulation::step() {
   });
   profile_.time(Phase::Neighbors, [&] { neighbors_.update(particles_, box_, walls_, false); });
   profile_.time(Phase::Forces, [&] { compute_forces(); });
-  profile_.time(Phase::Kick, [&] { kick(particles_, dt); });
+  profile_.time(Phase::Kick, [&] {
+    kick(particles_, dt);
+    if (contact_.penetration_limiter &&
+        !(contact_stats_.pairs_over_limit.empty() && contact_stats_.walls_over_limit.empty()))
+      limiter_events_ += apply_penetration_limiter(contact_stats_, materials_, box_, walls_,
+                                                   neighbors_, particles_);
+  });
   ++step_index_;
   std::optional<StepFailure> failure;
-  if (step_index_ % 16 == 0 || step_index_ == total_steps_)
+  if (step_index_ % 16 == 0 || step_index_ == total_steps_ ||
+      contact_stats_.max_overlap_ratio > 2.0 * contact_.penetration_limit)
     profile_.time(Phase::Health, [&] { failure = check_health(); });
   return failure;
 }
 
-std::optional<StepFailure> Simulation::check_health() const {
+std::optional<StepFailure> Simulation::check_health() {
   const ParticleStore& p = particles_;
+  const std::string dt_text = concat(time_.step_s, " s");
   for (std::size_t i = 0; i < p.size(); ++i) {
     if (is_finite(p.position_m[i]) && is_finite(p.velocity_m_per_s[i]) &&
         is_finite(p.angular_velocity_rad_per_s[i]))
       continue;
-    return StepFailure{
-        step_index_, time_s(), p.id[i], "non_finite_state",
-        concat("particle ", p.id[i], " (d = ", 2 * p.radius_m[i],
-               " m) has a non-finite position or velocity; the time step ", time_.step_s,
-               " s is likely too large for its contacts: lower "
-               "/time/step_s or /time/safety_factor")};
+    return StepFailure{step_index_, time_s(), p.id[i], "non_finite_state",
+                       concat("particle ", p.id[i], " (d = ", 2 * p.radius_m[i],
+                              " m) has a non-finite position or velocity; the time step ", dt_text,
+                              " is likely too large for its contacts: lower /time/step_s or "
+                              "/time/safety_factor")};
   }
   for (std::size_t i = 0; i < p.size(); ++i)
     for (int a = 0; a < 3; ++a) {
       if (box_.periodic[a]) continue;
       const double x = p.position_m[i][a], r = p.radius_m[i];
       if (x < box_.min_m[a] - r || x > box_.max_m[a] + r)
-        return StepFailure{step_index_, time_s(), p.id[i], "particle_escaped",
-                           concat("particle ", p.id[i], " (d = ", 2 * r,
-                                  " m) left the domain "
-                                  "through a wall on axis ",
-                                  a, " at ", x,
-                                  " m; its impact was "
-                                  "too fast for the time step ",
-                                  time_.step_s, " s: lower /time/safety_factor")};
+        return StepFailure{
+            step_index_, time_s(), p.id[i], "particle_escaped",
+            concat("particle ", p.id[i], " (d = ", 2 * r, " m, speed ", norm(p.velocity_m_per_s[i]),
+                   " m/s) left the domain through a "
+                   "wall on axis ",
+                   a, ": the impact was too fast for the step ", dt_text,
+                   "; raise /contact/max_impact_speed_m_per_s to at least "
+                   "that speed so the automatic step resolves it")};
     }
-  if (contact_stats_.max_overlap_ratio > 0.5)
-    return StepFailure{step_index_, time_s(), contact_stats_.max_overlap_particle,
-                       "excessive_overlap",
-                       concat("particle ", contact_stats_.max_overlap_particle,
-                              " overlaps a "
-                              "partner by ",
-                              100.0 * contact_stats_.max_overlap_ratio,
-                              " % of its diameter (limit 50 %): the contacts are too soft for "
-                              "the impact speeds, or the time step is too large")};
+  const double overlap_guard = 2.0 * contact_.penetration_limit;
+  if (contact_stats_.max_overlap_ratio > overlap_guard)
+    return StepFailure{
+        step_index_, time_s(), contact_stats_.max_overlap_particle, "excessive_overlap",
+        concat(describe_worst_overlap(), "; the guard stops runs at ", 100.0 * overlap_guard,
+               " % (twice /contact/penetration_limit). The "
+               "contact is too soft or too fast for the step ",
+               dt_text,
+               ": raise /contact/max_impact_speed_m_per_s, lower the reduced-"
+               "stiffness threshold, or lower the step")};
+  if (check_energy_ && step_index_ % 256 == 0) {
+    const double growth = energy().total_j() - energy_reference_j_;
+    if (growth > 0.05 * energy_scale_j_)
+      return StepFailure{
+          step_index_, time_s(), 0, "energy_growth",
+          concat("the total energy grew by ", growth, " J (", 100.0 * growth / energy_scale_j_,
+                 " % of the energy in play) with no source to supply it: the step ", dt_text,
+                 " is too large for the stiffest contacts; lower "
+                 "/time/step_s or /time/safety_factor")};
+  }
   return std::nullopt;
 }
 
@@ -200,7 +330,7 @@ EnergyReport Simulation::energy() const {
     e.rotational_j += 0.5 * norm2(p.angular_velocity_rad_per_s[i]) / p.inv_inertia_per_kg_m2[i];
     e.potential_j -= p.mass_kg[i] * dot(gravity_m_per_s2_, p.position_m[i]);
   }
-  e.elastic_j = contact_elastic_energy_j(contact_model_, materials_, box_, walls_, p, neighbors_);
+  e.elastic_j = contact_elastic_energy_j(contact_.model, materials_, box_, walls_, p, neighbors_);
   return e;
 }
 

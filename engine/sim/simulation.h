@@ -12,6 +12,7 @@
 #include "contact/walls.h"
 #include "core/errors.h"
 #include "dem/box.h"
+#include "dem/time_step.h"
 #include "particles/materials.h"
 #include "particles/particle_store.h"
 #include "scene/scene_config.h"
@@ -31,14 +32,25 @@ struct EnergyReport {
 struct TimeStepInfo {
   double step_s = 0.0;
   bool automatic = true;
-  double rayleigh_min_s = 0.0;          // smallest Rayleigh time over the particles
-  std::uint64_t rayleigh_particle = 0;  // its id
+  double impact_speed_m_per_s = 0.0;  // expected largest impact speed used for the bounds
+  TimeStepBounds bounds;              // with reduced stiffness, if on
+  double stable_bound_s = 0.0;        // the largest step accepted: min(t_R, t_c / 4)
+};
+
+struct ReducedStiffnessInfo {
+  double threshold_diameter_m = 0.0;
+  bool automatic = false;
+  double predicted_penetration_ratio = 0.0;  // of the smallest particle at the impact speed
+  bool limited_by_real_stiffness = false;
+  std::uint64_t reduced_particles = 0;
+  double time_step_gain = 1.0;  // automatic step with reduction / without (§4: ≈ 3 in Fig. 9)
 };
 
 class Simulation {
  public:
   // Throws InputErrorList when the scene cannot be built (bad particle files, overfull
-  // packings, a time step above the stable bound, particles outside the domain, ...).
+  // packings, a time step above the stable bound, particles outside the domain or overlapping
+  // past the penetration limit at the start, ...).
   explicit Simulation(const SceneConfig& scene);
 
   // One DEM step; returns the failure when the stability guard stops the run.
@@ -48,6 +60,8 @@ class Simulation {
   double time_s() const { return double(step_index_) * time_.step_s; }
   std::int64_t total_steps() const { return total_steps_; }
   const TimeStepInfo& time_step() const { return time_; }
+  const std::optional<ReducedStiffnessInfo>& reduced_stiffness() const { return reduced_; }
+  std::uint64_t penetration_limiter_events() const { return limiter_events_; }
 
   const ParticleStore& particles() const { return particles_; }
   ParticleStore& particles() { return particles_; }  // tests and sources may edit state
@@ -58,26 +72,33 @@ class Simulation {
   const ContactStepStats& contact_stats() const { return contact_stats_; }
   const StepProfile& profile() const { return profile_; }
   StepProfile& profile() { return profile_; }
-  ContactModel contact_model() const { return contact_model_; }
+  ContactModel contact_model() const { return contact_.model; }
 
   EnergyReport energy() const;
   // Recomputes forces for the current state (after editing particles by hand).
   void refresh_forces();
 
  private:
+  void choose_time_step(const SceneConfig& scene, InputErrors& errors);
   void compute_forces();
-  std::optional<StepFailure> check_health() const;
+  std::optional<StepFailure> check_health();
+  std::string describe_worst_overlap() const;
 
   MaterialTable materials_;
   ParticleStore particles_;
   PeriodicBox box_;
   std::vector<PlaneWall> walls_;
   NeighborList neighbors_;
-  ContactModel contact_model_ = ContactModel::SeriesSprings;
+  ContactConfig contact_;
   Vec3 gravity_m_per_s2_;
   TimeStepInfo time_;
+  std::optional<ReducedStiffnessInfo> reduced_;
   std::int64_t total_steps_ = 0;
   std::int64_t step_index_ = 0;
+  std::uint64_t limiter_events_ = 0;
+  double energy_reference_j_ = 0.0;  // total energy at the start
+  double energy_scale_j_ = 0.0;      // size of the energies in play, for the growth check
+  bool check_energy_ = true;
   ContactStepStats contact_stats_;
   StepProfile profile_;
 };

@@ -85,18 +85,22 @@ TEST(CliRun, MalformedJsonAndMissingFileAreBadInput) {
 }
 
 TEST(CliRun, BlowUpStopsWithExitThreeAndAMessage) {
-  // A 100 µm particle driven into a wall at 2 km/s with the largest allowed step (the Rayleigh
-  // time): the Hertz contact lasts about one step, so the guard must stop the run.
+  // The scene declares impacts of at most 10 m/s and takes the largest step that allows, but a
+  // 100 µm particle actually hits the wall at 2 km/s: its Hertz contact lasts under two steps,
+  // so the stability guard must stop the run and say why.
   test::TempDir dir;
   std::ifstream in(MILLSIM_SOURCE_DIR "/cases/impact_two_spheres.json");
   nlohmann::json scene = nlohmann::json::parse(in);
   scene["sources"][0]["particles"] = nlohmann::json::parse(
       R"([{"position_m": [0, 0, -0.0009], "velocity_m_per_s": [0, 0, -2000], "diameter_m": 1e-4}])");
-  scene["time"] = {{"end_s", 1e-5}, {"step_s", 3.8e-7}};
+  scene["contact"] = {{"max_impact_speed_m_per_s", 10}};
+  scene["time"] = {{"end_s", 1e-5}, {"step_s", 2.2e-7}};
   write_file(dir.path() / "fast.json", scene.dump());
   const CommandResult r = run_millsim("run fast.json --out out", dir.path());
   EXPECT_EQ(r.exit_code, 3) << r.err;
   EXPECT_NE(r.err.find("run stopped at step"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("max_impact_speed_m_per_s"), std::string::npos)
+      << "names the fix: " << r.err;
   const nlohmann::json summary = nlohmann::json::parse(r.out);
   EXPECT_EQ(summary["status"], "failed");
   EXPECT_EQ(summary["failure"]["particle_id"], 1);
