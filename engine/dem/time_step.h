@@ -22,6 +22,12 @@ double rayleigh_time_s(double radius_m, double youngs_modulus_pa, double poisson
 // Hertz contact duration of a head-on impact at `speed` with stiffness k and reduced mass m*.
 double hertz_contact_time_s(double reduced_mass_kg, double stiffness, double speed_m_per_s);
 
+// The fewest steps a contact may take: a fixed step above t_c / this is rejected. Fewer steps
+// lose accuracy fast: the damping term δ^{1/4} has an infinite slope at contact onset, so the
+// error of the maximum overlap falls only as dt^{1.25} (0.73 % at 40 steps per contact for
+// e = 0.41, 0.31 % at 80).
+inline constexpr double kMinStepsPerContact = 8.0;
+
 struct TimeStepBounds {
   double rayleigh_s = 1e300;  // smallest Rayleigh time
   std::uint64_t rayleigh_particle = 0;

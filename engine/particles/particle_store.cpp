@@ -7,6 +7,7 @@ namespace millsim {
 void ParticleStore::reserve(std::size_t n) {
   position_m.reserve(n), velocity_m_per_s.reserve(n), force_n.reserve(n);
   angular_velocity_rad_per_s.reserve(n), torque_n_m.reserve(n);
+  previous_force_n.reserve(n), previous_torque_n_m.reserve(n);
   radius_m.reserve(n), inv_mass_per_kg.reserve(n), inv_inertia_per_kg_m2.reserve(n);
   normal_stiffness.reserve(n), normal_damping.reserve(n);
   tangential_stiffness.reserve(n), tangential_damping.reserve(n);
@@ -28,6 +29,8 @@ std::size_t ParticleStore::add(const MaterialTable& materials, int material_inde
   force_n.push_back({});
   angular_velocity_rad_per_s.push_back(angular_velocity);
   torque_n_m.push_back({});
+  previous_force_n.push_back({});
+  previous_torque_n_m.push_back({});
   radius_m.push_back(r);
   inv_mass_per_kg.push_back(1.0 / mass);
   inv_inertia_per_kg_m2.push_back(1.0 / (0.4 * mass * r * r));
@@ -51,6 +54,7 @@ void ParticleStore::remove_swap(std::size_t slot) {
   };
   move_last(position_m), move_last(velocity_m_per_s), move_last(force_n);
   move_last(angular_velocity_rad_per_s), move_last(torque_n_m);
+  move_last(previous_force_n), move_last(previous_torque_n_m);
   move_last(radius_m), move_last(inv_mass_per_kg), move_last(inv_inertia_per_kg_m2);
   move_last(normal_stiffness), move_last(normal_damping);
   move_last(tangential_stiffness), move_last(tangential_damping);

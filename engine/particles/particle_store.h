@@ -21,6 +21,8 @@ struct ParticleStore {
   std::vector<Vec3> force_n;
   std::vector<Vec3> angular_velocity_rad_per_s;
   std::vector<Vec3> torque_n_m;
+  std::vector<Vec3> previous_force_n;  // forces of the previous step (dem/integrator.h)
+  std::vector<Vec3> previous_torque_n_m;
   std::vector<double> radius_m;
   std::vector<double> inv_mass_per_kg;
   std::vector<double> inv_inertia_per_kg_m2;

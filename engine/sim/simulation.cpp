@@ -189,7 +189,7 @@ void Simulation::choose_time_step(const SceneConfig& scene, InputErrors& errors)
                     : 1.0;
   });
   const TimeStepBounds& b = time_.bounds;
-  time_.stable_bound_s = std::min(b.rayleigh_s, b.contact_s / 4.0);
+  time_.stable_bound_s = std::min(b.rayleigh_s, b.contact_s / kMinStepsPerContact);
   const double automatic =
       std::min(scene.time.safety_factor * b.rayleigh_s, b.contact_s / scene.time.steps_per_contact);
   if (reduced_) {

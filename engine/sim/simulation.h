@@ -34,7 +34,7 @@ struct TimeStepInfo {
   bool automatic = true;
   double impact_speed_m_per_s = 0.0;  // expected largest impact speed used for the bounds
   TimeStepBounds bounds;              // with reduced stiffness, if on
-  double stable_bound_s = 0.0;        // the largest step accepted: min(t_R, t_c / 4)
+  double stable_bound_s = 0.0;        // the largest step accepted: min(t_R, t_c / 8)
 };
 
 struct ReducedStiffnessInfo {

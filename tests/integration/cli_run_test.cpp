@@ -94,7 +94,7 @@ TEST(CliRun, BlowUpStopsWithExitThreeAndAMessage) {
   scene["sources"][0]["particles"] = nlohmann::json::parse(
       R"([{"position_m": [0, 0, -0.0009], "velocity_m_per_s": [0, 0, -2000], "diameter_m": 1e-4}])");
   scene["contact"] = {{"max_impact_speed_m_per_s", 10}};
-  scene["time"] = {{"end_s", 1e-5}, {"step_s", 2.2e-7}};
+  scene["time"] = {{"end_s", 1e-5}, {"step_s", 1.1e-7}};
   write_file(dir.path() / "fast.json", scene.dump());
   const CommandResult r = run_millsim("run fast.json --out out", dir.path());
   EXPECT_EQ(r.exit_code, 3) << r.err;
