@@ -122,6 +122,8 @@ void compute_pair_forces(ContactModel model, const MaterialTable& materials, con
   switch (model) {
     case ContactModel::SeriesSprings:
       return pair_loop_any_box(SeriesSprings(p), materials, box, dt, limit, p, nl, stats);
+    case ContactModel::PaperSprings:
+      return pair_loop_any_box(PaperSprings(p), materials, box, dt, limit, p, nl, stats);
     case ContactModel::EquivalentProperties:
       return pair_loop_any_box(EquivalentProperties(p), materials, box, dt, limit, p, nl, stats);
   }
@@ -174,6 +176,7 @@ double contact_elastic_energy_j(ContactModel model, const MaterialTable& materia
                                 const PeriodicBox& box, const std::vector<PlaneWall>& walls,
                                 const ParticleStore& p, const NeighborList& nl) {
   const SeriesSprings series_law(p);
+  const PaperSprings paper_law(p);
   const EquivalentProperties equivalent_law(p);
   double energy = 0.0;
   for (std::size_t k = 0; k < nl.pairs.size(); ++k) {
@@ -182,8 +185,9 @@ double contact_elastic_energy_j(ContactModel model, const MaterialTable& materia
     const double overlap = p.radius_m[i] + p.radius_m[j] - dist;
     if (overlap <= 0.0) continue;
     const PairConstants& pc = materials.pair(p.material[i], p.material[j]);
-    const PairSprings s =
-        model == ContactModel::SeriesSprings ? series_law(i, j, pc) : equivalent_law(i, j, pc);
+    const PairSprings s = model == ContactModel::SeriesSprings  ? series_law(i, j, pc)
+                          : model == ContactModel::PaperSprings ? paper_law(i, j, pc)
+                                                                : equivalent_law(i, j, pc);
     energy += 0.4 * s.normal_stiffness * overlap * overlap * std::sqrt(overlap) +
               0.5 * s.tangential_stiffness * std::sqrt(overlap) * norm2(nl.pair_history_m[k]);
   }

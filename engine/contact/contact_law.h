@@ -1,7 +1,7 @@
 // Hertz–Mindlin contact law as pure functions over plain parameters (STYLE §7.5 S5).
 // Two ways to get a pair's springs, selected once per step:
-//   SeriesSprings (§3.2, Eq. 2–3): per-particle constants, normal in series, tangential in
-//     parallel; exact Hertz–Mindlin for equal particles.
+//   SeriesSprings (§3.2, Eq. 2–3): per-particle constants combined in series (see below for
+//     the tangential part); exact Hertz–Mindlin for equal particles.
 //   EquivalentProperties (Eq. 1): E*, G*, R*, m* of the pair; Hertz (4/3)E*√R*, Mindlin 8G*√R*.
 // Both use the same damping form, F_damp = η δ^{1/4} v (restitution.h), and the normal force is
 // clipped at zero (a contact never pulls).
@@ -29,20 +29,34 @@ inline double series(double a, double b) {
   return sum > 0.0 ? a * b / sum : 0.0;
 }
 
-struct SeriesSprings {
+// Per-particle springs (§3.2). Normal: series, Eq. 2. Tangential: Eq. 3 sums the particles'
+// springs in parallel, which is exact Mindlin only for equal sizes; for a fine against a coarse
+// particle the sum is set by the coarse particle's √r: (1 + √(r_coarse/r_fine))/(2√2) times
+// Mindlin's 8G*√(R*δ) (11.5× at 1:1000), and the explicit step cannot hold it (energy grew 700-fold
+// in 300 steps in cases/stability/size_ratio_1000.json). kSeriesTangential combines 4·k_tp and
+// 4·η_tp in series instead: identical to Eq. 3 for equal particles, dominated by the fine one
+// otherwise, like the normal spring. The paper's parallel sum stays selectable for comparison.
+template <bool kSeriesTangential>
+struct PerParticleSprings {
   const double* kn;
   const double* etan;
   const double* kt;
   const double* etat;
-  explicit SeriesSprings(const ParticleStore& p)
+  explicit PerParticleSprings(const ParticleStore& p)
       : kn(p.normal_stiffness.data()),
         etan(p.normal_damping.data()),
         kt(p.tangential_stiffness.data()),
         etat(p.tangential_damping.data()) {}
   PairSprings operator()(std::size_t i, std::size_t j, const PairConstants&) const {
-    return {series(kn[i], kn[j]), series(etan[i], etan[j]), kt[i] + kt[j], etat[i] + etat[j]};
+    if constexpr (kSeriesTangential)
+      return {series(kn[i], kn[j]), series(etan[i], etan[j]), 4.0 * series(kt[i], kt[j]),
+              4.0 * series(etat[i], etat[j])};
+    else
+      return {series(kn[i], kn[j]), series(etan[i], etan[j]), kt[i] + kt[j], etat[i] + etat[j]};
   }
 };
+using SeriesSprings = PerParticleSprings<true>;
+using PaperSprings = PerParticleSprings<false>;  // Eq. 3 exactly: tangential in parallel
 
 // Hertz–Mindlin springs from effective properties.
 inline PairSprings hertz_mindlin_springs(double effective_modulus_pa, double effective_shear_pa,

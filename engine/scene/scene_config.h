@@ -87,7 +87,11 @@ struct TimeConfig {
   double steps_per_contact = 20;  // automatic step <= shortest Hertz contact time / this
 };
 
-enum class ContactModel { SeriesSprings, EquivalentProperties };
+enum class ContactModel {
+  SeriesSprings,         // per-particle springs, §3.2; tangential in series (contact_law.h)
+  PaperSprings,          // per-particle springs exactly as Eq. 2–3: tangential in parallel
+  EquivalentProperties,  // Eq. 1
+};
 
 // How the damping ratio α follows from the restitution e (particles/materials.h).
 enum class DampingModel {

@@ -258,9 +258,10 @@ TimeConfig parse_time(JsonObjectReader& top, InputErrors& errors) {
 ContactConfig parse_contact(const json& v, InputErrors& errors) {
   ContactConfig c;
   JsonObjectReader r(v, "/contact", errors);
-  c.model = r.string("model", "series", {"series", "equivalent"}) == "equivalent"
-                ? ContactModel::EquivalentProperties
-                : ContactModel::SeriesSprings;
+  const std::string model = r.string("model", "series", {"series", "paper", "equivalent"});
+  c.model = model == "equivalent" ? ContactModel::EquivalentProperties
+            : model == "paper"    ? ContactModel::PaperSprings
+                                  : ContactModel::SeriesSprings;
   c.damping = r.string("damping", "restitution", {"restitution", "paper"}) == "paper"
                   ? DampingModel::Paper
                   : DampingModel::Restitution;

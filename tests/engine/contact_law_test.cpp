@@ -26,6 +26,11 @@ TEST(ContactLaw, SeriesEqualsEquivalentAndHertzForEqualParticles) {
       const ParticleStore p = two_particles(table, d, d);
       const PairConstants& pc = table.pair(0, 0);
       const PairSprings series = SeriesSprings(p)(0, 1, pc);
+      const PairSprings paper = PaperSprings(p)(0, 1, pc);  // Eq. 3: tangential in parallel
+      EXPECT_NEAR(paper.tangential_stiffness, series.tangential_stiffness,
+                  1e-12 * series.tangential_stiffness);
+      EXPECT_NEAR(paper.tangential_damping, series.tangential_damping,
+                  1e-12 * series.tangential_damping + 1e-300);
       const PairSprings equivalent = EquivalentProperties(p)(0, 1, pc);
       const double E = 1e9, nu = 0.3, G = E / (2 * (1 + nu)), r = 0.5 * d;
       const double hertz_kn = 4.0 / 3.0 * (E / (2 * (1 - nu * nu))) * std::sqrt(0.5 * r);
@@ -50,6 +55,22 @@ TEST(ContactLaw, SeriesAndEquivalentDifferForUnequalSizes) {
   const PairSprings series = SeriesSprings(p)(0, 1, table.pair(0, 0));
   const PairSprings equivalent = EquivalentProperties(p)(0, 1, table.pair(0, 0));
   EXPECT_GT(std::abs(series.normal_stiffness / equivalent.normal_stiffness - 1.0), 0.01);
+}
+
+TEST(ContactLaw, SeriesTangentialFollowsTheFinePartnerLikeMindlin) {
+  // Expectation: Mindlin k_t = 8G*√(R*δ) with R* → r_fine as the partner grows; the series
+  // tangential spring must stay within the same factor of it as the series normal spring is of
+  // Hertz (√2 at 1:1000), while Eq. 3's parallel sum is (1 + √1000)/(2√2) = 11.5× Mindlin.
+  SceneConfig scene = test::empty_scene({0, 0, 0}, {1, 1, 1}, test::table1_material(0.5));
+  const MaterialTable table(scene);
+  const ParticleStore p = two_particles(table, 1e-6, 1e-3);
+  const PairSprings series = SeriesSprings(p)(0, 1, table.pair(0, 0));
+  const PairSprings paper = PaperSprings(p)(0, 1, table.pair(0, 0));
+  const PairSprings mindlin = EquivalentProperties(p)(0, 1, table.pair(0, 0));
+  EXPECT_NEAR(series.tangential_stiffness / mindlin.tangential_stiffness,
+              series.normal_stiffness / mindlin.normal_stiffness, 0.01);
+  EXPECT_NEAR(paper.tangential_stiffness / mindlin.tangential_stiffness,
+              (1.0 + std::sqrt(1000.0)) / (2.0 * std::sqrt(2.0)), 0.01);
 }
 
 }  // namespace

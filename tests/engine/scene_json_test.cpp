@@ -105,7 +105,7 @@ TEST(SceneJson, InvertedDomainAndBadEnumAreRejected) {
   EXPECT_NE(find_error(errors, "/domain/max_m/1"), nullptr);
   const InputError* model = find_error(errors, "/contact/model");
   ASSERT_NE(model, nullptr);
-  EXPECT_EQ(model->allowed, "expected one of series equivalent");
+  EXPECT_EQ(model->allowed, "expected one of series paper equivalent");
 }
 
 TEST(SceneJson, RandomRegionOutsideDomainIsRejected) {
