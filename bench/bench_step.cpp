@@ -1,18 +1,24 @@
 // bench_step: the full DEM step (search + Hertz–Mindlin forces + integration) on a shared
 // benchmark scene (shared/bench/FORMAT.md), one core, at the file's time step.
 //
-//   bench_step SCENE.txt [--steps N] [--json]
+//   bench_step SCENE.txt [--steps N] [--json] [--skin-dmin F] [--subcells K] [--k-scan]
+//
+// --skin-dmin F sets the Verlet skin to F × the smallest diameter, --subcells K fixes the
+// sub-grid division (default: the engine's automatic choice); --k-scan runs K = 1..8 in turn and
+// prints the time per step of each, normalised by the fastest (the paper's Fig. 3).
 //
 // Prints particle-steps per second, pair distance tests per true contact, neighbour-list
 // rebuilds and their cost, resident memory per particle, the phase breakdown, and the physics
 // sanity figures the peers report (kinetic-energy ratio final/initial, contacts at the end).
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 
 #include "core/errors.h"
@@ -37,21 +43,53 @@ int main(int argc, char** argv) {
     return 2;
   }
   std::int64_t steps = 1000;
-  bool as_json = false;
+  bool as_json = false, k_scan = false;
+  std::optional<double> skin_dmin;
+  std::optional<int> subcells;
   for (int k = 2; k < argc; ++k) {
     const std::string a = argv[k];
     if (a == "--steps" && k + 1 < argc)
       steps = std::stoll(argv[++k]);
     else if (a == "--json")
       as_json = true;
+    else if (a == "--skin-dmin" && k + 1 < argc)
+      skin_dmin = std::stod(argv[++k]);
+    else if (a == "--subcells" && k + 1 < argc)
+      subcells = std::stoi(argv[++k]);
+    else if (a == "--k-scan")
+      k_scan = true;
     else {
       std::fprintf(stderr, "bench_step: unknown option %s\n", a.c_str());
       return 2;
     }
   }
   try {
+    SceneConfig scene = scene_from_particle_file(argv[1], steps);
+    if (skin_dmin) {
+      double d_min = 1e300;
+      for (const ParticleSpec& p : read_particle_file(argv[1]).particles)
+        d_min = std::min(d_min, p.diameter_m);
+      scene.search.skin_m = *skin_dmin * d_min;
+    }
+    if (k_scan) {
+      std::vector<double> seconds;
+      for (int k = 1; k <= 8; ++k) {
+        scene.search.subcells_per_axis = k;
+        Simulation sim(scene);
+        const auto start = std::chrono::steady_clock::now();
+        while (sim.step_index() < steps) sim.step();
+        seconds.push_back(
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+      }
+      const double best = *std::min_element(seconds.begin(), seconds.end());
+      std::printf("| k | seconds per step | normalised |\n| --- | --- | --- |\n");
+      for (int k = 1; k <= 8; ++k)
+        std::printf("| %d | %.4e | %.2f |\n", k, seconds[k - 1] / double(steps),
+                    seconds[k - 1] / best);
+      return 0;
+    }
+    scene.search.subcells_per_axis = subcells;
     const long rss_before = resident_kib();
-    const SceneConfig scene = scene_from_particle_file(argv[1], steps);
     Simulation sim(scene);
     const double ke0 = sim.energy().kinetic_j;
     const auto neighbor_before = sim.neighbors().stats();
@@ -81,6 +119,8 @@ int main(int argc, char** argv) {
     out["distance_tests_per_contact"] = double(ns.distance_tests - neighbor_before.distance_tests) /
                                         double(std::max<std::uint64_t>(1, contact_steps));
     out["candidate_pairs"] = sim.neighbors().pairs.size();
+    out["subcells_per_axis"] = ns.last_search.subcells_per_axis;
+    out["fine_particles"] = ns.last_search.fine_particles;
     out["candidates_per_contact"] =
         double(sim.neighbors().pairs.size()) /
         double(std::max<std::uint64_t>(1, sim.contact_stats().touching_pairs));

@@ -32,8 +32,8 @@ inline Vec3 tangential_force(const PairSprings& s, double sqrt_overlap, double n
 }
 
 template <class Law, bool kPeriodic>
-void pair_loop(const Law& law, const MaterialTable& materials, const PeriodicBox& box, double dt,
-               double limit, ParticleStore& p, NeighborList& nl, ContactStepStats& stats) {
+void pair_loop(const Law& law, const MaterialTable& materials, double dt, double limit,
+               ParticleStore& p, NeighborList& nl, ContactStepStats& stats) {
   const std::size_t count = nl.pairs.size();
   const std::uint32_t* first = nl.pairs.first.data();
   const std::uint32_t* second = nl.pairs.second.data();
@@ -52,10 +52,11 @@ void pair_loop(const Law& law, const MaterialTable& materials, const PeriodicBox
   for (std::size_t k = 0; k < count; ++k) {
     const std::uint32_t i = first[k], j = second[k];
     Vec3 d = x[i] - x[j];
-    if constexpr (kPeriodic) d = box.minimum_image(d);
+    if constexpr (kPeriodic) d -= nl.pair_shift(k);
     const double dist2 = norm2(d), rsum = r[i] + r[j];
     if (dist2 >= rsum * rsum) {
-      history[k] = {};
+      Vec3& h = history[k];
+      if (h.x != 0.0 || h.y != 0.0 || h.z != 0.0) h = {};  // contact ended; reading is cheaper
       continue;
     }
     ++touching;
@@ -109,9 +110,9 @@ void pair_loop_any_box(const Law& law, const MaterialTable& materials, const Per
                        double dt, double limit, ParticleStore& p, NeighborList& nl,
                        ContactStepStats& stats) {
   if (box.any_periodic())
-    pair_loop<Law, true>(law, materials, box, dt, limit, p, nl, stats);
+    pair_loop<Law, true>(law, materials, dt, limit, p, nl, stats);
   else
-    pair_loop<Law, false>(law, materials, box, dt, limit, p, nl, stats);
+    pair_loop<Law, false>(law, materials, dt, limit, p, nl, stats);
 }
 
 }  // namespace

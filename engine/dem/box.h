@@ -25,14 +25,16 @@ struct PeriodicBox {
   }
 
   void wrap(Vec3& x) const {
-    for (int a = 0; a < 3; ++a) {
-      if (!periodic[a]) continue;
-      const double L = length(a);
-      double v = x[a] - min_m[a];
-      v -= L * std::floor(v / L);
-      if (v >= L) v -= L;  // rounding can land exactly on L
-      x[a] = min_m[a] + v;
-    }
+    for (int a = 0; a < 3; ++a)
+      if (periodic[a]) wrap_axis(x, a);
+  }
+
+  void wrap_axis(Vec3& x, int a) const {
+    const double L = length(a);
+    double v = x[a] - min_m[a];
+    v -= L * std::floor(v / L);
+    if (v >= L) v -= L;  // rounding can land exactly on L
+    x[a] = min_m[a] + v;
   }
 };
 

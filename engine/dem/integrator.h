@@ -8,22 +8,33 @@
 // maximum overlap; the prediction makes it O(dt²) (tests/physics/overlap_sweep_test.cpp).
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <utility>
+
+#include "dem/box.h"
 
 #include "core/vec3.h"
 #include "particles/particle_store.h"
 
 namespace millsim {
 
-inline void kick_drift(ParticleStore& p, double dt) {
+// Returns the largest drift speed |v½| of the step, which bounds every particle's displacement
+// (search/neighbor_list.h). Positions are not wrapped here: the neighbour list wraps them when it
+// rebuilds and keeps each pair's periodic image until then.
+inline double kick_drift(ParticleStore& p, double dt) {
   const double half = 0.5 * dt;
   const std::size_t n = p.size();
+  double max_speed2 = 0.0;
   for (std::size_t i = 0; i < n; ++i) {
     const Vec3 dv = p.force_n[i] * (half * p.inv_mass_per_kg[i]);
-    p.position_m[i] += (p.velocity_m_per_s[i] + dv) * dt;
-    p.velocity_m_per_s[i] += dv * 2.0;
+    const Vec3 v_half = p.velocity_m_per_s[i] + dv;
+    max_speed2 = std::max(max_speed2, norm2(v_half));
+    p.position_m[i] += v_half * dt;
+    p.velocity_m_per_s[i] = v_half + dv;
     p.angular_velocity_rad_per_s[i] += p.torque_n_m[i] * (dt * p.inv_inertia_per_kg_m2[i]);
   }
+  return std::sqrt(max_speed2);
 }
 
 inline void kick(ParticleStore& p, double dt) {

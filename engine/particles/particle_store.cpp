@@ -43,6 +43,7 @@ std::size_t ParticleStore::add(const MaterialTable& materials, int material_inde
   material.push_back(std::uint16_t(material_index));
   mass_kg.push_back(mass);
   id.push_back(particle_id);
+  ++population_version;
   return id.size() - 1;
 }
 
@@ -60,6 +61,7 @@ void ParticleStore::remove_swap(std::size_t slot) {
   move_last(tangential_stiffness), move_last(tangential_damping);
   move_last(normal_compliance), move_last(shear_compliance);
   move_last(material), move_last(mass_kg), move_last(id);
+  ++population_version;
 }
 
 }  // namespace millsim

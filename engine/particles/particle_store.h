@@ -37,6 +37,9 @@ struct ParticleStore {
   std::vector<double> mass_kg;
   std::vector<ParticleId> id;
 
+  // Bumped by every add and removal, so caches (the neighbour list) see a changed population.
+  std::uint64_t population_version = 0;
+
   std::size_t size() const { return id.size(); }
   void reserve(std::size_t n);
 

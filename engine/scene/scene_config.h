@@ -115,8 +115,9 @@ struct ContactConfig {
 };
 
 struct SearchConfig {
-  std::optional<double> skin_m;       // Verlet skin; absent = automatic
-  std::optional<double> cell_size_m;  // grid cell edge; absent = automatic
+  std::optional<double> skin_m;          // Verlet skin; absent = automatic
+  std::optional<double> cell_size_m;     // lower bound on the DEM-cell edge; absent = automatic
+  std::optional<int> subcells_per_axis;  // sub-grid division k (§2.2); absent = automatic
 };
 
 struct OutputConfig {

@@ -316,6 +316,17 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
     JsonObjectReader r(*v, "/search", errors);
     scene.search.skin_m = r.optional_number("skin_m", NumberRange::non_negative());
     scene.search.cell_size_m = r.optional_number("cell_size_m", NumberRange::positive());
+    if (const json* k = r.child("subcells")) {
+      if (!(k->is_string() && k->get<std::string>() == "auto")) {
+        const bool ok =
+            k->is_number_integer() && k->get<long long>() >= 1 && k->get<long long>() <= 8;
+        if (ok)
+          scene.search.subcells_per_axis = int(k->get<long long>());
+        else
+          errors.push_back({"/search/subcells", json_value_text(*k),
+                            "expected \"auto\" or an integer in [1, 8]"});
+      }
+    }
     r.finish();
   }
   if (const json* v = top.child("output")) {

@@ -16,21 +16,47 @@ const Vec3* lookup(const std::vector<KeyedHistory>& table, std::uint64_t a, std:
   return it != table.end() && it->a == a && it->b == b ? &it->history : nullptr;
 }
 
-}  // namespace
-
-bool NeighborList::needs_rebuild(const ParticleStore& p, const PeriodicBox& box) const {
-  if (reference_id_.size() != p.size()) return true;
-  if (!std::equal(reference_id_.begin(), reference_id_.end(), p.id.begin())) return true;
-  const double limit2 = 0.25 * skin_m_ * skin_m_;
-  for (std::size_t i = 0; i < p.size(); ++i)
-    if (norm2(box.minimum_image(p.position_m[i] - reference_position_m_[i])) > limit2) return true;
-  return false;
+// Volume the particles occupy for the sub-cell cost model: the periodic box, or the particles'
+// bounding box on non-periodic axes.
+double occupied_volume_m3(const std::vector<Vec3>& x, const PeriodicBox& box) {
+  double volume = 1.0;
+  for (int a = 0; a < 3; ++a) {
+    if (box.periodic[a]) {
+      volume *= box.length(a);
+      continue;
+    }
+    double lo = 1e300, hi = -1e300;
+    for (const Vec3& p : x) lo = std::min(lo, p[a]), hi = std::max(hi, p[a]);
+    volume *= std::max(hi - lo, 1e-12);
+  }
+  return volume;
 }
 
-bool NeighborList::update(const ParticleStore& p, const PeriodicBox& box,
+}  // namespace
+
+double NeighborList::max_displacement_m(const ParticleStore& p, const PeriodicBox& box) const {
+  const double limit2 = 0.25 * settings_.skin_m * settings_.skin_m;
+  double max2 = 0.0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    max2 = std::max(max2, norm2(box.minimum_image(p.position_m[i] - reference_position_m_[i])));
+    if (max2 > limit2) break;
+  }
+  return std::sqrt(max2);
+}
+
+bool NeighborList::update(ParticleStore& p, const PeriodicBox& box,
                           const std::vector<PlaneWall>& walls, bool force) {
-  if (!force && !needs_rebuild(p, box)) return false;
+  if (!force && p.population_version == population_version_) {
+    if (motion_bound_m_ <= 0.5 * settings_.skin_m) return false;
+    // The cheap bound says maybe: measure, and keep the exact figure as the new bound.
+    motion_bound_m_ = max_displacement_m(p, box);
+    if (motion_bound_m_ <= 0.5 * settings_.skin_m) return false;
+  }
+  if (box.any_periodic())
+    for (Vec3& x : p.position_m) box.wrap(x);
   rebuild(p, box, walls);
+  motion_bound_m_ = 0.0;
+  population_version_ = p.population_version;
   return true;
 }
 
@@ -49,9 +75,29 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
   std::sort(old_pairs.begin(), old_pairs.end());
   std::sort(old_walls.begin(), old_walls.end());
 
-  find_pairs_grid(p.position_m, p.radius_m, box, skin_m_, cell_size_m_, pairs, stats_.last_search);
-  stats_.distance_tests += stats_.last_search.distance_tests;
-  stats_.last_search.distance_tests = 0;
+  // The sub-cell division follows the size distribution as it changes (feed, breakage, outlet).
+  const int k = settings_.subcells_per_axis.value_or(choose_subcells_per_axis(
+      p.radius_m, settings_.skin_m, occupied_volume_m3(p.position_m, box)));
+  grid_.find_pairs(p.position_m, p.radius_m, box, {settings_.skin_m, k, settings_.cell_size_m},
+                   pairs);
+  stats_.last_search = grid_.stats();
+  stats_.distance_tests += grid_.stats().distance_tests;
+  // Periodic image of each pair, fixed until the next rebuild.
+  for (int image = 0; image < 27; ++image) {
+    const int n[3] = {image % 3 - 1, (image / 3) % 3 - 1, image / 9 - 1};
+    for (int a = 0; a < 3; ++a)
+      image_shift_[image][a] = box.periodic[a] ? n[a] * box.length(a) : 0.0;
+  }
+  pair_image.resize(pairs.size());
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    const Vec3 d = p.position_m[pairs.first[k]] - p.position_m[pairs.second[k]];
+    int image = 0, stride = 1;
+    for (int a = 0; a < 3; ++a, stride *= 3) {
+      const int n = box.periodic[a] ? int(std::nearbyint(d[a] / box.length(a))) : 0;
+      image += (n + 1) * stride;
+    }
+    pair_image[k] = std::uint8_t(image);
+  }
   pair_history_m.assign(pairs.size(), Vec3{});
   if (!old_pairs.empty())
     for (std::size_t k = 0; k < pairs.size(); ++k) {
@@ -62,7 +108,7 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
   wall_particle.clear(), wall_index.clear();
   for (std::size_t i = 0; i < p.size(); ++i)
     for (std::size_t w = 0; w < walls.size(); ++w)
-      if (wall_distance_m(walls[w], p.position_m[i]) < p.radius_m[i] + skin_m_)
+      if (wall_distance_m(walls[w], p.position_m[i]) < p.radius_m[i] + settings_.skin_m)
         wall_particle.push_back(std::uint32_t(i)), wall_index.push_back(std::uint32_t(w));
   wall_history_m.assign(wall_particle.size(), Vec3{});
   if (!old_walls.empty())

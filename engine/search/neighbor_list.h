@@ -11,6 +11,7 @@
 
 #include "contact/walls.h"
 #include "particles/particle_store.h"
+#include "search/hashed_grid.h"
 #include "search/pair_search.h"
 
 namespace millsim {
@@ -18,24 +19,39 @@ namespace millsim {
 struct NeighborStats {
   std::uint64_t rebuilds = 0;
   std::uint64_t distance_tests = 0;
-  SearchStats last_search;
+  HashedGridStats last_search;
+};
+
+struct NeighborSettings {
+  double skin_m = 0.0;
+  std::optional<double> cell_size_m;     // lower bound on the DEM-cell edge
+  std::optional<int> subcells_per_axis;  // absent = automatic at each rebuild
 };
 
 class NeighborList {
  public:
   NeighborList() = default;
-  NeighborList(double skin_m, std::optional<double> cell_size_m)
-      : skin_m_(skin_m), cell_size_m_(cell_size_m) {}
+  explicit NeighborList(const NeighborSettings& settings) : settings_(settings) {}
 
-  // Rebuilds when needed (or when `force`); returns true if it did.
-  bool update(const ParticleStore& particles, const PeriodicBox& box,
-              const std::vector<PlaneWall>& walls, bool force);
+  // Adds one step's largest displacement to the running bound. While the bound stays under
+  // skin/2 no particle can have moved that far, and update() skips the O(N) exact check.
+  void note_motion(double max_displacement_m) { motion_bound_m_ += max_displacement_m; }
 
-  double skin_m() const { return skin_m_; }
+  // Rebuilds when needed (or when `force`); returns true if it did. A rebuild first wraps the
+  // positions into the periodic box; between rebuilds they may drift out by up to skin/2, and
+  // each pair keeps the periodic image it had at the rebuild (pair_shift()).
+  bool update(ParticleStore& particles, const PeriodicBox& box, const std::vector<PlaneWall>& walls,
+              bool force);
+
+  // Separation of pair k's partners: x_i − x_j − pair_shift(k).
+  const Vec3& pair_shift(std::size_t k) const { return image_shift_[pair_image[k]]; }
+
+  double skin_m() const { return settings_.skin_m; }
   const NeighborStats& stats() const { return stats_; }
 
   // Particle–particle candidates and their tangential spring displacement (m).
   PairList pairs;
+  std::vector<std::uint8_t> pair_image;  // index into the 27 periodic shifts
   std::vector<Vec3> pair_history_m;
   // Particle–wall candidates.
   std::vector<std::uint32_t> wall_particle;
@@ -43,12 +59,16 @@ class NeighborList {
   std::vector<Vec3> wall_history_m;
 
  private:
-  bool needs_rebuild(const ParticleStore& particles, const PeriodicBox& box) const;
+  // Largest displacement since the last build; stops early once past skin/2.
+  double max_displacement_m(const ParticleStore& particles, const PeriodicBox& box) const;
   void rebuild(const ParticleStore& particles, const PeriodicBox& box,
                const std::vector<PlaneWall>& walls);
 
-  double skin_m_ = 0.0;
-  std::optional<double> cell_size_m_;
+  NeighborSettings settings_;
+  HashedGrid grid_;
+  Vec3 image_shift_[27];
+  double motion_bound_m_ = 0.0;
+  std::uint64_t population_version_ = ~std::uint64_t(0);
   std::vector<Vec3> reference_position_m_;
   std::vector<ParticleId> reference_id_;
   NeighborStats stats_;

@@ -156,10 +156,15 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
                    {"max_overlap_ratio", c.max_overlap_ratio},
                    {"penetration_limiter_events", sim.penetration_limiter_events()}};
   const NeighborStats& n = sim.neighbors().stats();
-  s["search"] = {
-      {"skin_m", sim.neighbors().skin_m()}, {"rebuilds", n.rebuilds},
-      {"distance_tests", n.distance_tests}, {"candidate_pairs", sim.neighbors().pairs.size()},
-      {"cells", n.last_search.cells},       {"half_shell", n.last_search.half_shell}};
+  s["search"] = {{"skin_m", sim.neighbors().skin_m()},
+                 {"rebuilds", n.rebuilds},
+                 {"distance_tests", n.distance_tests},
+                 {"candidate_pairs", sim.neighbors().pairs.size()},
+                 {"cell_m", n.last_search.cell_m},
+                 {"subcells_per_axis", n.last_search.subcells_per_axis},
+                 {"occupied_cells", n.last_search.cells},
+                 {"occupied_subcells", n.last_search.subcells},
+                 {"fine_particles", n.last_search.fine_particles}};
   s["energy"] = {{"initial", energy_json(initial_energy)},
                  {"final", energy_json(final_energy)},
                  {"dissipated_j", initial_energy.total_j() - final_energy.total_j()}};

@@ -1,0 +1,146 @@
+// The hashed NBS grid with the sub-grid must return exactly the pair set of the O(N²) all-pairs
+// reference (compared as sorted sets, each pair once), for size ratios 1, 10, 100 and 1000,
+// dilute and clustered sets, walled and periodic boxes (including boxes of fewer than 3 cells),
+// every sub-cell division k from 1 to 8, and with a skin.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <random>
+
+#include "search/hashed_grid.h"
+
+namespace millsim {
+namespace {
+
+using Pairs = std::vector<std::pair<std::uint32_t, std::uint32_t>>;
+
+Pairs sorted_pairs(const PairList& list) {
+  Pairs out;
+  for (std::size_t k = 0; k < list.size(); ++k)
+    out.emplace_back(std::min(list.first[k], list.second[k]),
+                     std::max(list.first[k], list.second[k]));
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+struct Cloud {
+  std::vector<Vec3> x;
+  std::vector<double> r;
+  PeriodicBox box;
+};
+
+// Radii log-uniform in [r_max/ratio, r_max] with n(d) weighted to fines; positions uniform, or
+// gathered in a few tight clusters (`clustered`) inside a large, mostly empty box.
+Cloud random_cloud(std::size_t n, double size_ratio, double box_length, bool periodic,
+                   bool clustered, unsigned seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  Cloud c;
+  c.box = {{0, 0, 0}, {box_length, box_length, box_length}, {periodic, periodic, periodic}};
+  const double r_max = 0.05;
+  std::vector<Vec3> centres;
+  for (int k = 0; k < 4; ++k)
+    centres.push_back({u(rng) * box_length, u(rng) * box_length, u(rng) * box_length});
+  for (std::size_t i = 0; i < n; ++i) {
+    const double t = u(rng);
+    c.r.push_back(r_max * std::pow(size_ratio, -std::sqrt(t)));  // skewed towards fines
+    Vec3 p{u(rng) * box_length, u(rng) * box_length, u(rng) * box_length};
+    if (clustered) {
+      const Vec3& centre = centres[i % centres.size()];
+      p = centre + Vec3{u(rng) - 0.5, u(rng) - 0.5, u(rng) - 0.5} * 0.2;
+      c.box.wrap(p);
+      if (!periodic)
+        for (int a = 0; a < 3; ++a) p[a] = std::clamp(p[a], 0.0, box_length);
+    }
+    c.x.push_back(p);
+  }
+  return c;
+}
+
+void expect_same_pairs(const Cloud& c, double skin, int k) {
+  PairList reference, grid;
+  find_pairs_all_pairs(c.x, c.r, c.box, skin, reference);
+  HashedGrid hashed;
+  hashed.find_pairs(c.x, c.r, c.box, {skin, k, std::nullopt}, grid);
+  const Pairs expected = sorted_pairs(reference), found = sorted_pairs(grid);
+  EXPECT_EQ(std::adjacent_find(found.begin(), found.end()), found.end())
+      << "a pair was found twice";
+  ASSERT_EQ(found.size(), expected.size()) << "k = " << k << ", skin = " << skin;
+  const auto diff = std::mismatch(found.begin(), found.end(), expected.begin());
+  EXPECT_TRUE(diff.first == found.end())
+      << "first difference: grid (" << diff.first->first << "," << diff.first->second
+      << ") vs all-pairs (" << diff.second->first << "," << diff.second->second << ")";
+}
+
+class HashedGridMatchesAllPairs
+    : public testing::TestWithParam<std::tuple<double, double, bool, bool, int>> {};
+
+TEST_P(HashedGridMatchesAllPairs, SameContactSet) {
+  const auto [size_ratio, box_length, periodic, clustered, k] = GetParam();
+  const Cloud c = random_cloud(1200, size_ratio, box_length, periodic, clustered, 7u + unsigned(k));
+  expect_same_pairs(c, 0.0, k);
+  expect_same_pairs(c, 0.004, k);
+}
+
+INSTANTIATE_TEST_SUITE_P(Sets, HashedGridMatchesAllPairs,
+                         testing::Combine(testing::Values(1.0, 10.0, 100.0, 1000.0),
+                                          testing::Values(0.25, 1.5),  // 0.25: < 3 cells per axis
+                                          testing::Bool(), testing::Bool(), testing::Range(1, 9)));
+
+TEST(HashedGrid, ZeroAndOneParticleGiveNoPairs) {
+  PairList out;
+  HashedGrid grid;
+  const PeriodicBox box{{0, 0, 0}, {1, 1, 1}, {true, true, true}};
+  grid.find_pairs({}, {}, box, {0.0, 4, std::nullopt}, out);
+  EXPECT_EQ(out.size(), 0u);
+  grid.find_pairs({{0.5, 0.5, 0.5}}, {0.1}, box, {0.0, 4, std::nullopt}, out);
+  EXPECT_EQ(out.size(), 0u);
+}
+
+TEST(HashedGrid, ParticlesExactlyOnCellFacesAcrossTheSeam) {
+  // A 16³ lattice of spacing 1/16 in a unit periodic box, cells of exactly 1/8 (sub-cells 1/16
+  // with k = 2): lattice planes lie exactly on cell and sub-cell faces. Radii just over half the
+  // spacing: every site touches its 6 neighbours, including across the wrap.
+  Cloud c;
+  c.box = {{0, 0, 0}, {1, 1, 1}, {true, true, true}};
+  for (int i = 0; i < 16; ++i)
+    for (int j = 0; j < 16; ++j)
+      for (int k = 0; k < 16; ++k) {
+        c.x.push_back({0.0625 * i, 0.0625 * j, 0.0625 * k});
+        c.r.push_back(i == 0 && j == 0 && k == 0 ? 0.06 : 0.03126);  // one coarser particle
+      }
+  for (int k : {1, 2, 4}) {
+    PairList grid, reference;
+    HashedGrid hashed;
+    hashed.find_pairs(c.x, c.r, c.box, {0.0, k, 0.125}, grid);
+    find_pairs_all_pairs(c.x, c.r, c.box, 0.0, reference);
+    EXPECT_EQ(sorted_pairs(grid), sorted_pairs(reference)) << "k = " << k;
+  }
+}
+
+TEST(HashedGrid, EverythingInOneCellAndDiluteDomains) {
+  expect_same_pairs(random_cloud(400, 10.0, 0.05, false, false, 3), 0.0, 3);
+  // Dilute: 500 particles in a box of 10⁶ cells' volume; only occupied cells are stored.
+  const Cloud dilute = random_cloud(500, 10.0, 20.0, true, false, 4);
+  expect_same_pairs(dilute, 0.0, 2);
+  HashedGrid grid;
+  PairList out;
+  grid.find_pairs(dilute.x, dilute.r, dilute.box, {0.0, 1, std::nullopt}, out);
+  EXPECT_LE(grid.stats().cells, 500u);
+}
+
+TEST(HashedGrid, AutomaticDivisionPrefersSubcellsForWideDistributions) {
+  // Expectation (paper §2.2, Fig. 3): a sub-grid pays when fines dominate a wide distribution,
+  // and not for equal sizes.
+  std::vector<double> mono(5000, 50e-6), wide;
+  std::mt19937_64 rng(1);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int i = 0; i < 5000; ++i)
+    wide.push_back(0.5e-6 * std::pow(u(rng), -1.0 / 1.5));  // n(d) ∝ d^−2.5
+  for (double& r : wide) r = std::min(r, 50e-6);
+  EXPECT_EQ(choose_subcells_per_axis(mono, 1e-6, 1e-9), 1);
+  EXPECT_GE(choose_subcells_per_axis(wide, 1e-6, 1e-9), 3);
+}
+
+}  // namespace
+}  // namespace millsim
