@@ -64,4 +64,21 @@ void ParticleStore::remove_swap(std::size_t slot) {
   ++population_version;
 }
 
+void ParticleStore::permute(const std::vector<std::uint32_t>& order) {
+  auto apply = [&order](auto& column) {
+    std::remove_reference_t<decltype(column)> sorted(column.size());
+    for (std::size_t k = 0; k < order.size(); ++k) sorted[k] = column[order[k]];
+    column.swap(sorted);
+  };
+  apply(position_m), apply(velocity_m_per_s), apply(force_n);
+  apply(angular_velocity_rad_per_s), apply(torque_n_m);
+  apply(previous_force_n), apply(previous_torque_n_m);
+  apply(radius_m), apply(inv_mass_per_kg), apply(inv_inertia_per_kg_m2);
+  apply(normal_stiffness), apply(normal_damping);
+  apply(tangential_stiffness), apply(tangential_damping);
+  apply(normal_compliance), apply(shear_compliance);
+  apply(material), apply(mass_kg), apply(id);
+  ++population_version;
+}
+
 }  // namespace millsim

@@ -51,6 +51,11 @@ struct ParticleStore {
 
   // Removes the particle in `slot` by moving the last one into it.
   void remove_swap(std::size_t slot);
+
+  // Reorders every column: new slot k holds the particle that was in slot order[k]. Used to keep
+  // particles that are close in space close in memory. Module-owned per-particle arrays must be
+  // permuted the same way (none exist yet; breakage will register through a hook).
+  void permute(const std::vector<std::uint32_t>& order);
 };
 
 }  // namespace millsim

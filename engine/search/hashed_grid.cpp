@@ -334,6 +334,26 @@ void HashedGrid::find_pairs(const std::vector<Vec3>& x, const std::vector<double
   stats_.subcells_per_axis = k;
 }
 
+std::vector<std::uint32_t> spatial_order(const std::vector<Vec3>& x, const PeriodicBox& box) {
+  Vec3 lo = box.min_m, hi = box.max_m;
+  for (int a = 0; a < 3; ++a) {
+    if (box.periodic[a]) continue;
+    lo[a] = 1e300, hi[a] = -1e300;
+    for (const Vec3& p : x) lo[a] = std::min(lo[a], p[a]), hi[a] = std::max(hi[a], p[a]);
+  }
+  const double volume = std::max((hi.x - lo.x) * (hi.y - lo.y) * (hi.z - lo.z), 1e-300);
+  const double edge = 2.0 * std::cbrt(volume / double(std::max<std::size_t>(1, x.size())));
+  std::vector<std::uint32_t> all(x.size());
+  for (std::uint32_t i = 0; i < all.size(); ++i) all[i] = i;
+  CellLevel level;
+  level.build(x, all, box, lo, edge);
+  std::vector<std::uint32_t> order;
+  order.reserve(x.size());
+  for (std::size_t cell = 0; cell < level.cell_count(); ++cell)
+    order.insert(order.end(), level.begin(cell), level.end(cell));
+  return order;
+}
+
 int choose_subcells_per_axis(const std::vector<double>& r, double skin, double volume) {
   if (r.size() < 2 || volume <= 0.0) return 1;
   std::vector<double> d(r.size());

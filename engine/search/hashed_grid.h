@@ -90,6 +90,10 @@ class HashedGrid {
   HashedGridStats stats_;
 };
 
+// A spatially coherent order of all particles (cell by cell, cells of about 2 mean spacings),
+// for ParticleStore::permute.
+std::vector<std::uint32_t> spatial_order(const std::vector<Vec3>& x, const PeriodicBox& box);
+
 // Automatic sub-cell division: the k in 1..8 that minimises a distance-test estimate for the
 // size distribution at uniform density in the particles' volume (docs/contact-search.md).
 int choose_subcells_per_axis(const std::vector<double>& radius_m, double skin_m, double volume_m3);

@@ -5,6 +5,8 @@
 namespace millsim {
 namespace {
 
+constexpr std::size_t kReorderMinParticles = 4096;
+
 struct KeyedHistory {
   std::uint64_t a, b;  // stable ids (particle ids, or particle id and wall index)
   Vec3 history;
@@ -54,9 +56,12 @@ bool NeighborList::update(ParticleStore& p, const PeriodicBox& box,
   }
   if (box.any_periodic())
     for (Vec3& x : p.position_m) box.wrap(x);
+  // Keep neighbours in space neighbours in memory; history follows by id. Small sets fit in
+  // cache anyway and keep their slot order (tests rely on it).
+  if (p.size() >= kReorderMinParticles) p.permute(spatial_order(p.position_m, box));
   rebuild(p, box, walls);
   motion_bound_m_ = 0.0;
-  population_version_ = p.population_version;
+  population_version_ = p.population_version;  // after any permute above
   return true;
 }
 
