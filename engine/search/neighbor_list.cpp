@@ -18,6 +18,14 @@ const Vec3* lookup(const std::vector<KeyedHistory>& table, std::uint64_t a, std:
   return it != table.end() && it->a == a && it->b == b ? &it->history : nullptr;
 }
 
+// ¼ √(d_min d_max): ¼ d for equal sizes, ≈ 1 d_min at 1:10, 2.5 d_min at 1:100 (the best of a
+// scan on the shared scenes, bench/RESULTS.md).
+double automatic_skin_m(const std::vector<double>& radius_m, double max_skin_m) {
+  if (radius_m.empty()) return 0.0;
+  const auto [lo, hi] = std::minmax_element(radius_m.begin(), radius_m.end());
+  return std::clamp(0.5 * std::sqrt(*lo * *hi), 0.0, max_skin_m);
+}
+
 // Volume the particles occupy for the sub-cell cost model: the periodic box, or the particles'
 // bounding box on non-periodic axes.
 double occupied_volume_m3(const std::vector<Vec3>& x, const PeriodicBox& box) {
@@ -80,7 +88,10 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
   std::sort(old_pairs.begin(), old_pairs.end());
   std::sort(old_walls.begin(), old_walls.end());
 
-  // The sub-cell division follows the size distribution as it changes (feed, breakage, outlet).
+  // The skin, cell size and sub-cell division follow the size distribution as it changes
+  // (feed, breakage, outlet).
+  if (settings_.automatic_skin)
+    settings_.skin_m = automatic_skin_m(p.radius_m, settings_.max_skin_m);
   const int k = settings_.subcells_per_axis.value_or(choose_subcells_per_axis(
       p.radius_m, settings_.skin_m, occupied_volume_m3(p.position_m, box)));
   grid_.find_pairs(p.position_m, p.radius_m, box, {settings_.skin_m, k, settings_.cell_size_m},

@@ -24,6 +24,8 @@ struct NeighborStats {
 
 struct NeighborSettings {
   double skin_m = 0.0;
+  bool automatic_skin = false;           // re-derive the skin at each rebuild: ¼ √(d_min d_max)
+  double max_skin_m = 1e300;             // never past this (the periodic minimum image)
   std::optional<double> cell_size_m;     // lower bound on the DEM-cell edge
   std::optional<int> subcells_per_axis;  // absent = automatic at each rebuild
 };

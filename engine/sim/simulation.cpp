@@ -147,22 +147,22 @@ Simulation::Simulation(const SceneConfig& scene)
   check_inside_domain(scene, particles_, box_, errors);
   choose_time_step(scene, errors);
 
-  // Skin: a quarter of the geometric mean of the smallest and largest diameters unless set (the
-  // best of a scan on the shared scenes: ¼ d for equal sizes, ≈ 1 d_min at 1:10, 2–4 d_min at
-  // 1:100; bench/RESULTS.md). The periodic minimum image needs each periodic length to exceed
-  // 2 (d_max + skin).
-  double skin = scene.search.skin_m.value_or(0.25 * std::sqrt(d_min * d_max));
+  // Skin: ¼ √(d_min d_max) re-derived at each rebuild unless set (search/neighbor_list.cpp). The
+  // periodic minimum image needs each periodic length to exceed 2 (d_max + skin).
+  double max_skin = 1e300;
   for (int a = 0; a < 3; ++a) {
     if (!box_.periodic[a]) continue;
     if (box_.length(a) <= 2.0 * d_max)
       errors.push_back({concat("/domain/max_m/", a), concat(box_.max_m[a]),
                         concat("a periodic axis must be longer than twice the largest diameter (",
                                2.0 * d_max, " m)")});
-    skin = std::min(skin, 0.5 * box_.length(a) - d_max);
+    max_skin = std::min(max_skin, 0.5 * box_.length(a) - d_max);
   }
   if (!errors.empty()) throw InputErrorList(std::move(errors));
+  const bool automatic_skin = !scene.search.skin_m.has_value();
   neighbors_ =
-      NeighborList({std::max(skin, 0.0), scene.search.cell_size_m, scene.search.subcells_per_axis});
+      NeighborList({std::clamp(scene.search.skin_m.value_or(0.0), 0.0, max_skin), automatic_skin,
+                    max_skin, scene.search.cell_size_m, scene.search.subcells_per_axis});
   neighbors_.update(particles_, box_, walls_, true);
   compute_forces();
   if (contact_stats_.max_overlap_ratio > contact_.penetration_limit)
