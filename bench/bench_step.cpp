@@ -2,6 +2,9 @@
 // benchmark scene (shared/bench/FORMAT.md), one core, at the file's time step.
 //
 //   bench_step SCENE.txt [--steps N] [--json] [--skin-dmin F] [--subcells K] [--k-scan]
+//   bench_step --generate-mono N OUT.txt   writes a mono-like scene of N particles (d = 100 µm,
+//                                          φ = 0.2, periodic, v ~ N(0, 2 m/s), Table 1, dt as
+//                                          mono) in the shared format, for the scaling runs
 //
 // --skin-dmin F sets the Verlet skin to F × the smallest diameter, --subcells K fixes the
 // sub-grid division (default: the engine's automatic choice); --k-scan runs K = 1..8 in turn and
@@ -14,6 +17,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -36,8 +40,47 @@ long resident_kib() {
 
 }  // namespace
 
+// Writes a mono-like scene of n particles in the shared benchmark format.
+int generate_mono(std::int64_t n, const std::string& path) {
+  using namespace millsim;
+  const double d = 100e-6, phi = 0.2;
+  const double L = std::cbrt(double(n) * M_PI / 6.0 * d * d * d / phi);
+  SourceConfig source;
+  source.kind = SourceKind::Random;
+  source.count = n;
+  source.region_max_m = {L, L, L};
+  source.sizes = {SizeDistributionKind::Fixed, d};
+  source.velocity_spread_m_per_s = 2.0;
+  const PeriodicBox box{{0, 0, 0}, {L, L, L}, {true, true, true}};
+  Rng rng(20261122);
+  InputErrors errors;
+  const std::vector<ParticleSpec> specs = random_packing(source, box, {}, rng, "generate", errors);
+  if (!errors.empty()) {
+    std::fprintf(stderr, "%s\n", format_input_errors("generate", errors).c_str());
+    return 2;
+  }
+  std::FILE* out = std::fopen(path.c_str(), "w");
+  if (!out) return 4;
+  std::fprintf(out,
+               "# N: %lld\n# boundary: periodic periodic periodic\n# box: 0 %.9e 0 %.9e 0 %.9e\n",
+               static_cast<long long>(n), L, L, L);
+  std::fprintf(out,
+               "# youngs_modulus_E: 1e9\n# poisson_ratio_nu: 0.3\n# density_rho: 2000\n"
+               "# restitution_e: 0.5\n# friction_mu: 0.3\n# gravity: 0 0 0\n# dt: 7.740358e-08\n"
+               "# columns: id x y z d vx vy vz\n");
+  for (std::size_t i = 0; i < specs.size(); ++i) {
+    const ParticleSpec& p = specs[i];
+    std::fprintf(out, "%zu %.9e %.9e %.9e %.6e %.6e %.6e %.6e\n", i + 1, p.position_m.x,
+                 p.position_m.y, p.position_m.z, p.diameter_m, p.velocity_m_per_s.x,
+                 p.velocity_m_per_s.y, p.velocity_m_per_s.z);
+  }
+  return std::fclose(out) == 0 ? 0 : 4;
+}
+
 int main(int argc, char** argv) {
   using namespace millsim;
+  if (argc == 4 && std::string(argv[1]) == "--generate-mono")
+    return generate_mono(std::stoll(argv[2]), argv[3]);
   if (argc < 2) {
     std::fprintf(stderr, "usage: bench_step SCENE.txt [--steps N] [--json]\n");
     return 2;

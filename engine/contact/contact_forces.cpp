@@ -38,6 +38,7 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
   const std::uint32_t* first = nl.pairs.first.data();
   const std::uint32_t* second = nl.pairs.second.data();
   Vec3* history = nl.pair_history_m.data();
+  std::uint8_t* touching_flag = nl.pair_touching.data();
   const Vec3* x = p.position_m.data();
   const Vec3* v = p.velocity_m_per_s.data();
   const Vec3* w = p.angular_velocity_rad_per_s.data();
@@ -55,10 +56,10 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
     if constexpr (kPeriodic) d -= nl.pair_shift(k);
     const double dist2 = norm2(d), rsum = r[i] + r[j];
     if (dist2 >= rsum * rsum) {
-      Vec3& h = history[k];
-      if (h.x != 0.0 || h.y != 0.0 || h.z != 0.0) h = {};  // contact ended; reading is cheaper
+      if (touching_flag[k]) touching_flag[k] = 0, history[k] = {};  // the contact ended
       continue;
     }
+    touching_flag[k] = 1;
     ++touching;
     const double dist = std::sqrt(dist2);
     const Vec3 n = d * (1.0 / dist);

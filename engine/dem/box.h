@@ -24,6 +24,18 @@ struct PeriodicBox {
     return d;
   }
 
+  // Periodic image count per axis (−1, 0 or 1) of a separation between two wrapped positions
+  // (|d| < L): the minimum image is d − n·L. Cheaper than minimum_image's rounding.
+  int image_of(double d, int axis) const {
+    if (!periodic[axis]) return 0;
+    const double half = 0.5 * length(axis);
+    return d > half ? 1 : (d < -half ? -1 : 0);
+  }
+  Vec3 minimum_image_wrapped(Vec3 d) const {
+    for (int a = 0; a < 3; ++a) d[a] -= image_of(d[a], a) * length(a);
+    return d;
+  }
+
   void wrap(Vec3& x) const {
     for (int a = 0; a < 3; ++a)
       if (periodic[a]) wrap_axis(x, a);

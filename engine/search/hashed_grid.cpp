@@ -52,7 +52,7 @@ struct PairTester {
   void operator()(std::uint32_t i, std::uint32_t j) {
     ++tests;
     Vec3 d = x[i] - x[j];
-    if (periodic) d = box.minimum_image(d);
+    if (periodic) d = box.minimum_image_wrapped(d);  // positions are wrapped before a build
     const double reach = r[i] + r[j] + skin;
     if (norm2(d) < reach * reach) out.push(std::min(i, j), std::max(i, j));
   }
@@ -237,16 +237,25 @@ void CellLevel::build(const std::vector<Vec3>& x, const std::vector<std::uint32_
 long CellLevel::find(long ix, long iy, long iz) const {
   long c[3] = {ix, iy, iz};
   for (int a = 0; a < 3; ++a) {
-    if (periodic_cells_[a])
-      c[a] = ((c[a] % periodic_cells_[a]) + periodic_cells_[a]) % periodic_cells_[a];
-    else if (c[a] < 0 || c[a] > kAxisLimit)
-      return -1;
+    const long n = periodic_cells_[a];
+    if (n) {
+      if (c[a] < 0)
+        c[a] += n;
+      else if (c[a] >= n)
+        c[a] -= n;
+    }
   }
+  return find_wrapped(c[0], c[1], c[2]);
+}
+
+long CellLevel::find_wrapped(long ix, long iy, long iz) const {
+  if (ix < 0 || iy < 0 || iz < 0) return -1;
   if (direct_) {
-    if (c[0] >= dims_[0] || c[1] >= dims_[1] || c[2] >= dims_[2]) return -1;
-    return direct_cell_[std::size_t((c[2] * dims_[1] + c[1]) * dims_[0] + c[0])];
+    if (ix >= dims_[0] || iy >= dims_[1] || iz >= dims_[2]) return -1;
+    return direct_cell_[std::size_t((iz * dims_[1] + iy) * dims_[0] + ix)];
   }
-  const std::uint64_t key = pack(c[0], c[1], c[2]);
+  if (ix > kAxisLimit || iy > kAxisLimit || iz > kAxisLimit) return -1;
+  const std::uint64_t key = pack(ix, iy, iz);
   for (std::uint64_t slot = (hash_key(key) >> 20) & table_mask_;; slot = (slot + 1) & table_mask_) {
     if (table_key_[slot] == key) return long(table_cell_[slot]);
     if (table_key_[slot] == ~std::uint64_t(0)) return -1;
@@ -317,7 +326,7 @@ void HashedGrid::find_pairs(const std::vector<Vec3>& x, const std::vector<double
           if (gyz >= reach * reach) continue;
           for (const auto& [cx, gx] : cover[0]) {
             if (gx * gx + gyz >= reach * reach) continue;
-            const long cell = fine_.find(cx, cy, cz);
+            const long cell = fine_.find_wrapped(cx, cy, cz);
             if (cell < 0) continue;
             for (const std::uint32_t* b = fine_.begin(std::size_t(cell));
                  b != fine_.end(std::size_t(cell)); ++b)
@@ -335,55 +344,74 @@ void HashedGrid::find_pairs(const std::vector<Vec3>& x, const std::vector<double
 }
 
 std::vector<std::uint32_t> spatial_order(const std::vector<Vec3>& x, const PeriodicBox& box) {
+  // Morton (Z-order) key of each particle's cell, cells of about one mean spacing: neighbours in
+  // space are neighbours in memory along all three axes, not just the fastest one.
   Vec3 lo = box.min_m, hi = box.max_m;
   for (int a = 0; a < 3; ++a) {
     if (box.periodic[a]) continue;
     lo[a] = 1e300, hi[a] = -1e300;
     for (const Vec3& p : x) lo[a] = std::min(lo[a], p[a]), hi[a] = std::max(hi[a], p[a]);
   }
-  const double volume = std::max((hi.x - lo.x) * (hi.y - lo.y) * (hi.z - lo.z), 1e-300);
-  const double edge = 2.0 * std::cbrt(volume / double(std::max<std::size_t>(1, x.size())));
-  std::vector<std::uint32_t> all(x.size());
-  for (std::uint32_t i = 0; i < all.size(); ++i) all[i] = i;
-  CellLevel level;
-  level.build(x, all, box, lo, edge);
-  std::vector<std::uint32_t> order;
-  order.reserve(x.size());
-  for (std::size_t cell = 0; cell < level.cell_count(); ++cell)
-    order.insert(order.end(), level.begin(cell), level.end(cell));
+  double extent = 0.0;
+  for (int a = 0; a < 3; ++a) extent = std::max(extent, hi[a] - lo[a]);
+  const double edge =
+      std::max(extent / double(1 << 20), std::cbrt(std::max(extent * extent * extent, 1e-300) /
+                                                   double(std::max<std::size_t>(1, x.size()))));
+  auto spread = [](std::uint64_t v) {  // 21 bits → every third bit
+    v &= 0x1FFFFF;
+    v = (v | v << 32) & 0x1F00000000FFFFULL;
+    v = (v | v << 16) & 0x1F0000FF0000FFULL;
+    v = (v | v << 8) & 0x100F00F00F00F00FULL;
+    v = (v | v << 4) & 0x10C30C30C30C30C3ULL;
+    v = (v | v << 2) & 0x1249249249249249ULL;
+    return v;
+  };
+  std::vector<std::uint64_t> keys(x.size());
+  std::vector<std::uint32_t> order(x.size());
+  for (std::uint32_t i = 0; i < x.size(); ++i) {
+    std::uint64_t key = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double c = std::clamp((x[i][a] - lo[a]) / edge, 0.0, double((1 << 21) - 1));
+      key |= spread(std::uint64_t(c)) << a;
+    }
+    keys[i] = key;
+    order[i] = i;
+  }
+  radix_sort(keys, order);
   return order;
 }
 
 int choose_subcells_per_axis(const std::vector<double>& r, double skin, double volume) {
   if (r.size() < 2 || volume <= 0.0) return 1;
-  std::vector<double> d(r.size());
-  for (std::size_t i = 0; i < r.size(); ++i) d[i] = 2.0 * r[i];
-  std::sort(d.begin(), d.end());
-  const double density = double(d.size()) / volume;
-  const double c0 = d.back() + skin;
+  double d_max = 0.0;
+  for (double radius : r) d_max = std::max(d_max, 2.0 * radius);
+  const double n_total = double(r.size()), density = n_total / volume;
+  const double c0 = d_max + skin;
   double best_cost = 0.0;
   int best_k = 1;
   for (int k = 1; k <= 8; ++k) {
     const double c1 = c0 / k;
-    // Fine particles: 2r + skin <= c1.
-    const std::size_t fine =
-        k == 1 ? 0 : std::size_t(std::upper_bound(d.begin(), d.end(), c1 - skin) - d.begin());
-    const double coarse = double(d.size() - fine);
-    const double n_fine = double(fine), n_coarse = coarse;
-    const double d_coarse_mean = [&] {
-      double s = 0.0;
-      for (std::size_t i = fine; i < d.size(); ++i) s += d[i];
-      return coarse > 0 ? s / coarse : 0.0;
-    }();
-    const double fine_reach = fine ? d[fine - 1] + skin : 0.0;
+    // Fine particles: 2r + skin <= c1 (none at k = 1).
+    double n_fine = 0.0, fine_d_max = 0.0, coarse_d_sum = 0.0;
+    for (double radius : r) {
+      const double d = 2.0 * radius;
+      if (k > 1 && d + skin <= c1)
+        n_fine += 1.0, fine_d_max = std::max(fine_d_max, d);
+      else
+        coarse_d_sum += d;
+    }
+    const double n_coarse = n_total - n_fine;
+    const double d_coarse_mean = n_coarse > 0 ? coarse_d_sum / n_coarse : 0.0;
+    const double fine_reach = n_fine > 0 ? fine_d_max + skin : 0.0;
     // Expected tests: each particle meets the others of its level in ~half of 27 cells (half
-    // shell, own cell halved); each coarse particle scans the fines in its reach box.
-    const double coarse_coarse = n_coarse * 13.5 * c0 * c0 * c0 * density * (n_coarse / d.size());
-    const double fine_fine = n_fine * 13.5 * c1 * c1 * c1 * density * (n_fine / d.size());
+    // shell, own cell halved); each coarse particle scans the fines in its reach box and probes
+    // the sub-cells there.
+    const double coarse_coarse = n_coarse * 13.5 * c0 * c0 * c0 * density * (n_coarse / n_total);
+    const double fine_fine = n_fine * 13.5 * c1 * c1 * c1 * density * (n_fine / n_total);
     const double box_edge = d_coarse_mean + fine_reach + c1;
     const double coarse_fine =
-        n_coarse * box_edge * box_edge * box_edge * density * (n_fine / d.size());
-    const double lookups = k > 1 ? n_coarse * std::pow(box_edge / c1, 3.0) : 0.0;  // hash probes
+        n_coarse * box_edge * box_edge * box_edge * density * (n_fine / n_total);
+    const double lookups = n_fine > 0 ? n_coarse * std::pow(box_edge / c1, 3.0) : 0.0;
     const double cost = coarse_coarse + fine_fine + coarse_fine + 2.0 * lookups;
     if (k == 1 || cost < best_cost) best_cost = cost, best_k = k;
   }

@@ -34,7 +34,10 @@ class CellLevel {
              const PeriodicBox& box, const Vec3& origin, double cell_m);
 
   // Index of the occupied cell (ix, iy, iz) after periodic wrapping, or −1 when empty/outside.
+  // Indices may lie at most one box length outside [0, n) on periodic axes.
   long find(long ix, long iy, long iz) const;
+  // The same for indices already wrapped into [0, n) on periodic axes.
+  long find_wrapped(long ix, long iy, long iz) const;
 
   std::size_t cell_count() const { return cell_key_.size(); }
   double edge(int axis) const { return edge_[axis]; }

@@ -54,6 +54,22 @@ double NeighborList::max_displacement_m(const ParticleStore& p, const PeriodicBo
   return std::sqrt(max2);
 }
 
+void NeighborList::sort_pairs_by_first(std::size_t particle_count) {
+  // Counting sort on the first slot: the force loop then walks particles in memory order.
+  std::vector<std::uint32_t> start(particle_count + 1, 0);
+  for (std::uint32_t i : pairs.first) ++start[i + 1];
+  for (std::size_t i = 0; i < particle_count; ++i) start[i + 1] += start[i];
+  PairList sorted;
+  sorted.first.resize(pairs.size());
+  sorted.second.resize(pairs.size());
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    const std::uint32_t at = start[pairs.first[k]]++;
+    sorted.first[at] = pairs.first[k];
+    sorted.second[at] = pairs.second[k];
+  }
+  pairs = std::move(sorted);
+}
+
 bool NeighborList::update(ParticleStore& p, const PeriodicBox& box,
                           const std::vector<PlaneWall>& walls, bool force) {
   if (!force && p.population_version == population_version_) {
@@ -98,6 +114,7 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
                    pairs);
   stats_.last_search = grid_.stats();
   stats_.distance_tests += grid_.stats().distance_tests;
+  sort_pairs_by_first(p.size());
   // Periodic image of each pair, fixed until the next rebuild.
   for (int image = 0; image < 27; ++image) {
     const int n[3] = {image % 3 - 1, (image / 3) % 3 - 1, image / 9 - 1};
@@ -109,15 +126,20 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
     const Vec3 d = p.position_m[pairs.first[k]] - p.position_m[pairs.second[k]];
     int image = 0, stride = 1;
     for (int a = 0; a < 3; ++a, stride *= 3) {
-      const int n = box.periodic[a] ? int(std::nearbyint(d[a] / box.length(a))) : 0;
-      image += (n + 1) * stride;
+      image += (box.image_of(d[a], a) + 1) * stride;
     }
     pair_image[k] = std::uint8_t(image);
   }
   pair_history_m.assign(pairs.size(), Vec3{});
+  pair_touching.assign(pairs.size(), 1);  // unknown yet: let the next force pass clear them
   if (!old_pairs.empty())
     for (std::size_t k = 0; k < pairs.size(); ++k) {
-      const std::uint64_t a = p.id[pairs.first[k]], b = p.id[pairs.second[k]];
+      // Only a touching pair can carry history (it is cleared when a contact ends).
+      const std::uint32_t i = pairs.first[k], j = pairs.second[k];
+      const double reach = p.radius_m[i] + p.radius_m[j];
+      if (norm2(p.position_m[i] - p.position_m[j] - image_shift_[pair_image[k]]) >= reach * reach)
+        continue;
+      const std::uint64_t a = p.id[i], b = p.id[j];
       if (const Vec3* h = lookup(old_pairs, std::min(a, b), std::max(a, b))) pair_history_m[k] = *h;
     }
 

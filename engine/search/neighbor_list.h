@@ -55,6 +55,7 @@ class NeighborList {
   PairList pairs;
   std::vector<std::uint8_t> pair_image;  // index into the 27 periodic shifts
   std::vector<Vec3> pair_history_m;
+  std::vector<std::uint8_t> pair_touching;  // 1 while the pair touched at the last force pass
   // Particle–wall candidates.
   std::vector<std::uint32_t> wall_particle;
   std::vector<std::uint32_t> wall_index;
@@ -65,6 +66,7 @@ class NeighborList {
   double max_displacement_m(const ParticleStore& particles, const PeriodicBox& box) const;
   void rebuild(const ParticleStore& particles, const PeriodicBox& box,
                const std::vector<PlaneWall>& walls);
+  void sort_pairs_by_first(std::size_t particle_count);
 
   NeighborSettings settings_;
   HashedGrid grid_;
