@@ -5,14 +5,7 @@
 namespace millsim {
 
 void ParticleStore::reserve(std::size_t n) {
-  position_m.reserve(n), velocity_m_per_s.reserve(n), force_n.reserve(n);
-  angular_velocity_rad_per_s.reserve(n), torque_n_m.reserve(n);
-  previous_force_n.reserve(n), previous_torque_n_m.reserve(n);
-  radius_m.reserve(n), inv_mass_per_kg.reserve(n), inv_inertia_per_kg_m2.reserve(n);
-  normal_stiffness.reserve(n), normal_damping.reserve(n);
-  tangential_stiffness.reserve(n), tangential_damping.reserve(n);
-  normal_compliance.reserve(n), shear_compliance.reserve(n);
-  material.reserve(n), mass_kg.reserve(n), id.reserve(n);
+  for_each_column([n](auto& column) { column.reserve(n); });
 }
 
 std::size_t ParticleStore::add(const MaterialTable& materials, int material_index,
@@ -49,35 +42,19 @@ std::size_t ParticleStore::add(const MaterialTable& materials, int material_inde
 
 void ParticleStore::remove_swap(std::size_t slot) {
   const std::size_t last = size() - 1;
-  auto move_last = [slot, last](auto& column) {
+  for_each_column([slot, last](auto& column) {
     column[slot] = column[last];
     column.pop_back();
-  };
-  move_last(position_m), move_last(velocity_m_per_s), move_last(force_n);
-  move_last(angular_velocity_rad_per_s), move_last(torque_n_m);
-  move_last(previous_force_n), move_last(previous_torque_n_m);
-  move_last(radius_m), move_last(inv_mass_per_kg), move_last(inv_inertia_per_kg_m2);
-  move_last(normal_stiffness), move_last(normal_damping);
-  move_last(tangential_stiffness), move_last(tangential_damping);
-  move_last(normal_compliance), move_last(shear_compliance);
-  move_last(material), move_last(mass_kg), move_last(id);
+  });
   ++population_version;
 }
 
 void ParticleStore::permute(const std::vector<std::uint32_t>& order) {
-  auto apply = [&order](auto& column) {
+  for_each_column([&order](auto& column) {
     std::remove_reference_t<decltype(column)> sorted(column.size());
     for (std::size_t k = 0; k < order.size(); ++k) sorted[k] = column[order[k]];
     column.swap(sorted);
-  };
-  apply(position_m), apply(velocity_m_per_s), apply(force_n);
-  apply(angular_velocity_rad_per_s), apply(torque_n_m);
-  apply(previous_force_n), apply(previous_torque_n_m);
-  apply(radius_m), apply(inv_mass_per_kg), apply(inv_inertia_per_kg_m2);
-  apply(normal_stiffness), apply(normal_damping);
-  apply(tangential_stiffness), apply(tangential_damping);
-  apply(normal_compliance), apply(shear_compliance);
-  apply(material), apply(mass_kg), apply(id);
+  });
   ++population_version;
 }
 

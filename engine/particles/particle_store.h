@@ -43,6 +43,18 @@ struct ParticleStore {
   std::size_t size() const { return id.size(); }
   void reserve(std::size_t n);
 
+  // Calls f(column) for every per-particle array: the one list of columns that reserve, removal
+  // and reordering share (a new field is added here, or it falls out of step).
+  template <class F>
+  void for_each_column(F&& f) {
+    f(position_m), f(velocity_m_per_s), f(force_n), f(angular_velocity_rad_per_s), f(torque_n_m);
+    f(previous_force_n), f(previous_torque_n_m);
+    f(radius_m), f(inv_mass_per_kg), f(inv_inertia_per_kg_m2);
+    f(normal_stiffness), f(normal_damping), f(tangential_stiffness), f(tangential_damping);
+    f(normal_compliance), f(shear_compliance);
+    f(material), f(mass_kg), f(id);
+  }
+
   // Appends a particle and computes its contact constants; `stiffness_scale` multiplies its
   // Young's modulus (reduced stiffness, §4 Eq. 6–7). Returns its slot.
   std::size_t add(const MaterialTable& materials, int material_index, ParticleId particle_id,

@@ -31,12 +31,6 @@ SceneConfig granular_gas(double restitution, double friction, std::int64_t count
   return s;
 }
 
-Vec3 total_momentum(const ParticleStore& p) {
-  Vec3 sum;
-  for (std::size_t i = 0; i < p.size(); ++i) sum += p.velocity_m_per_s[i] * p.mass_kg[i];
-  return sum;
-}
-
 TEST(Conservation, ElasticFrictionlessGasConservesEnergy) {
   // Expectation: energy conservation (no damping, no friction, no gravity).
   Simulation sim(granular_gas(1.0, 0.0, 400, 0.25));
@@ -56,14 +50,14 @@ TEST(Conservation, ElasticFrictionlessGasConservesEnergy) {
 TEST(Conservation, DampedFrictionalGasConservesMomentum) {
   // Expectation: Newton's third law; the sum of m v stays at its initial value to rounding.
   Simulation sim(granular_gas(0.5, 0.3, 400, 0.3));
-  const Vec3 p0 = total_momentum(sim.particles());
+  const Vec3 p0 = test::total_momentum(sim.particles());
   double scale = 0.0;  // Σ m|v|, the size of the terms that round
   for (std::size_t i = 0; i < sim.particles().size(); ++i)
     scale += sim.particles().mass_kg[i] * norm(sim.particles().velocity_m_per_s[i]);
   const double e0 = sim.energy().kinetic_j;
   for (int step = 0; step < 3000; ++step) ASSERT_FALSE(sim.step().has_value());
   EXPECT_LT(sim.energy().kinetic_j, 0.9 * e0) << "collisions must have dissipated energy";
-  EXPECT_LT(norm(total_momentum(sim.particles()) - p0), 1e-12 * scale);
+  EXPECT_LT(norm(test::total_momentum(sim.particles()) - p0), 1e-12 * scale);
 }
 
 }  // namespace

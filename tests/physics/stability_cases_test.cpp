@@ -7,6 +7,7 @@
 
 #include "scene/scene_json.h"
 #include "sim/simulation.h"
+#include "support/scenes.h"
 
 namespace millsim {
 namespace {
@@ -28,12 +29,6 @@ EnergyReport run_to_end(Simulation& sim) {
   return start;
 }
 
-Vec3 momentum(const ParticleStore& p) {
-  Vec3 sum;
-  for (std::size_t i = 0; i < p.size(); ++i) sum += p.velocity_m_per_s[i] * p.mass_kg[i];
-  return sum;
-}
-
 TEST(StabilityCases, StiffFinesAtHundredMetresPerSecondRunStably) {
   Simulation sim(load_case("fines_100mps"));
   const EnergyReport start = run_to_end(sim);
@@ -44,14 +39,14 @@ TEST(StabilityCases, StiffFinesAtHundredMetresPerSecondRunStably) {
 
 TEST(StabilityCases, SizeRatioThousandRunsStablyAndFinesRebound) {
   Simulation sim(load_case("size_ratio_1000"));
-  const Vec3 p0 = momentum(sim.particles());
+  const Vec3 p0 = test::total_momentum(sim.particles());
   run_to_end(sim);
   const ParticleStore& p = sim.particles();
   std::size_t rebounded = 0;
   for (std::size_t i = 1; i < p.size(); ++i) rebounded += p.velocity_m_per_s[i].x > 0.0;
   EXPECT_GT(rebounded, p.size() / 2) << "most fines must have bounced off the coarse particle";
   // No wall was touched, so momentum is conserved (to rounding of the fines' momenta).
-  EXPECT_LT(norm(momentum(p) - p0), 1e-9 * norm(p0));
+  EXPECT_LT(norm(test::total_momentum(p) - p0), 1e-9 * norm(p0));
 }
 
 TEST(StabilityCases, PaperParallelTangentialSpringsAreStoppedAtSizeRatioThousand) {

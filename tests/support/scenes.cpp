@@ -38,6 +38,12 @@ void add_particle(SceneConfig& scene, Vec3 position_m, Vec3 velocity_m_per_s, do
   scene.sources.push_back(source);
 }
 
+Vec3 total_momentum(const ParticleStore& p) {
+  Vec3 sum;
+  for (std::size_t i = 0; i < p.size(); ++i) sum += p.velocity_m_per_s[i] * p.mass_kg[i];
+  return sum;
+}
+
 TempDir::TempDir() {
   std::random_device seed;
   path_ = std::filesystem::temp_directory_path() /

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <string>
 
+#include "particles/particle_store.h"
 #include "scene/scene_config.h"
 
 namespace millsim::test {
@@ -18,6 +19,9 @@ SceneConfig empty_scene(Vec3 min_m, Vec3 max_m, const MaterialConfig& material,
 // Adds one list source with a particle.
 void add_particle(SceneConfig& scene, Vec3 position_m, Vec3 velocity_m_per_s, double diameter_m,
                   int material = 0);
+
+// Σ m v over the particles.
+Vec3 total_momentum(const ParticleStore& particles);
 
 // A fresh empty directory under the system temp dir, removed with its contents on destruction.
 class TempDir {
