@@ -26,6 +26,11 @@ double automatic_skin_m(const std::vector<double>& radius_m, double max_skin_m) 
   return std::clamp(0.5 * std::sqrt(*lo * *hi), 0.0, max_skin_m);
 }
 
+// The smallest skin the steering may choose: a twentieth of the smallest diameter.
+double skin_floor_m(const ParticleStore& p) {
+  return 0.1 * *std::min_element(p.radius_m.begin(), p.radius_m.end());
+}
+
 // Volume the particles occupy for the sub-cell cost model: the periodic box, or the particles'
 // bounding box on non-periodic axes.
 double occupied_volume_m3(const std::vector<Vec3>& x, const PeriodicBox& box) {
@@ -70,9 +75,48 @@ void NeighborList::sort_pairs_by_first(std::size_t particle_count) {
   pairs = std::move(sorted);
 }
 
+double NeighborList::steer_skin(const ParticleStore& p) const {
+  // Per step, a candidate costs one evaluation in the force loop and a rebuild costs about
+  // kRebuildPerParticle evaluations per particle (bench/RESULTS.md: 300–740 ns per particle
+  // against 5–8 ns per candidate). Candidates C(s') for s' <= s are counted from this list's
+  // gaps, beyond s extrapolated linearly; the rebuild interval scales with the skin.
+  constexpr double kRebuildPerParticle = 60.0;
+  constexpr int kBins = 32;
+  const double s = settings_.skin_m;
+  if (s <= 0.0 || pairs.size() == 0) return s;
+  std::vector<double> below(kBins + 1, 0.0);  // below[b]: candidates with gap < s·b/kBins
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    const std::uint32_t i = pairs.first[k], j = pairs.second[k];
+    const double gap =
+        norm(p.position_m[i] - p.position_m[j] - pair_shift(k)) - p.radius_m[i] - p.radius_m[j];
+    const int bin = std::clamp(int(std::ceil(gap / s * kBins)), 0, kBins);
+    below[std::size_t(bin)] += 1.0;
+  }
+  for (int b = 0; b < kBins; ++b) below[std::size_t(b + 1)] += below[std::size_t(b)];
+  const double slope = (below[kBins] - below[kBins / 2]) / (0.5 * s);
+  auto candidates = [&](double skin) {
+    if (skin >= s) return below[kBins] + (skin - s) * slope;
+    return below[std::size_t(std::clamp(int(skin / s * kBins), 0, kBins))];
+  };
+  const double interval_per_skin =
+      double(steps_since_rebuild_) / std::max(previous_skin_m_, 1e-300);
+  auto cost = [&](double skin) {
+    return candidates(skin) +
+           kRebuildPerParticle * double(p.size()) / std::max(1.0, interval_per_skin * skin);
+  };
+  double best = s, best_cost = cost(s);
+  for (double f : {0.5, 0.63, 0.79, 1.26, 1.59, 2.0}) {
+    const double skin = std::clamp(s * f, skin_floor_m(p), settings_.max_skin_m);
+    if (cost(skin) < best_cost) best = skin, best_cost = cost(skin);
+  }
+  return best;
+}
+
 bool NeighborList::update(ParticleStore& p, const PeriodicBox& box,
                           const std::vector<PlaneWall>& walls, bool force) {
-  if (!force && p.population_version == population_version_) {
+  ++steps_since_rebuild_;
+  const bool population_changed = p.population_version != population_version_;
+  if (!force && !population_changed) {
     if (motion_bound_m_ <= 0.5 * settings_.skin_m) return false;
     // The cheap bound says maybe: measure, and keep the exact figure as the new bound.
     motion_bound_m_ = max_displacement_m(p, box);
@@ -83,14 +127,15 @@ bool NeighborList::update(ParticleStore& p, const PeriodicBox& box,
   // Keep neighbours in space neighbours in memory; history follows by id. Small sets fit in
   // cache anyway and keep their slot order (tests rely on it).
   if (p.size() >= kReorderMinParticles) p.permute(spatial_order(p.position_m, box));
-  rebuild(p, box, walls);
+  rebuild(p, box, walls, population_changed);
   motion_bound_m_ = 0.0;
+  steps_since_rebuild_ = 0;
   population_version_ = p.population_version;  // after any permute above
   return true;
 }
 
 void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
-                           const std::vector<PlaneWall>& walls) {
+                           const std::vector<PlaneWall>& walls, bool population_changed) {
   // Keep the history of pairs that have any (touching ones), keyed by stable ids.
   std::vector<KeyedHistory> old_pairs, old_walls;
   for (std::size_t k = 0; k < pairs.size(); ++k)
@@ -106,8 +151,11 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
 
   // The skin, cell size and sub-cell division follow the size distribution as it changes
   // (feed, breakage, outlet).
+  previous_skin_m_ = settings_.skin_m;
   if (settings_.automatic_skin)
-    settings_.skin_m = automatic_skin_m(p.radius_m, settings_.max_skin_m);
+    settings_.skin_m = population_changed || !next_skin_m_
+                           ? automatic_skin_m(p.radius_m, settings_.max_skin_m)
+                           : *next_skin_m_;
   const int k = settings_.subcells_per_axis.value_or(choose_subcells_per_axis(
       p.radius_m, settings_.skin_m, occupied_volume_m3(p.position_m, box)));
   grid_.find_pairs(p.position_m, p.radius_m, box, {settings_.skin_m, k, settings_.cell_size_m},
@@ -154,6 +202,10 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
       if (const Vec3* h = lookup(old_walls, p.id[wall_particle[k]], wall_index[k]))
         wall_history_m[k] = *h;
 
+  if (settings_.automatic_skin && !population_changed && steps_since_rebuild_ > 0)
+    next_skin_m_ = steer_skin(p);
+  else
+    next_skin_m_.reset();
   reference_position_m_ = p.position_m;
   reference_id_ = p.id;
   ++stats_.rebuilds;

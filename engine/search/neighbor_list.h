@@ -24,8 +24,8 @@ struct NeighborStats {
 
 struct NeighborSettings {
   double skin_m = 0.0;
-  bool automatic_skin = false;           // re-derive the skin at each rebuild: ¼ √(d_min d_max)
-  double max_skin_m = 1e300;             // never past this (the periodic minimum image)
+  bool automatic_skin = false;  // ¼ √(d_min d_max) when the population changes, then steered
+  double max_skin_m = 1e300;    // never past this (the periodic minimum image)
   std::optional<double> cell_size_m;     // lower bound on the DEM-cell edge
   std::optional<int> subcells_per_axis;  // absent = automatic at each rebuild
 };
@@ -65,13 +65,18 @@ class NeighborList {
   // Largest displacement since the last build; stops early once past skin/2.
   double max_displacement_m(const ParticleStore& particles, const PeriodicBox& box) const;
   void rebuild(const ParticleStore& particles, const PeriodicBox& box,
-               const std::vector<PlaneWall>& walls);
+               const std::vector<PlaneWall>& walls, bool population_changed);
+  // The skin for the next list, from this list's candidate gaps and the last rebuild interval.
+  double steer_skin(const ParticleStore& particles) const;
   void sort_pairs_by_first(std::size_t particle_count);
 
   NeighborSettings settings_;
   HashedGrid grid_;
   Vec3 image_shift_[27];
   double motion_bound_m_ = 0.0;
+  std::uint64_t steps_since_rebuild_ = 0;
+  double previous_skin_m_ = 0.0;       // skin of the list whose interval just ended
+  std::optional<double> next_skin_m_;  // steered skin, applied at the next rebuild
   std::uint64_t population_version_ = ~std::uint64_t(0);
   std::vector<Vec3> reference_position_m_;
   std::vector<ParticleId> reference_id_;
