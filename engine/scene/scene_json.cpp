@@ -288,13 +288,6 @@ ContactConfig parse_contact(const json& v, InputErrors& errors) {
 
 }  // namespace
 
-const std::vector<std::string>& known_scene_sections() {
-  static const std::vector<std::string> sections = {
-      "name",    "description",      "seed", "domain",  "walls",  "materials",
-      "sources", "gravity_m_per_s2", "time", "contact", "search", "output"};
-  return sections;
-}
-
 SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
                         InputErrors& errors) {
   SceneConfig scene;

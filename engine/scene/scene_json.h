@@ -17,7 +17,4 @@ SceneConfig load_scene(const std::filesystem::path& path);
 SceneConfig parse_scene(const nlohmann::json& doc, const std::filesystem::path& base_dir,
                         InputErrors& errors);
 
-// The top-level sections a scene may have (for messages and docs).
-const std::vector<std::string>& known_scene_sections();
-
 }  // namespace millsim
