@@ -23,4 +23,14 @@ std::vector<PlaneWall> build_walls(const SceneConfig& scene, MaterialTable& mate
   return walls;
 }
 
+int stiffest_wall(const MaterialTable& materials, const std::vector<PlaneWall>& walls) {
+  int best = -1;
+  double best_compliance = 0.0;
+  for (std::size_t w = 0; w < walls.size(); ++w) {
+    const double c = materials.wall_pair(walls[w].pair_table, 0).wall_normal_compliance;
+    if (best < 0 || c < best_compliance) best = int(w), best_compliance = c;
+  }
+  return best;
+}
+
 }  // namespace millsim

@@ -23,6 +23,9 @@ struct PlaneWall {
 // registers each with the material table.
 std::vector<PlaneWall> build_walls(const SceneConfig& scene, MaterialTable& materials);
 
+// The stiffest wall (smallest compliance), or −1 when there are none.
+int stiffest_wall(const MaterialTable& materials, const std::vector<PlaneWall>& walls);
+
 inline double wall_distance_m(const PlaneWall& w, const Vec3& x) {
   return dot(x - w.point_m, w.normal);
 }

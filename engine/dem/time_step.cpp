@@ -19,23 +19,23 @@ double hertz_contact_time_s(double m_eff, double k, double v) {
   return 2.0 * integral * max_overlap / v;
 }
 
-TimeStepBounds time_step_bounds_impl(const ParticleStore& p, const MaterialTable& materials,
-                                     const std::vector<PlaneWall>& walls, double speed,
-                                     const std::vector<double>& scale) {
+TimeStepBounds time_step_bounds(const ParticleStore& p, const MaterialTable& materials,
+                                const std::vector<PlaneWall>& walls, double speed,
+                                bool at_real_stiffness) {
   TimeStepBounds b;
-  // The stiffest wall has the smallest compliance; its compliance depends on the wall only.
-  double wall_compliance = -1.0;
-  for (const PlaneWall& w : walls) {
-    const double c = materials.wall_pair(w.pair_table, 0).wall_normal_compliance;
-    if (wall_compliance < 0.0 || c < wall_compliance) wall_compliance = c;
-  }
+  const int stiffest = stiffest_wall(materials, walls);
+  const double wall_compliance =
+      stiffest < 0
+          ? -1.0
+          : materials.wall_pair(walls[std::size_t(stiffest)].pair_table, 0).wall_normal_compliance;
   for (std::size_t i = 0; i < p.size(); ++i) {
     const MaterialConstants& m = materials.material(p.material[i]);
-    const double r = p.radius_m[i], s = scale[i];
+    const double r = p.radius_m[i];
+    const double s = at_real_stiffness ? 1.0 : m.normal_compliance / p.normal_compliance[i];
     const double t_r =
         rayleigh_time_s(r, s * m.youngs_modulus_pa, m.poisson_ratio, m.density_kg_per_m3);
     if (t_r < b.rayleigh_s) b.rayleigh_s = t_r, b.rayleigh_particle = p.id[i];
-    const double compliance = m.normal_compliance / s;
+    const double compliance = at_real_stiffness ? m.normal_compliance : p.normal_compliance[i];
     // Against an equal particle: E* = 1/(2c), R* = r/2, m* = m/2.
     const double k_pair = 4.0 / 3.0 / (2.0 * compliance) * std::sqrt(0.5 * r);
     const double t_pair = hertz_contact_time_s(0.5 * p.mass_kg[i], k_pair, speed);
@@ -51,10 +51,8 @@ TimeStepBounds time_step_bounds_impl(const ParticleStore& p, const MaterialTable
   return b;
 }
 
-double default_max_impact_speed_m_per_s(const ParticleStore& p, const Vec3& gravity,
+double default_max_impact_speed_m_per_s(double fastest, const Vec3& gravity,
                                         const PeriodicBox& box) {
-  double fastest = 0.0;
-  for (const Vec3& v : p.velocity_m_per_s) fastest = std::max(fastest, norm(v));
   const double g = norm(gravity);
   double fall = 0.0;
   if (g > 0.0) {

@@ -36,29 +36,15 @@ struct TimeStepBounds {
   bool contact_with_wall = false;
 };
 
-// `stiffness_scale(i)` gives particle i's reduced-stiffness scale (1 = real stiffness).
-template <class Scale>
+// Bounds over all particles. Each particle's reduced-stiffness scale is read from its compliance
+// (s = c_material / c_particle); `at_real_stiffness` ignores it, for the time-step gain.
 TimeStepBounds time_step_bounds(const ParticleStore& p, const MaterialTable& materials,
                                 const std::vector<PlaneWall>& walls, double impact_speed_m_per_s,
-                                Scale stiffness_scale);
+                                bool at_real_stiffness = false);
 
 // Twice the fastest initial speed (a head-on pair) plus the free-fall speed over the domain's
 // extent along gravity; at least 1 m/s.
-double default_max_impact_speed_m_per_s(const ParticleStore& p, const Vec3& gravity,
+double default_max_impact_speed_m_per_s(double fastest_speed_m_per_s, const Vec3& gravity,
                                         const PeriodicBox& box);
-
-// ---- implementation of the template
-
-TimeStepBounds time_step_bounds_impl(const ParticleStore& p, const MaterialTable& materials,
-                                     const std::vector<PlaneWall>& walls, double speed,
-                                     const std::vector<double>& scale);
-
-template <class Scale>
-TimeStepBounds time_step_bounds(const ParticleStore& p, const MaterialTable& materials,
-                                const std::vector<PlaneWall>& walls, double speed, Scale s) {
-  std::vector<double> scale(p.size());
-  for (std::size_t i = 0; i < p.size(); ++i) scale[i] = s(i);
-  return time_step_bounds_impl(p, materials, walls, speed, scale);
-}
 
 }  // namespace millsim

@@ -53,14 +53,13 @@ ParticleFile read_particle_file(const std::filesystem::path& path) {
       continue;
     }
     std::istringstream fields(line);
-    double id, x, y, z, d, vx, vy, vz;
+    double id, x, y, z, d, vx, vy, vz;  // id is read for the column count, then dropped
     if (!(fields >> id >> x >> y >> z >> d >> vx >> vy >> vz)) {
       errors.push_back({where, line.substr(0, 60), "expected 8 numbers: id x y z d vx vy vz"});
     } else if (!(d > 0.0) || !std::isfinite(x + y + z + vx + vy + vz)) {
       errors.push_back({where, line.substr(0, 60), "expected finite values and a diameter > 0"});
     } else {
       file.particles.push_back({{x, y, z}, {vx, vy, vz}, {}, d});
-      file.ids.push_back(std::uint64_t(id));
     }
     if (errors.size() >= 20) break;
   }

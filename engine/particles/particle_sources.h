@@ -17,8 +17,7 @@ namespace millsim {
 
 struct ParticleFile {
   std::map<std::string, std::string> header;  // "# key: value" lines
-  std::vector<ParticleSpec> particles;
-  std::vector<std::uint64_t> ids;
+  std::vector<ParticleSpec> particles;  // the file's ids are not kept: a run numbers particles 1..N
 };
 
 // Reads a particle file; throws InputErrorList naming file:line for malformed content and

@@ -65,17 +65,6 @@ void check_inside_domain(const SceneConfig& scene, ParticleStore& p, const Perio
   }
 }
 
-// The stiffest wall (smallest compliance), or −1 without walls.
-int stiffest_wall(const MaterialTable& materials, const std::vector<PlaneWall>& walls) {
-  int best = -1;
-  for (std::size_t w = 0; w < walls.size(); ++w)
-    if (best < 0 ||
-        materials.wall_pair(walls[w].pair_table, 0).wall_normal_compliance <
-            materials.wall_pair(walls[std::size_t(best)].pair_table, 0).wall_normal_compliance)
-      best = int(w);
-  return best;
-}
-
 }  // namespace
 
 Simulation::Simulation(const SceneConfig& scene)
@@ -97,16 +86,10 @@ Simulation::Simulation(const SceneConfig& scene)
     fastest = std::max(fastest, norm(sources.specs[k].velocity_m_per_s));
   }
 
-  // Particles first at full stiffness: the impact speed and the threshold need them.
-  particles_.reserve(sources.specs.size());
-  for (std::size_t k = 0; k < sources.specs.size(); ++k) {
-    const ParticleSpec& s = sources.specs[k];
-    particles_.add(materials_, sources.material[k], ParticleId(k + 1), s.position_m,
-                   s.velocity_m_per_s, s.angular_velocity_rad_per_s, s.diameter_m);
-  }
   time_.impact_speed_m_per_s = contact_.max_impact_speed_m_per_s.value_or(
-      default_max_impact_speed_m_per_s(particles_, gravity_m_per_s2_, box_));
+      default_max_impact_speed_m_per_s(fastest, gravity_m_per_s2_, box_));
 
+  // Reduced stiffness (§4): the threshold first, so each particle gets its constants once.
   if (contact_.reduced_stiffness) {
     ReducedStiffnessInfo info;
     const int material = sources.material[smallest];
@@ -132,17 +115,16 @@ Simulation::Simulation(const SceneConfig& scene)
       info.predicted_penetration_ratio = choice.penetration_ratio;
       info.limited_by_real_stiffness = choice.limited_by_real_stiffness;
     }
-    ParticleStore reduced;
-    reduced.reserve(particles_.size());
-    for (std::size_t k = 0; k < sources.specs.size(); ++k) {
-      const ParticleSpec& s = sources.specs[k];
-      const double scale = stiffness_scale(s.diameter_m, info.threshold_diameter_m);
-      if (scale < 1.0) ++info.reduced_particles;
-      reduced.add(materials_, sources.material[k], ParticleId(k + 1), s.position_m,
-                  s.velocity_m_per_s, s.angular_velocity_rad_per_s, s.diameter_m, scale);
-    }
-    particles_ = std::move(reduced);
     reduced_ = info;
+  }
+  particles_.reserve(sources.specs.size());
+  for (std::size_t k = 0; k < sources.specs.size(); ++k) {
+    const ParticleSpec& s = sources.specs[k];
+    const double scale =
+        reduced_ ? stiffness_scale(s.diameter_m, reduced_->threshold_diameter_m) : 1.0;
+    if (scale < 1.0) ++reduced_->reduced_particles;
+    particles_.add(materials_, sources.material[k], ParticleId(k + 1), s.position_m,
+                   s.velocity_m_per_s, s.angular_velocity_rad_per_s, s.diameter_m, scale);
   }
   check_inside_domain(scene, particles_, box_, errors);
   choose_time_step(scene, errors);
@@ -187,17 +169,14 @@ Simulation::Simulation(const SceneConfig& scene)
 
 void Simulation::choose_time_step(const SceneConfig& scene, InputErrors& errors) {
   const double v = time_.impact_speed_m_per_s;
-  time_.bounds = time_step_bounds(particles_, materials_, walls_, v, [&](std::size_t i) {
-    return reduced_ ? stiffness_scale(2.0 * particles_.radius_m[i], reduced_->threshold_diameter_m)
-                    : 1.0;
-  });
+  time_.bounds = time_step_bounds(particles_, materials_, walls_, v);
   const TimeStepBounds& b = time_.bounds;
   time_.stable_bound_s = std::min(b.rayleigh_s, b.contact_s / kMinStepsPerContact);
   const double automatic =
       std::min(scene.time.safety_factor * b.rayleigh_s, b.contact_s / scene.time.steps_per_contact);
   if (reduced_) {
     const TimeStepBounds real =
-        time_step_bounds(particles_, materials_, walls_, v, [](std::size_t) { return 1.0; });
+        time_step_bounds(particles_, materials_, walls_, v, /*at_real_stiffness=*/true);
     reduced_->time_step_gain = automatic / std::min(scene.time.safety_factor * real.rayleigh_s,
                                                     real.contact_s / scene.time.steps_per_contact);
   }
