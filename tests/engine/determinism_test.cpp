@@ -12,19 +12,10 @@ namespace millsim {
 namespace {
 
 SceneConfig wide_gas() {
-  const double L = 1.2e-3;
-  SceneConfig s =
-      test::empty_scene({0, 0, 0}, {L, L, L}, test::table1_material(0.5, 0.3), {true, true, true});
-  SourceConfig source;
-  source.kind = SourceKind::Random;
-  source.count = 5000;  // above the reordering threshold
-  source.region_min_m = {0, 0, 0};
-  source.region_max_m = {L, L, L};
-  source.sizes = {SizeDistributionKind::PowerLaw, 0.0, 5e-6, 100e-6, 0.0, 1.0, -2.5};
-  source.velocity_spread_m_per_s = 3.0;
-  s.sources.push_back(source);
-  s.seed = 99;
-  return s;
+  // 5000 particles: above the reordering threshold.
+  return test::periodic_random_gas(
+      1.2e-3, 5000, {SizeDistributionKind::PowerLaw, 0.0, 5e-6, 100e-6, 0.0, 1.0, -2.5}, 3.0,
+      test::table1_material(0.5, 0.3), 99);
 }
 
 TEST(Determinism, SameSceneAndSeedGiveBitIdenticalRuns) {

@@ -47,19 +47,8 @@ Pairs reference_contacts(const Simulation& sim) {
 }
 
 SceneConfig gas() {
-  const double L = 2e-3;
-  SceneConfig s =
-      test::empty_scene({0, 0, 0}, {L, L, L}, test::table1_material(0.5, 0.3), {true, true, true});
-  SourceConfig source;
-  source.kind = SourceKind::Random;
-  source.count = 800;
-  source.region_min_m = {0, 0, 0};
-  source.region_max_m = {L, L, L};
-  source.sizes = {SizeDistributionKind::Fixed, 100e-6};
-  source.velocity_spread_m_per_s = 2.0;
-  s.sources.push_back(source);
-  s.seed = 11;
-  return s;
+  return test::periodic_random_gas(2e-3, 800, {SizeDistributionKind::Fixed, 100e-6}, 2.0,
+                                   test::table1_material(0.5, 0.3), 11);
 }
 
 // Adds `count` particles of diameter d at random free positions (no overlap), ids after `next_id`.

@@ -15,20 +15,9 @@ namespace {
 SceneConfig granular_gas(double restitution, double friction, std::int64_t count,
                          double solids_fraction) {
   const double d = 100e-6;
-  const double volume = double(count) * std::numbers::pi / 6.0 * d * d * d / solids_fraction;
-  const double L = std::cbrt(volume);
-  SceneConfig s = test::empty_scene(
-      {0, 0, 0}, {L, L, L}, test::table1_material(restitution, friction), {true, true, true});
-  SourceConfig source;
-  source.kind = SourceKind::Random;
-  source.count = count;
-  source.region_min_m = {0, 0, 0};
-  source.region_max_m = {L, L, L};
-  source.sizes = {SizeDistributionKind::Uniform, 0.0, 0.8 * d, 1.2 * d};
-  source.velocity_spread_m_per_s = 2.0;
-  s.sources.push_back(source);
-  s.seed = 42;
-  return s;
+  const double L = std::cbrt(double(count) * std::numbers::pi / 6.0 * d * d * d / solids_fraction);
+  return test::periodic_random_gas(L, count, {SizeDistributionKind::Uniform, 0.0, 0.8 * d, 1.2 * d},
+                                   2.0, test::table1_material(restitution, friction), 42);
 }
 
 TEST(Conservation, ElasticFrictionlessGasConservesEnergy) {

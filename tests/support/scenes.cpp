@@ -29,6 +29,21 @@ SceneConfig empty_scene(Vec3 min_m, Vec3 max_m, const MaterialConfig& material,
   return s;
 }
 
+SceneConfig periodic_random_gas(double L, std::int64_t count, const SizeDistribution& sizes,
+                                double spread, const MaterialConfig& material, std::uint64_t seed) {
+  SceneConfig s = empty_scene({0, 0, 0}, {L, L, L}, material, {true, true, true});
+  SourceConfig source;
+  source.kind = SourceKind::Random;
+  source.count = count;
+  source.region_min_m = {0, 0, 0};
+  source.region_max_m = {L, L, L};
+  source.sizes = sizes;
+  source.velocity_spread_m_per_s = spread;
+  s.sources.push_back(source);
+  s.seed = seed;
+  return s;
+}
+
 void add_particle(SceneConfig& scene, Vec3 position_m, Vec3 velocity_m_per_s, double diameter_m,
                   int material) {
   SourceConfig source;

@@ -16,6 +16,11 @@ MaterialConfig table1_material(double restitution = 0.5, double friction = 0.0);
 SceneConfig empty_scene(Vec3 min_m, Vec3 max_m, const MaterialConfig& material,
                         std::array<bool, 3> periodic = {false, false, false});
 
+// A fully periodic cube of edge box_length_m filled by one random (non-overlapping) source.
+SceneConfig periodic_random_gas(double box_length_m, std::int64_t count,
+                                const SizeDistribution& sizes, double velocity_spread_m_per_s,
+                                const MaterialConfig& material, std::uint64_t seed);
+
 // Adds one list source with a particle.
 void add_particle(SceneConfig& scene, Vec3 position_m, Vec3 velocity_m_per_s, double diameter_m,
                   int material = 0);
