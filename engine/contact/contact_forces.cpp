@@ -56,10 +56,12 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
     if constexpr (kPeriodic) d -= nl.pair_shift(k);
     const double dist2 = norm2(d), rsum = r[i] + r[j];
     if (dist2 >= rsum * rsum) {
-      if (touching_flag[k]) touching_flag[k] = 0, history[k] = {};  // the contact ended
+      if (touching_flag[k]) touching_flag[k] = kPairApart, history[k] = {};  // the contact ended
       continue;
     }
-    touching_flag[k] = 1;
+    const std::uint8_t before = touching_flag[k];
+    if (before == kPairGhost) continue;  // siblings born overlapping: no force until apart
+    touching_flag[k] = kPairTouching;
     ++touching;
     const double dist = std::sqrt(dist2);
     const Vec3 n = d * (1.0 / dist);
@@ -73,6 +75,8 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
     const Vec3 v_rel = v[i] - v[j] - cross(w[i] * r[i] + w[j] * r[j], n);
     const double vn = dot(v_rel, n);
     const Vec3 v_t = v_rel - n * vn;
+    if (before == kPairApart && vn < 0.0 && stats.record_impacts)
+      stats.impacts.push_back({i, j, false, -vn});
     const double fn = hertz_normal_force_n(s, overlap, sqrt_overlap, vn);
     const Vec3 ft = tangential_force(s, sqrt_overlap, fn, pc.friction, n, v_t, dt, history[k]);
     const Vec3 force = n * fn + ft;
@@ -142,8 +146,11 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Plane
     const double overlap = r - wall_distance_m(wall, p.position_m[i]);
     if (overlap <= 0.0) {
       nl.wall_history_m[k] = {};
+      nl.wall_touching[k] = kPairApart;
       continue;
     }
+    const bool onset = nl.wall_touching[k] == kPairApart;
+    nl.wall_touching[k] = kPairTouching;
     ++touching;
     const Vec3& n = wall.normal;
     const PairConstants& pc = materials.wall_pair(wall.pair_table, p.material[i]);
@@ -152,6 +159,8 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Plane
     const Vec3 v_rel = p.velocity_m_per_s[i] - cross(p.angular_velocity_rad_per_s[i] * r, n);
     const double vn = dot(v_rel, n);
     const Vec3 v_t = v_rel - n * vn;
+    if (onset && vn < 0.0 && stats.record_impacts)
+      stats.impacts.push_back({i, nl.wall_index[k], true, -vn});
     const double fn = hertz_normal_force_n(s, overlap, sqrt_overlap, vn);
     const Vec3 ft =
         tangential_force(s, sqrt_overlap, fn, pc.friction, n, v_t, dt, nl.wall_history_m[k]);
@@ -185,7 +194,7 @@ double contact_elastic_energy_j(ContactModel model, const MaterialTable& materia
     const std::uint32_t i = nl.pairs.first[k], j = nl.pairs.second[k];
     const double dist = norm(box.minimum_image(p.position_m[i] - p.position_m[j]));
     const double overlap = p.radius_m[i] + p.radius_m[j] - dist;
-    if (overlap <= 0.0) continue;
+    if (overlap <= 0.0 || nl.pair_touching[k] == kPairGhost) continue;
     const PairConstants& pc = materials.pair(p.material[i], p.material[j]);
     const PairSprings s = model == ContactModel::SeriesSprings  ? series_law(i, j, pc)
                           : model == ContactModel::PaperSprings ? paper_law(i, j, pc)

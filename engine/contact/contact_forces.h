@@ -16,6 +16,15 @@
 
 namespace millsim {
 
+// The onset of a contact (first force pass in which it touches), approaching at normal speed
+// `speed_m_per_s` > 0: the input of the breakage module (comminution/breakage.h).
+struct Impact {
+  std::uint32_t particle;  // slot
+  std::uint32_t partner;   // slot of the other particle, or the wall index
+  bool with_wall;
+  double speed_m_per_s;
+};
+
 struct ContactStepStats {
   std::uint64_t touching_pairs = 0;
   std::uint64_t touching_walls = 0;
@@ -26,8 +35,12 @@ struct ContactStepStats {
   // Contacts past the penetration limit (indices into the neighbour list), for Eq. 8.
   std::vector<std::uint32_t> pairs_over_limit;
   std::vector<std::uint32_t> walls_over_limit;
+  // Contact onsets of this pass, recorded only when record_impacts is set (breakage scenes).
+  bool record_impacts = false;
+  std::vector<Impact> impacts;
 
   void reset() {
+    impacts.clear();
     max_overlap_ratio = 0.0;
     max_overlap_particle = max_overlap_partner = 0;
     max_overlap_wall = -1;

@@ -36,6 +36,7 @@ std::size_t ParticleStore::add(const MaterialTable& materials, int material_inde
   material.push_back(std::uint16_t(material_index));
   mass_kg.push_back(mass);
   id.push_back(particle_id);
+  if (has_breakage_state) remaining_capacity_j_per_kg.push_back(1e300);
   ++population_version;
   return id.size() - 1;
 }

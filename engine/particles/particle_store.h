@@ -36,6 +36,10 @@ struct ParticleStore {
   // cold
   std::vector<double> mass_kg;
   std::vector<ParticleId> id;
+  // breakage only (comminution/strength.h): mass-specific energy above W_min the particle can
+  // still absorb before it breaks. Empty, and not a column, unless enable_breakage_state().
+  std::vector<double> remaining_capacity_j_per_kg;
+  bool has_breakage_state = false;
 
   // Bumped by every add and removal, so caches (the neighbour list) see a changed population.
   std::uint64_t population_version = 0;
@@ -53,6 +57,13 @@ struct ParticleStore {
     f(normal_stiffness), f(normal_damping), f(tangential_stiffness), f(tangential_damping);
     f(normal_compliance), f(shear_compliance);
     f(material), f(mass_kg), f(id);
+    if (has_breakage_state) f(remaining_capacity_j_per_kg);
+  }
+
+  // Adds the breakage column (infinite capacity until the breakage module draws one).
+  void enable_breakage_state() {
+    has_breakage_state = true;
+    remaining_capacity_j_per_kg.assign(size(), 1e300);
   }
 
   // Appends a particle and computes its contact constants; `stiffness_scale` multiplies its
@@ -65,8 +76,7 @@ struct ParticleStore {
   void remove_swap(std::size_t slot);
 
   // Reorders every column: new slot k holds the particle that was in slot order[k]. Used to keep
-  // particles that are close in space close in memory. Module-owned per-particle arrays must be
-  // permuted the same way (none exist yet; breakage will register through a hook).
+  // particles that are close in space close in memory.
   void permute(const std::vector<std::uint32_t>& order);
 };
 

@@ -15,6 +15,45 @@
 
 namespace millsim {
 
+// Comminution functions of a breakable material (docs/comminution.md cites each source).
+enum class StrengthModel {
+  VogelPeukert,  // P = 1 − exp(−f_mat x k (W − W_min)), x W_min constant (Vogel & Peukert 2003)
+  Weibull,       // P = 1 − exp(−ln 2 (W / W50(x))^m), W50 ∝ (x / x_ref)^(−φ)
+};
+
+struct StrengthConfig {
+  StrengthModel model = StrengthModel::VogelPeukert;
+  double f_mat_kg_per_j_m = 0.0;     // Vogel–Peukert f_mat
+  double x_w_min_j_m_per_kg = 0.0;   // Vogel–Peukert x·W_m,min
+  double median_energy_j_per_kg = 0.0;  // Weibull W50 at the reference diameter
+  double reference_diameter_m = 1e-4;   // Weibull x_ref
+  double size_exponent = 0.0;           // Weibull φ: W50 = median (x / x_ref)^(−φ)
+  double weibull_modulus = 3.0;         // Weibull m
+};
+
+// Breakage function: the fragment sizes of one broken particle, as ratios to its diameter.
+enum class FragmentModel {
+  PowerLaw,           // mass-cumulative B(r) ∝ r^q on [r_min, r_max] (Gates–Gaudin–Schuhmann)
+  BroadbentCallcott,  // B(r) ∝ 1 − exp(−r) on [r_min, r_max] (Broadbent & Callcott 1956)
+  Equal,              // n equal fragments of diameter n^(−1/3)
+};
+
+struct FragmentConfig {
+  FragmentModel model = FragmentModel::PowerLaw;
+  double exponent = 1.0;    // power-law q
+  double min_ratio = 0.05;  // r_min: smallest fragment / parent diameter
+  double max_ratio = 0.7;   // r_max: largest fragment / parent diameter (< 1)
+  int count = 8;            // equal: fragments per breakage
+  int max_fragments = 5000; // per breakage event; the rest of the volume is one last fragment
+};
+
+struct MaterialBreakageConfig {
+  StrengthConfig strength;
+  bool fatigue = true;         // sub-critical impacts lower the remaining strength
+  double fatigue_factor = 1.0; // damage per J/kg of sub-critical excess energy (1 = Vogel–Peukert)
+  FragmentConfig fragments;
+};
+
 struct MaterialConfig {
   std::string name;
   double youngs_modulus_pa = 0.0;  // E
@@ -23,6 +62,7 @@ struct MaterialConfig {
   double restitution = 1.0;        // e, normal coefficient of restitution, [0.05, 1]
   double friction = 0.0;           // μ, Coulomb sliding friction
   double rolling_friction = 0.0;   // μ_r, constant-torque rolling resistance; 0 = off
+  std::optional<MaterialBreakageConfig> breakage;  // absent = unbreakable
 };
 
 // An infinite plane; particles live on the side the normal points to.
@@ -120,6 +160,51 @@ struct SearchConfig {
   std::optional<int> subcells_per_axis;  // sub-grid division k (§2.2); absent = automatic
 };
 
+// How a particle–particle impact maps onto the single-particle (wall) impact the strength
+// functions were measured with (docs/comminution.md).
+enum class ImpactEquivalence {
+  Energy,  // each partner's speed in the pair's centre-of-mass frame
+  Force,   // the rigid-wall impact speed giving the same peak Hertz force
+};
+
+struct BreakageConfig {
+  ImpactEquivalence equivalence = ImpactEquivalence::Energy;
+  int placement_attempts = 16;  // random positions tried per fragment (least overlap kept)
+};
+
+// Fragments smaller than the threshold are never simulated: they go to the dust table (§5).
+struct DustConfig {
+  double threshold_diameter_m = 0.0;
+};
+
+// Size classes of the outlet PSD: explicit edges, or `bins` log-spaced edges on [min, max].
+struct PsdConfig {
+  std::vector<double> edges_m;  // ascending; empty = automatic from the scene's sizes
+};
+
+enum class OutletKind { Plane, Box };
+
+// Particles whose centre crosses an outlet leave the run and are binned into the outlet PSD.
+struct OutletConfig {
+  std::string name;
+  OutletKind kind = OutletKind::Plane;
+  Vec3 point_m, normal;  // plane: removes centres behind the plane (against the normal)
+  Vec3 min_m, max_m;     // box: removes centres inside
+};
+
+// Inserts particles at a mass rate into a region, so a mill runs in steady state.
+struct FeedConfig {
+  std::string name;
+  int material = 0;
+  Vec3 region_min_m, region_max_m;
+  SizeDistribution sizes;
+  double mass_rate_kg_per_s = 0.0;
+  Vec3 velocity_m_per_s;
+  double velocity_spread_m_per_s = 0.0;
+  double start_s = 0.0;
+  double end_s = 1e300;
+};
+
 struct OutputConfig {
   std::optional<double> snapshot_interval_s;    // absent = end/10
   std::optional<double> timeseries_interval_s;  // absent = end/200
@@ -139,6 +224,11 @@ struct SceneConfig {
   ContactConfig contact;
   SearchConfig search;
   OutputConfig output;
+  std::optional<BreakageConfig> breakage;  // present when any material is breakable
+  std::optional<DustConfig> dust;
+  PsdConfig psd;
+  std::vector<OutletConfig> outlets;
+  std::vector<FeedConfig> feeds;
   std::filesystem::path base_dir;  // directory of the scene file, for relative paths
 };
 

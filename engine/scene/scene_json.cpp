@@ -1,5 +1,6 @@
 #include "scene/scene_json.h"
 
+#include <cmath>
 #include <fstream>
 #include <sstream>
 
@@ -31,6 +32,73 @@ int find_material(const std::vector<MaterialConfig>& materials, JsonObjectReader
   return 0;
 }
 
+StrengthConfig parse_strength(const json& v, const std::string& path, InputErrors& errors) {
+  StrengthConfig s;
+  JsonObjectReader r(v, path, errors);
+  const std::string model = r.required_string("model", {"vogel_peukert", "weibull"});
+  if (model == "weibull") {
+    s.model = StrengthModel::Weibull;
+    s.median_energy_j_per_kg =
+        r.required_number("median_energy_j_per_kg", NumberRange::open_closed(0.0, 1e9));
+    s.reference_diameter_m =
+        r.required_number("reference_diameter_m", NumberRange::open_closed(0.0, 10.0));
+    s.size_exponent = r.number("size_exponent", 0.0, NumberRange::closed(-5.0, 5.0));
+    s.weibull_modulus = r.number("weibull_modulus", 3.0, NumberRange::closed(0.1, 100.0));
+  } else {
+    s.model = StrengthModel::VogelPeukert;
+    s.f_mat_kg_per_j_m = r.required_number("f_mat_kg_per_j_m", NumberRange::open_closed(0.0, 1e12));
+    s.x_w_min_j_m_per_kg =
+        r.required_number("x_w_min_j_m_per_kg", NumberRange::closed(0.0, 1e6));
+  }
+  r.finish();
+  return s;
+}
+
+FragmentConfig parse_fragments(const json& v, const std::string& path, InputErrors& errors) {
+  FragmentConfig f;
+  JsonObjectReader r(v, path, errors);
+  const std::string model =
+      r.required_string("model", {"power_law", "broadbent_callcott", "equal"});
+  if (model == "equal") {
+    f.model = FragmentModel::Equal;
+    f.count = int(r.integer("count", 8, 2, 100000));
+  } else {
+    f.model = model == "power_law" ? FragmentModel::PowerLaw : FragmentModel::BroadbentCallcott;
+    if (f.model == FragmentModel::PowerLaw)
+      f.exponent = r.number("exponent", 1.0, NumberRange::closed(0.05, 10.0));
+    f.min_ratio = r.number("min_ratio", 0.05, NumberRange::open(0.0, 0.9));
+    f.max_ratio = r.number("max_ratio", 0.7, NumberRange::open_closed(0.0, 0.9));
+    if (f.max_ratio <= f.min_ratio)
+      errors.push_back({r.path_of("max_ratio"), concat(f.max_ratio),
+                        concat("expected > min_ratio = ", f.min_ratio)});
+    f.max_fragments = int(r.integer("max_fragments", 5000, 2, 1000000));
+  }
+  r.finish();
+  return f;
+}
+
+MaterialBreakageConfig parse_material_breakage(const json& v, const std::string& path,
+                                               InputErrors& errors) {
+  MaterialBreakageConfig b;
+  JsonObjectReader r(v, path, errors);
+  if (const json* s = r.child("strength"))
+    b.strength = parse_strength(*s, r.path_of("strength"), errors);
+  else if (r.is_object())
+    errors.push_back({r.path_of("strength"), "", "missing; expected a strength model object"});
+  if (const json* f = r.child("fragments"))
+    b.fragments = parse_fragments(*f, r.path_of("fragments"), errors);
+  else if (r.is_object())
+    errors.push_back({r.path_of("fragments"), "", "missing; expected a breakage function object"});
+  if (const json* f = r.child("fatigue")) {
+    JsonObjectReader fr(*f, r.path_of("fatigue"), errors);
+    b.fatigue = fr.boolean("enabled", true);
+    b.fatigue_factor = fr.number("factor", 1.0, NumberRange::closed(0.0, 1e3));
+    fr.finish();
+  }
+  r.finish();
+  return b;
+}
+
 std::vector<MaterialConfig> parse_materials(JsonObjectReader& top, InputErrors& errors) {
   std::vector<MaterialConfig> out;
   const json* list = top.array("materials");
@@ -50,6 +118,8 @@ std::vector<MaterialConfig> parse_materials(JsonObjectReader& top, InputErrors& 
     m.restitution = r.number("restitution", 1.0, kRestitution);
     m.friction = r.number("friction", 0.0, NumberRange::closed(0.0, 10.0));
     m.rolling_friction = r.number("rolling_friction", 0.0, NumberRange::closed(0.0, 10.0));
+    if (const json* b = r.child("breakage"))
+      m.breakage = parse_material_breakage(*b, r.path_of("breakage"), errors);
     r.finish();
     for (const MaterialConfig& earlier : out)
       if (!m.name.empty() && earlier.name == m.name)
@@ -165,6 +235,21 @@ ParticleSpec parse_particle(const json& v, const std::string& path, InputErrors&
   return p;
 }
 
+// Reads {min_m, max_m} with max > min on every axis.
+void parse_region(const json& v, const std::string& path, Vec3& lo, Vec3& hi,
+                  InputErrors& errors) {
+  JsonObjectReader rr(v, path, errors);
+  lo = rr.vec3("min_m", {});
+  hi = rr.vec3("max_m", {});
+  if (rr.is_object() && (!rr.has("min_m") || !rr.has("max_m")))
+    errors.push_back({rr.path(), "", "expected both min_m and max_m"});
+  rr.finish();
+  for (int a = 0; a < 3; ++a)
+    if (!(hi[a] > lo[a]))
+      errors.push_back({rr.path_of("max_m"), concat(hi[a]),
+                        concat("expected each component > min_m (axis ", a, ")")});
+}
+
 std::vector<SourceConfig> parse_sources(JsonObjectReader& top,
                                         const std::vector<MaterialConfig>& materials,
                                         const std::filesystem::path& base_dir,
@@ -172,8 +257,9 @@ std::vector<SourceConfig> parse_sources(JsonObjectReader& top,
   std::vector<SourceConfig> out;
   const json* list = top.array("sources");
   if (!list) {
-    if (top.is_object() && !top.has("sources"))
-      errors.push_back({"/sources", "", "missing; expected an array of particle sources"});
+    if (top.is_object() && !top.has("sources") && !top.has("feeds"))
+      errors.push_back(
+          {"/sources", "", "missing; expected an array of particle sources (or a feed)"});
     return out;
   }
   for (std::size_t i = 0; i < list->size(); ++i) {
@@ -205,16 +291,7 @@ std::vector<SourceConfig> parse_sources(JsonObjectReader& top,
       if (!r.has("count"))
         errors.push_back({r.path_of("count"), "", "missing; expected an integer >= 1"});
       if (const json* region = r.child("region")) {
-        JsonObjectReader rr(*region, r.path_of("region"), errors);
-        s.region_min_m = rr.vec3("min_m", {});
-        s.region_max_m = rr.vec3("max_m", {});
-        if (rr.is_object() && (!rr.has("min_m") || !rr.has("max_m")))
-          errors.push_back({rr.path(), "", "expected both min_m and max_m"});
-        rr.finish();
-        for (int a = 0; a < 3; ++a)
-          if (!(s.region_max_m[a] > s.region_min_m[a]))
-            errors.push_back({rr.path_of("max_m"), concat(s.region_max_m[a]),
-                              concat("expected each component > min_m (axis ", a, ")")});
+        parse_region(*region, r.path_of("region"), s.region_min_m, s.region_max_m, errors);
       } else {
         errors.push_back({r.path_of("region"), "", "missing; expected {min_m, max_m}"});
       }
@@ -286,6 +363,111 @@ ContactConfig parse_contact(const json& v, InputErrors& errors) {
   return c;
 }
 
+std::vector<OutletConfig> parse_outlets(JsonObjectReader& top, InputErrors& errors) {
+  std::vector<OutletConfig> out;
+  const json* list = top.array("outlets");
+  if (!list) return out;
+  for (std::size_t i = 0; i < list->size(); ++i) {
+    JsonObjectReader r((*list)[i], json_pointer_join("/outlets", i), errors);
+    OutletConfig o;
+    o.name = r.string("name", concat("outlet", i));
+    const std::string type = r.required_string("type", {"plane", "box"});
+    if (type == "plane") {
+      o.kind = OutletKind::Plane;
+      auto point = r.optional_vec3("point_m");
+      auto n = r.optional_vec3("normal");
+      if (r.is_object() && (!point || !n) && !(r.has("point_m") && r.has("normal")))
+        errors.push_back({r.path(), "", "a plane outlet needs point_m and normal"});
+      if (point) o.point_m = *point;
+      if (n) {
+        if (norm(*n) < 1e-12)
+          errors.push_back({r.path_of("normal"), "[0,0,0]", "expected a non-zero vector"});
+        else
+          o.normal = *n * (1.0 / norm(*n));
+      }
+    } else {
+      o.kind = OutletKind::Box;
+      o.min_m = r.vec3("min_m", {});
+      o.max_m = r.vec3("max_m", {});
+      if (r.is_object() && (!r.has("min_m") || !r.has("max_m")))
+        errors.push_back({r.path(), "", "a box outlet needs min_m and max_m"});
+      for (int a = 0; a < 3; ++a)
+        if (!(o.max_m[a] > o.min_m[a]))
+          errors.push_back({r.path_of("max_m"), concat(o.max_m[a]),
+                            concat("expected each component > min_m (axis ", a, ")")});
+    }
+    r.finish();
+    out.push_back(o);
+  }
+  return out;
+}
+
+std::vector<FeedConfig> parse_feeds(JsonObjectReader& top,
+                                    const std::vector<MaterialConfig>& materials,
+                                    InputErrors& errors) {
+  std::vector<FeedConfig> out;
+  const json* list = top.array("feeds");
+  if (!list) return out;
+  for (std::size_t i = 0; i < list->size(); ++i) {
+    JsonObjectReader r((*list)[i], json_pointer_join("/feeds", i), errors);
+    FeedConfig f;
+    f.name = r.string("name", concat("feed", i));
+    f.material = find_material(materials, r, "material", errors, true);
+    if (const json* region = r.child("region"))
+      parse_region(*region, r.path_of("region"), f.region_min_m, f.region_max_m, errors);
+    else if (r.is_object())
+      errors.push_back({r.path_of("region"), "", "missing; expected {min_m, max_m}"});
+    if (const json* sizes = r.child("sizes"))
+      f.sizes = parse_sizes(*sizes, r.path_of("sizes"), errors);
+    else if (r.is_object())
+      errors.push_back({r.path_of("sizes"), "", "missing; expected a size distribution"});
+    f.mass_rate_kg_per_s = r.required_number("mass_rate_kg_per_s", NumberRange::positive());
+    f.velocity_m_per_s = r.vec3("velocity_m_per_s", {});
+    f.velocity_spread_m_per_s =
+        r.number("velocity_spread_m_per_s", 0.0, NumberRange::closed(0.0, 1e4));
+    f.start_s = r.number("start_s", 0.0, NumberRange::non_negative());
+    f.end_s = r.number("end_s", 1e300, NumberRange::non_negative());
+    if (f.end_s <= f.start_s)
+      errors.push_back(
+          {r.path_of("end_s"), concat(f.end_s), concat("expected > start_s = ", f.start_s)});
+    r.finish();
+    out.push_back(f);
+  }
+  return out;
+}
+
+PsdConfig parse_psd(const json& v, InputErrors& errors) {
+  PsdConfig p;
+  JsonObjectReader r(v, "/psd", errors);
+  if (const json* edges = r.array("edges_m")) {
+    for (std::size_t k = 0; k < edges->size(); ++k)
+      if (auto e = read_number((*edges)[k], json_pointer_join("/psd/edges_m", k),
+                               NumberRange::open_closed(0.0, 10.0), errors))
+        p.edges_m.push_back(*e);
+    if (p.edges_m.size() < 2)
+      errors.push_back({"/psd/edges_m", json_value_text(*edges), "expected at least 2 edges"});
+    for (std::size_t k = 1; k < p.edges_m.size(); ++k)
+      if (!(p.edges_m[k] > p.edges_m[k - 1])) {
+        errors.push_back({json_pointer_join("/psd/edges_m", k), concat(p.edges_m[k]),
+                          "expected strictly ascending edges"});
+        break;
+      }
+    if (r.has("min_m") || r.has("max_m") || r.has("bins"))
+      errors.push_back({"/psd", "", "give either edges_m or min_m/max_m/bins, not both"});
+  } else if (r.is_object()) {
+    const double lo = r.required_number("min_m", NumberRange::open_closed(0.0, 10.0));
+    const double hi = r.required_number("max_m", NumberRange::open_closed(0.0, 10.0));
+    const long long bins = r.integer("bins", 30, 1, 10000);
+    if (hi <= lo)
+      errors.push_back({"/psd/max_m", concat(hi), concat("expected > min_m = ", lo)});
+    else
+      for (long long k = 0; k <= bins; ++k)
+        p.edges_m.push_back(lo * std::pow(hi / lo, double(k) / double(bins)));
+  }
+  r.finish();
+  return p;
+}
+
 }  // namespace
 
 SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
@@ -322,6 +504,25 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
     }
     r.finish();
   }
+  if (const json* v = top.child("breakage")) {
+    JsonObjectReader r(*v, "/breakage", errors);
+    BreakageConfig b;
+    b.equivalence = r.string("equivalence", "energy", {"energy", "force"}) == "force"
+                        ? ImpactEquivalence::Force
+                        : ImpactEquivalence::Energy;
+    b.placement_attempts = int(r.integer("placement_attempts", 16, 1, 1000));
+    r.finish();
+    scene.breakage = b;
+  }
+  if (const json* v = top.child("dust")) {
+    JsonObjectReader r(*v, "/dust", errors);
+    scene.dust = DustConfig{
+        r.required_number("threshold_diameter_m", NumberRange::open_closed(0.0, 10.0))};
+    r.finish();
+  }
+  if (const json* v = top.child("psd")) scene.psd = parse_psd(*v, errors);
+  scene.outlets = parse_outlets(top, errors);
+  scene.feeds = parse_feeds(top, scene.materials, errors);
   if (const json* v = top.child("output")) {
     JsonObjectReader r(*v, "/output", errors);
     scene.output.snapshot_interval_s =
@@ -334,6 +535,25 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
   top.finish();
 
   // Cross-field checks that need more than one section.
+  bool breakable = false;
+  for (const MaterialConfig& m : scene.materials) breakable = breakable || m.breakage.has_value();
+  if (breakable && !scene.breakage) scene.breakage = BreakageConfig{};
+  if (breakable && !scene.dust)
+    errors.push_back({"/dust/threshold_diameter_m", "",
+                      "missing; a breakable material needs the dust threshold (fragments smaller "
+                      "than it go to the dust table; it is also the smallest particle the time "
+                      "step must resolve)"});
+  if (!breakable && top.has("breakage"))
+    errors.push_back({"/breakage", "", "no material is breakable: add /materials/N/breakage"});
+  for (std::size_t i = 0; i < scene.feeds.size(); ++i) {
+    const FeedConfig& f = scene.feeds[i];
+    for (int a = 0; a < 3; ++a)
+      if (f.region_min_m[a] < scene.domain.min_m[a] || f.region_max_m[a] > scene.domain.max_m[a]) {
+        errors.push_back({concat("/feeds/", i, "/region"), "",
+                          "expected the region to lie inside the domain box"});
+        break;
+      }
+  }
   for (std::size_t i = 0; i < scene.sources.size(); ++i) {
     const SourceConfig& s = scene.sources[i];
     if (s.kind != SourceKind::Random) continue;

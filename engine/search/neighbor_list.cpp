@@ -10,12 +10,20 @@ constexpr std::size_t kReorderMinParticles = 4096;
 struct KeyedHistory {
   std::uint64_t a, b;  // stable ids (particle ids, or particle id and wall index)
   Vec3 history;
+  std::uint8_t state;  // kPairApart / kPairTouching / kPairGhost
   bool operator<(const KeyedHistory& o) const { return a != o.a ? a < o.a : b < o.b; }
 };
 
-const Vec3* lookup(const std::vector<KeyedHistory>& table, std::uint64_t a, std::uint64_t b) {
-  auto it = std::lower_bound(table.begin(), table.end(), KeyedHistory{a, b, {}});
-  return it != table.end() && it->a == a && it->b == b ? &it->history : nullptr;
+const KeyedHistory* lookup(const std::vector<KeyedHistory>& table, std::uint64_t a,
+                           std::uint64_t b) {
+  auto it = std::lower_bound(table.begin(), table.end(), KeyedHistory{a, b, {}, 0});
+  return it != table.end() && it->a == a && it->b == b ? &*it : nullptr;
+}
+
+const Newborn* find_newborn(const std::vector<Newborn>& newborn, ParticleId id) {
+  auto it = std::lower_bound(newborn.begin(), newborn.end(), id,
+                             [](const Newborn& n, ParticleId v) { return n.id < v; });
+  return it != newborn.end() && it->id == id ? &*it : nullptr;
 }
 
 // ¼ √(d_min d_max): ¼ d for equal sizes, ≈ 1 d_min at 1:10, 2.5 d_min at 1:100 (the best of a
@@ -48,6 +56,12 @@ double occupied_volume_m3(const std::vector<Vec3>& x, const PeriodicBox& box) {
 }
 
 }  // namespace
+
+void NeighborList::mark_newborn(std::vector<Newborn> newborn) {
+  newborn_.insert(newborn_.end(), newborn.begin(), newborn.end());
+  std::sort(newborn_.begin(), newborn_.end(),
+            [](const Newborn& x, const Newborn& y) { return x.id < y.id; });
+}
 
 double NeighborList::max_displacement_m(const ParticleStore& p, const PeriodicBox& box) const {
   const double limit2 = 0.25 * settings_.skin_m * settings_.skin_m;
@@ -136,16 +150,17 @@ bool NeighborList::update(ParticleStore& p, const PeriodicBox& box,
 
 void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
                            const std::vector<PlaneWall>& walls, bool population_changed) {
-  // Keep the history of pairs that have any (touching ones), keyed by stable ids.
+  // Keep the state of pairs that have any (touching ones), keyed by stable ids.
   std::vector<KeyedHistory> old_pairs, old_walls;
   for (std::size_t k = 0; k < pairs.size(); ++k)
-    if (norm2(pair_history_m[k]) > 0.0) {
+    if (pair_touching[k] != kPairApart || norm2(pair_history_m[k]) > 0.0) {
       std::uint64_t a = reference_id_[pairs.first[k]], b = reference_id_[pairs.second[k]];
-      old_pairs.push_back({std::min(a, b), std::max(a, b), pair_history_m[k]});
+      old_pairs.push_back({std::min(a, b), std::max(a, b), pair_history_m[k], pair_touching[k]});
     }
   for (std::size_t k = 0; k < wall_particle.size(); ++k)
-    if (norm2(wall_history_m[k]) > 0.0)
-      old_walls.push_back({reference_id_[wall_particle[k]], wall_index[k], wall_history_m[k]});
+    if (wall_touching[k] != kPairApart || norm2(wall_history_m[k]) > 0.0)
+      old_walls.push_back(
+          {reference_id_[wall_particle[k]], wall_index[k], wall_history_m[k], wall_touching[k]});
   std::sort(old_pairs.begin(), old_pairs.end());
   std::sort(old_walls.begin(), old_walls.end());
 
@@ -178,17 +193,28 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
     }
     pair_image[k] = std::uint8_t(image);
   }
+  // A pair absent from the old list was apart at the last force pass (the rebuild rule keeps
+  // every touching pair listed), except for newborn particles.
   pair_history_m.assign(pairs.size(), Vec3{});
-  pair_touching.assign(pairs.size(), 1);  // unknown yet: let the next force pass clear them
-  if (!old_pairs.empty())
+  pair_touching.assign(pairs.size(), kPairApart);
+  if (!old_pairs.empty() || !newborn_.empty())
     for (std::size_t k = 0; k < pairs.size(); ++k) {
-      // Only a touching pair can carry history (it is cleared when a contact ends).
       const std::uint32_t i = pairs.first[k], j = pairs.second[k];
+      const std::uint64_t a = p.id[i], b = p.id[j];
+      if (const KeyedHistory* h = lookup(old_pairs, std::min(a, b), std::max(a, b))) {
+        pair_history_m[k] = h->history;
+        pair_touching[k] = h->state;
+        continue;
+      }
+      if (newborn_.empty()) continue;
+      const Newborn* ni = find_newborn(newborn_, a);
+      const Newborn* nj = find_newborn(newborn_, b);
+      if (!ni && !nj) continue;
       const double reach = p.radius_m[i] + p.radius_m[j];
       if (norm2(p.position_m[i] - p.position_m[j] - image_shift_[pair_image[k]]) >= reach * reach)
         continue;
-      const std::uint64_t a = p.id[i], b = p.id[j];
-      if (const Vec3* h = lookup(old_pairs, std::min(a, b), std::max(a, b))) pair_history_m[k] = *h;
+      const bool siblings = ni && nj && ni->family != 0 && ni->family == nj->family;
+      pair_touching[k] = siblings ? kPairGhost : kPairTouching;
     }
 
   wall_particle.clear(), wall_index.clear();
@@ -197,10 +223,19 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
       if (wall_distance_m(walls[w], p.position_m[i]) < p.radius_m[i] + settings_.skin_m)
         wall_particle.push_back(std::uint32_t(i)), wall_index.push_back(std::uint32_t(w));
   wall_history_m.assign(wall_particle.size(), Vec3{});
-  if (!old_walls.empty())
-    for (std::size_t k = 0; k < wall_particle.size(); ++k)
-      if (const Vec3* h = lookup(old_walls, p.id[wall_particle[k]], wall_index[k]))
-        wall_history_m[k] = *h;
+  wall_touching.assign(wall_particle.size(), kPairApart);
+  if (!old_walls.empty() || !newborn_.empty())
+    for (std::size_t k = 0; k < wall_particle.size(); ++k) {
+      const std::uint32_t i = wall_particle[k];
+      if (const KeyedHistory* h = lookup(old_walls, p.id[i], wall_index[k])) {
+        wall_history_m[k] = h->history;
+        wall_touching[k] = h->state;
+      } else if (find_newborn(newborn_, p.id[i]) &&
+                 wall_distance_m(walls[wall_index[k]], p.position_m[i]) < p.radius_m[i]) {
+        wall_touching[k] = kPairTouching;
+      }
+    }
+  newborn_.clear();
 
   if (settings_.automatic_skin && !population_changed && steps_since_rebuild_ > 0)
     next_skin_m_ = steer_skin(p);

@@ -16,6 +16,20 @@
 
 namespace millsim {
 
+// Contact state of a candidate pair (pair_touching) at the last force pass.
+inline constexpr std::uint8_t kPairApart = 0;
+inline constexpr std::uint8_t kPairTouching = 1;
+// Sibling fragments that overlapped at birth: no force until they first separate
+// (comminution/fragment_spawn.h).
+inline constexpr std::uint8_t kPairGhost = 2;
+
+// A particle added mid-run. Its contacts at birth are not impacts; siblings (same nonzero
+// family, one breakage event) overlapping at birth become ghost pairs.
+struct Newborn {
+  ParticleId id;
+  std::uint64_t family;  // breakage event number; 0 = not a fragment (feed)
+};
+
 struct NeighborStats {
   std::uint64_t rebuilds = 0;
   std::uint64_t distance_tests = 0;
@@ -45,6 +59,10 @@ class NeighborList {
   bool update(ParticleStore& particles, const PeriodicBox& box, const std::vector<PlaneWall>& walls,
               bool force);
 
+  // Particles added since the last rebuild; consumed by the next (forced) rebuild, which must
+  // come before any force pass.
+  void mark_newborn(std::vector<Newborn> newborn);
+
   // Separation of pair k's partners: x_i − x_j − pair_shift(k).
   const Vec3& pair_shift(std::size_t k) const { return image_shift_[pair_image[k]]; }
 
@@ -55,11 +73,14 @@ class NeighborList {
   PairList pairs;
   std::vector<std::uint8_t> pair_image;  // index into the 27 periodic shifts
   std::vector<Vec3> pair_history_m;
-  std::vector<std::uint8_t> pair_touching;  // 1 while the pair touched at the last force pass
+  // kPairApart/kPairTouching/kPairGhost at the last force pass; carried across rebuilds by id,
+  // so a contact's onset (an impact) is seen exactly once.
+  std::vector<std::uint8_t> pair_touching;
   // Particle–wall candidates.
   std::vector<std::uint32_t> wall_particle;
   std::vector<std::uint32_t> wall_index;
   std::vector<Vec3> wall_history_m;
+  std::vector<std::uint8_t> wall_touching;
 
  private:
   // Largest displacement since the last build; stops early once past skin/2.
@@ -80,6 +101,7 @@ class NeighborList {
   std::uint64_t population_version_ = ~std::uint64_t(0);
   std::vector<Vec3> reference_position_m_;
   std::vector<ParticleId> reference_id_;
+  std::vector<Newborn> newborn_;  // sorted by id
   NeighborStats stats_;
 };
 

@@ -7,6 +7,7 @@
 #include "contact/reduced_stiffness.h"
 #include "dem/integrator.h"
 #include "particles/particle_sources.h"
+#include "process/outlet.h"
 
 namespace millsim {
 namespace {
@@ -65,6 +66,63 @@ void check_inside_domain(const SceneConfig& scene, ParticleStore& p, const Perio
   }
 }
 
+// The smallest and largest particles the run can ever hold beyond its sources: each feed's size
+// range and, for a breakable material, a fragment at the dust threshold. They bound the time
+// step and the reduced-stiffness threshold.
+struct SizeBound {
+  int material;
+  double diameter_m;
+};
+
+double smallest_size_m(const SizeDistribution& s) {
+  switch (s.kind) {
+    case SizeDistributionKind::Fixed:
+      return s.diameter_m;
+    case SizeDistributionKind::LogNormal:  // 3.5 σ below the median unless truncated
+      return std::max(s.min_m, s.median_m / std::pow(s.geometric_std, 3.5));
+    default:
+      return s.min_m;
+  }
+}
+
+double largest_size_m(const SizeDistribution& s) {
+  switch (s.kind) {
+    case SizeDistributionKind::Fixed:
+      return s.diameter_m;
+    case SizeDistributionKind::LogNormal:
+      return std::min(s.max_m, s.median_m * std::pow(s.geometric_std, 3.5));
+    default:
+      return s.max_m;
+  }
+}
+
+std::vector<SizeBound> future_sizes(const SceneConfig& scene) {
+  std::vector<SizeBound> out;
+  for (const FeedConfig& f : scene.feeds) {
+    out.push_back({f.material, smallest_size_m(f.sizes)});
+    out.push_back({f.material, largest_size_m(f.sizes)});
+  }
+  for (std::size_t m = 0; m < scene.materials.size(); ++m)
+    if (scene.materials[m].breakage && scene.dust)
+      out.push_back({int(m), scene.dust->threshold_diameter_m});
+  return out;
+}
+
+// Log-spaced size classes covering everything the run can produce (40 classes).
+std::vector<double> default_psd_edges(const SceneConfig& scene, double d_min, double d_max) {
+  double lo = 0.5 * d_min;
+  if (scene.dust) {
+    double ratio = 1.0;
+    for (const MaterialConfig& m : scene.materials)
+      if (m.breakage) ratio = std::min(ratio, m.breakage->fragments.min_ratio);
+    lo = std::min(lo, 0.5 * ratio * scene.dust->threshold_diameter_m);
+  }
+  const double hi = 1.05 * d_max;
+  std::vector<double> edges;
+  for (int k = 0; k <= 40; ++k) edges.push_back(lo * std::pow(hi / lo, k / 40.0));
+  return edges;
+}
+
 }  // namespace
 
 Simulation::Simulation(const SceneConfig& scene)
@@ -74,17 +132,24 @@ Simulation::Simulation(const SceneConfig& scene)
   walls_ = build_walls(scene, materials_);
   const SourceParticles sources = collect_sources(scene, box_, errors);
   if (!errors.empty()) throw InputErrorList(std::move(errors));
-  if (sources.specs.empty())
-    throw InputErrorList({{"/sources", "", "the sources produced no particles"}});
+  if (sources.specs.empty() && scene.feeds.empty())
+    throw InputErrorList({{"/sources", "", "the sources produced no particles and no feed is set"}});
 
   double d_min = 1e300, d_max = 0.0, fastest = 0.0;
-  std::size_t smallest = 0;
+  int smallest_material = 0;
   for (std::size_t k = 0; k < sources.specs.size(); ++k) {
     const double d = sources.specs[k].diameter_m;
-    if (d < d_min) d_min = d, smallest = k;
+    if (d < d_min) d_min = d, smallest_material = sources.material[k];
     d_max = std::max(d_max, d);
     fastest = std::max(fastest, norm(sources.specs[k].velocity_m_per_s));
   }
+  const std::vector<SizeBound> future = future_sizes(scene);
+  for (const SizeBound& b : future) {
+    if (b.diameter_m < d_min) d_min = b.diameter_m, smallest_material = b.material;
+    d_max = std::max(d_max, b.diameter_m);
+  }
+  for (const FeedConfig& f : scene.feeds)
+    fastest = std::max(fastest, norm(f.velocity_m_per_s) + 3.0 * f.velocity_spread_m_per_s);
 
   time_.impact_speed_m_per_s = contact_.max_impact_speed_m_per_s.value_or(
       default_max_impact_speed_m_per_s(fastest, gravity_m_per_s2_, box_));
@@ -92,7 +157,7 @@ Simulation::Simulation(const SceneConfig& scene)
   // Reduced stiffness (§4): the threshold first, so each particle gets its constants once.
   if (contact_.reduced_stiffness) {
     ReducedStiffnessInfo info;
-    const int material = sources.material[smallest];
+    const int material = smallest_material;
     const int wall = stiffest_wall(materials_, walls_);
     double wall_c = -1.0, e = materials_.material(material).restitution;
     if (wall >= 0) {
@@ -117,17 +182,42 @@ Simulation::Simulation(const SceneConfig& scene)
     }
     reduced_ = info;
   }
+  const std::vector<double> psd_edges =
+      scene.psd.edges_m.empty() ? default_psd_edges(scene, d_min, d_max) : scene.psd.edges_m;
+  if (scene.breakage) {
+    particles_.enable_breakage_state();
+    breakage_.emplace(scene, materials_,
+                      reduced_ ? std::optional<double>(reduced_->threshold_diameter_m)
+                               : std::nullopt,
+                      scene.seed ^ 0x9e3779b97f4a7c15ULL, psd_edges);
+  }
+  outlets_ = scene.outlets;
+  outlet_ = PsdTally(psd_edges);
+  outlet_mass_kg_.assign(outlets_.size(), 0.0);
+  for (std::size_t f = 0; f < scene.feeds.size(); ++f)
+    feeders_.emplace_back(scene.feeds[f],
+                          materials_.material(scene.feeds[f].material).density_kg_per_m3,
+                          scene.seed + 0x51ed270b27ULL * (f + 1));
+
   particles_.reserve(sources.specs.size());
   for (std::size_t k = 0; k < sources.specs.size(); ++k) {
     const ParticleSpec& s = sources.specs[k];
     const double scale =
         reduced_ ? stiffness_scale(s.diameter_m, reduced_->threshold_diameter_m) : 1.0;
     if (scale < 1.0) ++reduced_->reduced_particles;
-    particles_.add(materials_, sources.material[k], ParticleId(k + 1), s.position_m,
-                   s.velocity_m_per_s, s.angular_velocity_rad_per_s, s.diameter_m, scale);
+    const std::size_t slot =
+        particles_.add(materials_, sources.material[k], next_id_++, s.position_m,
+                       s.velocity_m_per_s, s.angular_velocity_rad_per_s, s.diameter_m, scale);
+    if (breakage_) breakage_->draw_strength(particles_, slot);
   }
   check_inside_domain(scene, particles_, box_, errors);
-  choose_time_step(scene, errors);
+  // Particles the run may create later (id 0 in the bounds): the smallest fragment and the
+  // smallest and largest fed particles, with the stiffness they will get.
+  ParticleStore later;
+  for (const SizeBound& b : future)
+    later.add(materials_, b.material, 0, {}, {}, {}, b.diameter_m,
+              reduced_ ? stiffness_scale(b.diameter_m, reduced_->threshold_diameter_m) : 1.0);
+  choose_time_step(scene, later, errors);
 
   // Skin: ¼ √(d_min d_max) re-derived at each rebuild unless set (search/neighbor_list.cpp). The
   // periodic minimum image needs each periodic length to exceed 2 (d_max + skin).
@@ -154,29 +244,55 @@ Simulation::Simulation(const SceneConfig& scene)
                                   " % is allowed (/contact/penetration_limit): move them apart, "
                                   "or use a random source, which never overlaps")}});
 
+  contact_stats_.record_impacts = breakage_.has_value();  // the initial overlaps were no impacts
+
   const EnergyReport e0 = energy();
   energy_reference_j_ = e0.total_j();
   double mass = 0.0;
   for (double m : particles_.mass_kg) mass += m;
+  initial_mass_kg_ = mass;
+  double fed_kinetic_j = 0.0;  // what the feeds may bring in, for the energy scale
+  for (const FeedConfig& f : scene.feeds) {
+    const double fed = f.mass_rate_kg_per_s * std::min(f.end_s - f.start_s, scene.time.end_s);
+    const double speed = norm(f.velocity_m_per_s) + 3.0 * f.velocity_spread_m_per_s;
+    mass += fed;
+    fed_kinetic_j += 0.5 * fed * speed * speed;
+  }
   double height = 0.0;
   const double g = norm(gravity_m_per_s2_);
   for (int a = 0; a < 3 && g > 0.0; ++a) {
     height += std::abs(gravity_m_per_s2_[a] / g) * box_.length(a);
     if (box_.periodic[a] && gravity_m_per_s2_[a] != 0.0) check_energy_ = false;  // no potential
   }
-  energy_scale_j_ = e0.kinetic_j + e0.rotational_j + e0.elastic_j + mass * g * height + 1e-300;
+  energy_scale_j_ =
+      e0.kinetic_j + e0.rotational_j + e0.elastic_j + fed_kinetic_j + mass * g * height + 1e-300;
 }
 
-void Simulation::choose_time_step(const SceneConfig& scene, InputErrors& errors) {
+// The tighter of two sets of bounds.
+static TimeStepBounds tighter(TimeStepBounds a, const TimeStepBounds& b) {
+  if (b.rayleigh_s < a.rayleigh_s) a.rayleigh_s = b.rayleigh_s, a.rayleigh_particle = 0;
+  if (b.contact_s < a.contact_s)
+    a.contact_s = b.contact_s, a.contact_particle = 0, a.contact_with_wall = b.contact_with_wall;
+  return a;
+}
+
+static std::string describe_particle(ParticleId id) {
+  return id == 0 ? std::string("the smallest fragment or fed particle") : concat("particle ", id);
+}
+
+void Simulation::choose_time_step(const SceneConfig& scene, const ParticleStore& later,
+                                  InputErrors& errors) {
   const double v = time_.impact_speed_m_per_s;
-  time_.bounds = time_step_bounds(particles_, materials_, walls_, v);
+  time_.bounds = tighter(time_step_bounds(particles_, materials_, walls_, v),
+                         time_step_bounds(later, materials_, walls_, v));
   const TimeStepBounds& b = time_.bounds;
   time_.stable_bound_s = std::min(b.rayleigh_s, b.contact_s / kMinStepsPerContact);
   const double automatic =
       std::min(scene.time.safety_factor * b.rayleigh_s, b.contact_s / scene.time.steps_per_contact);
   if (reduced_) {
     const TimeStepBounds real =
-        time_step_bounds(particles_, materials_, walls_, v, /*at_real_stiffness=*/true);
+        tighter(time_step_bounds(particles_, materials_, walls_, v, /*at_real_stiffness=*/true),
+                time_step_bounds(later, materials_, walls_, v, /*at_real_stiffness=*/true));
     reduced_->time_step_gain = automatic / std::min(scene.time.safety_factor * real.rayleigh_s,
                                                     real.contact_s / scene.time.steps_per_contact);
   }
@@ -186,14 +302,14 @@ void Simulation::choose_time_step(const SceneConfig& scene, InputErrors& errors)
     if (time_.step_s > b.rayleigh_s)
       errors.push_back({"/time/step_s", concat(time_.step_s),
                         concat("expected at most the Rayleigh time of the smallest particle, ",
-                               b.rayleigh_s, " s (particle ", b.rayleigh_particle,
+                               b.rayleigh_s, " s (", describe_particle(b.rayleigh_particle),
                                "); lower it, use \"auto\", or reduce the stiffness of the finest "
                                "particles (/contact/reduced_stiffness)")});
     else if (time_.step_s > b.contact_s / 4.0)
       errors.push_back(
           {"/time/step_s", concat(time_.step_s),
            concat("expected at most a quarter of the shortest Hertz contact time, ",
-                  b.contact_s / 4.0, " s (particle ", b.contact_particle, " against ",
+                  b.contact_s / 4.0, " s (", describe_particle(b.contact_particle), " against ",
                   b.contact_with_wall ? "the stiffest wall" : "an equal particle", " at ", v,
                   " m/s, /contact/max_impact_speed_m_per_s); lower it or "
                   "use \"auto\"")});
@@ -246,12 +362,92 @@ std::optional<StepFailure> Simulation::step() {
       limiter_events_ += apply_penetration_limiter(contact_stats_, materials_, box_, walls_,
                                                    neighbors_, particles_);
   });
+  particle_steps_ += double(particles_.size());
   ++step_index_;
+  if (breakage_ || !outlets_.empty() || !feeders_.empty()) process_population();
   std::optional<StepFailure> failure;
   if (step_index_ % 16 == 0 || step_index_ == total_steps_ ||
       contact_stats_.max_overlap_ratio > 2.0 * contact_.penetration_limit)
     profile_.time(Phase::Health, [&] { failure = check_health(); });
   return failure;
+}
+
+double Simulation::particle_energy_j(std::size_t i) const {
+  const ParticleStore& p = particles_;
+  return 0.5 * p.mass_kg[i] * norm2(p.velocity_m_per_s[i]) +
+         0.5 * norm2(p.angular_velocity_rad_per_s[i]) / p.inv_inertia_per_kg_m2[i] -
+         p.mass_kg[i] * dot(gravity_m_per_s2_, p.position_m[i]);
+}
+
+void Simulation::process_population() {
+  const std::uint64_t version = particles_.population_version;
+  std::vector<Newborn> newborn;
+  const auto removed = [this](const ParticleStore&, std::size_t i) {
+    energy_added_j_ -= particle_energy_j(i);
+  };
+  const auto added = [this](const ParticleStore&, std::size_t i) {
+    energy_added_j_ += particle_energy_j(i);
+  };
+  if (breakage_ && !contact_stats_.impacts.empty())
+    profile_.time(Phase::Breakage, [&] {
+      breakage_->process(contact_stats_.impacts, walls_, particles_, next_id_, newborn, removed,
+                         added);
+      contact_stats_.impacts.clear();  // slots are stale now
+    });
+  profile_.time(Phase::Population, [&] {
+    if (!outlets_.empty())
+      for (std::size_t i = particles_.size(); i-- > 0;) {
+        const int outlet = outlet_of(outlets_, particles_.position_m[i]);
+        if (outlet < 0) continue;
+        const double m = particles_.mass_kg[i];
+        outlet_.add(2.0 * particles_.radius_m[i], m);
+        outlet_mass_kg_[std::size_t(outlet)] += m;
+        outlet_momentum_ += particles_.velocity_m_per_s[i] * m;
+        removed(particles_, i);
+        particles_.remove_swap(i);
+      }
+    for (Feeder& feeder : feeders_) {
+      const int material = feeder.config().material;
+      for (const ParticleSpec& spec :
+           feeder.take_due(time_s(), time_.step_s, particles_, box_)) {
+        const double scale =
+            reduced_ ? stiffness_scale(spec.diameter_m, reduced_->threshold_diameter_m) : 1.0;
+        const ParticleId id = next_id_++;
+        const std::size_t slot = particles_.add(materials_, material, id, spec.position_m,
+                                                spec.velocity_m_per_s, {}, spec.diameter_m, scale);
+        if (breakage_) breakage_->draw_strength(particles_, slot);
+        fed_mass_kg_ += particles_.mass_kg[slot];
+        added(particles_, slot);
+        newborn.push_back({id, 0});
+      }
+    }
+    if (particles_.population_version != version) {
+      // Rebuild now, so the list never refers to removed slots and the newborn are marked
+      // before the next force pass.
+      neighbors_.mark_newborn(std::move(newborn));
+      neighbors_.update(particles_, box_, walls_, true);
+    }
+  });
+}
+
+PsdTally Simulation::product_tally() const {
+  PsdTally product = outlet_;
+  if (breakage_) product.add(breakage_->dust());
+  return product;
+}
+
+MassBalance Simulation::mass_balance() const {
+  MassBalance b;
+  b.initial_kg = initial_mass_kg_;
+  b.fed_kg = fed_mass_kg_;
+  for (double m : particles_.mass_kg) b.particles_kg += m;
+  b.outlet_kg = outlet_.total_mass_kg();
+  b.dust_kg = breakage_ ? breakage_->dust().total_mass_kg() : 0.0;
+  return b;
+}
+
+Vec3 Simulation::removed_momentum_kg_m_per_s() const {
+  return outlet_momentum_ + (breakage_ ? breakage_->dust_momentum_kg_m_per_s() : Vec3{});
 }
 
 std::optional<StepFailure> Simulation::check_health() {
@@ -292,7 +488,7 @@ std::optional<StepFailure> Simulation::check_health() {
                ": raise /contact/max_impact_speed_m_per_s, lower the reduced-"
                "stiffness threshold, or lower the step")};
   if (check_energy_ && step_index_ % 256 == 0) {
-    const double growth = energy().total_j() - energy_reference_j_;
+    const double growth = energy().total_j() - energy_reference_j_ - energy_added_j_;
     if (growth > 0.05 * energy_scale_j_)
       return StepFailure{
           step_index_, time_s(), 0, "energy_growth",

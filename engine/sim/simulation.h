@@ -8,6 +8,7 @@
 #include <optional>
 #include <vector>
 
+#include "comminution/breakage.h"
 #include "contact/contact_forces.h"
 #include "contact/walls.h"
 #include "core/errors.h"
@@ -15,6 +16,8 @@
 #include "dem/time_step.h"
 #include "particles/materials.h"
 #include "particles/particle_store.h"
+#include "process/feed.h"
+#include "process/psd.h"
 #include "scene/scene_config.h"
 #include "search/neighbor_list.h"
 #include "sim/step_profile.h"
@@ -46,6 +49,19 @@ struct ReducedStiffnessInfo {
   double time_step_gain = 1.0;  // automatic step with reduction / without (§4: ≈ 3 in Fig. 9)
 };
 
+// Where the mass went: particles + outlet + dust = initial + fed, to rounding.
+struct MassBalance {
+  double initial_kg = 0.0;
+  double fed_kg = 0.0;
+  double particles_kg = 0.0;
+  double outlet_kg = 0.0;
+  double dust_kg = 0.0;
+  double relative_error() const {
+    const double in = initial_kg + fed_kg;
+    return in > 0.0 ? (particles_kg + outlet_kg + dust_kg - in) / in : 0.0;
+  }
+};
+
 class Simulation {
  public:
   // Throws InputErrorList when the scene cannot be built (bad particle files, overfull
@@ -74,13 +90,30 @@ class Simulation {
   StepProfile& profile() { return profile_; }
   ContactModel contact_model() const { return contact_.model; }
 
+  // Breakage, outlets and feeds (each absent unless the scene has it).
+  const Breakage* breakage() const { return breakage_ ? &*breakage_ : nullptr; }
+  const std::vector<Feeder>& feeders() const { return feeders_; }
+  const PsdTally& outlet_tally() const { return outlet_; }  // particles that left by an outlet
+  const std::vector<double>& outlet_mass_by_outlet_kg() const { return outlet_mass_kg_; }
+  // Outlet particles + dust table: the run's product.
+  PsdTally product_tally() const;
+  MassBalance mass_balance() const;
+  // Momentum that left the run with outlet particles and dust.
+  Vec3 removed_momentum_kg_m_per_s() const;
+  double particle_steps() const { return particle_steps_; }
+
   EnergyReport energy() const;
   // Recomputes forces for the current state (after editing particles by hand).
   void refresh_forces();
 
  private:
-  void choose_time_step(const SceneConfig& scene, InputErrors& errors);
+  // `later`: particles the run may create (feeds, the smallest fragment), for the bounds.
+  void choose_time_step(const SceneConfig& scene, const ParticleStore& later, InputErrors& errors);
   void compute_forces();
+  // Breakage, outlets and feeds at the end of a step; rebuilds the neighbour list when the
+  // population changed.
+  void process_population();
+  double particle_energy_j(std::size_t slot) const;
   std::optional<StepFailure> check_health();
   std::string describe_worst_overlap() const;
 
@@ -101,6 +134,17 @@ class Simulation {
   bool check_energy_ = true;
   ContactStepStats contact_stats_;
   StepProfile profile_;
+  ParticleId next_id_ = 1;
+  double particle_steps_ = 0.0;
+  double energy_added_j_ = 0.0;  // energy of particles added minus removed since the start
+  std::optional<Breakage> breakage_;
+  std::vector<OutletConfig> outlets_;
+  std::vector<Feeder> feeders_;
+  PsdTally outlet_;
+  std::vector<double> outlet_mass_kg_;
+  Vec3 outlet_momentum_;
+  double initial_mass_kg_ = 0.0;
+  double fed_mass_kg_ = 0.0;
 };
 
 }  // namespace millsim

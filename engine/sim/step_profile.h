@@ -8,10 +8,20 @@
 
 namespace millsim {
 
-enum class Phase { KickDrift, Neighbors, Forces, Kick, Health, Output, Count };
+enum class Phase {
+  KickDrift,
+  Neighbors,
+  Forces,
+  Kick,
+  Breakage,
+  Population,  // outlets, feeds and the rebuild after any population change
+  Health,
+  Output,
+  Count
+};
 
 inline constexpr std::array<std::string_view, std::size_t(Phase::Count)> kPhaseNames = {
-    "kick_drift", "neighbors", "forces", "kick", "health", "output"};
+    "kick_drift", "neighbors", "forces", "kick", "breakage", "population", "health", "output"};
 
 struct StepProfile {
   std::array<double, std::size_t(Phase::Count)> seconds{};

@@ -1,0 +1,137 @@
+#include "comminution/breakage.h"
+
+#include <algorithm>
+#include <numbers>
+
+#include "comminution/fragment_spawn.h"
+#include "comminution/strength.h"
+#include "contact/reduced_stiffness.h"
+
+namespace millsim {
+namespace {
+
+// The particle store's mass formula, term for term, so parent = Σ fragments + dust to rounding.
+double sphere_mass_kg(double density, double diameter_m) {
+  const double r = 0.5 * diameter_m;
+  return density * 4.0 / 3.0 * std::numbers::pi * r * r * r;
+}
+
+}  // namespace
+
+Breakage::Breakage(const SceneConfig& scene, const MaterialTable& materials,
+                   std::optional<double> reduced_threshold_m, std::uint64_t seed,
+                   std::vector<double> psd_edges_m)
+    : materials_(&materials),
+      equivalence_(scene.breakage ? scene.breakage->equivalence : ImpactEquivalence::Energy),
+      placement_attempts_(scene.breakage ? scene.breakage->placement_attempts : 16),
+      dust_threshold_m_(scene.dust ? scene.dust->threshold_diameter_m : 0.0),
+      reduced_threshold_m_(reduced_threshold_m),
+      rng_(seed),
+      dust_(std::move(psd_edges_m)) {
+  for (const MaterialConfig& m : scene.materials) {
+    if (m.breakage)
+      material_.push_back(Material{*m.breakage, FragmentSizeSampler(m.breakage->fragments)});
+    else
+      material_.emplace_back();
+  }
+}
+
+void Breakage::draw_strength(ParticleStore& p, std::size_t slot) {
+  const auto& m = material_[p.material[slot]];
+  if (!m) return;
+  // u in (0, 1]: 1 − uniform01 never returns 0.
+  p.remaining_capacity_j_per_kg[slot] =
+      capacity_from_uniform_j_per_kg(m->config.strength, 2.0 * p.radius_m[slot], 1.0 - uniform01(rng_));
+}
+
+double Breakage::impact_energy_j_per_kg(const Impact& impact, bool on_partner,
+                                        const std::vector<PlaneWall>& walls,
+                                        const ParticleStore& p) const {
+  const std::uint32_t i = on_partner ? impact.partner : impact.particle;
+  const double c_i = materials_->material(p.material[i]).normal_compliance;
+  double u;
+  if (impact.with_wall) {
+    const PlaneWall& wall = walls[impact.partner];
+    const double c_wall =
+        materials_->wall_pair(wall.pair_table, p.material[i]).wall_normal_compliance;
+    u = equivalent_speed_wall(equivalence_, c_i, c_wall, impact.speed_m_per_s);
+  } else {
+    const std::uint32_t j = on_partner ? impact.particle : impact.partner;
+    u = equivalent_speed_pair(equivalence_, p.mass_kg[i], p.radius_m[i], c_i, p.mass_kg[j],
+                              p.radius_m[j], materials_->material(p.material[j]).normal_compliance,
+                              impact.speed_m_per_s);
+  }
+  return 0.5 * u * u;
+}
+
+std::uint64_t Breakage::process(const std::vector<Impact>& impacts,
+                                const std::vector<PlaneWall>& walls, ParticleStore& p,
+                                ParticleId& next_id, std::vector<Newborn>& newborn,
+                                const ParticleHook& before_removal,
+                                const ParticleHook& after_addition) {
+  std::vector<std::uint32_t> broken;
+  for (const Impact& impact : impacts) {
+    for (int side = 0; side < (impact.with_wall ? 1 : 2); ++side) {
+      const std::uint32_t slot = side ? impact.partner : impact.particle;
+      const auto& m = material_[p.material[slot]];
+      if (!m || std::find(broken.begin(), broken.end(), slot) != broken.end()) continue;
+      const double d = 2.0 * p.radius_m[slot];
+      const double w = impact_energy_j_per_kg(impact, side == 1, walls, p);
+      if (w <= threshold_energy_j_per_kg(m->config.strength, d)) continue;
+      ++stats_.impacts;
+      if (apply_impact(m->config, d, w, p.remaining_capacity_j_per_kg[slot]))
+        broken.push_back(slot);
+      else
+        ++stats_.fatigue_impacts;
+    }
+  }
+  if (broken.empty()) return 0;
+  for (std::uint32_t slot : broken) break_particle(slot, p, next_id, newborn, after_addition);
+  // Remove the parents from the highest slot down: each swap then moves in a particle that is
+  // not a parent still to be removed.
+  std::sort(broken.begin(), broken.end(), std::greater<>());
+  for (std::uint32_t slot : broken) {
+    before_removal(p, slot);
+    p.remove_swap(slot);
+  }
+  return broken.size();
+}
+
+void Breakage::break_particle(std::size_t slot, ParticleStore& p, ParticleId& next_id,
+                              std::vector<Newborn>& newborn, const ParticleHook& after_addition) {
+  const int material = p.material[slot];
+  const Material& m = *material_[std::size_t(material)];
+  const double density = materials_->material(material).density_kg_per_m3;
+  const double parent_d = 2.0 * p.radius_m[slot];
+  const Vec3 x = p.position_m[slot], v = p.velocity_m_per_s[slot];
+  const Vec3 w = p.angular_velocity_rad_per_s[slot];
+  const std::uint64_t family = ++stats_.events;
+  stats_.broken_mass_kg += p.mass_kg[slot];
+
+  std::vector<double> kept_d;
+  for (double ratio : m.sampler.draw_ratios(rng_)) {
+    const double d = ratio * parent_d;
+    if (d >= dust_threshold_m_) {
+      kept_d.push_back(d);
+      continue;
+    }
+    const double mass = sphere_mass_kg(density, d);
+    dust_.add(d, mass);
+    dust_momentum_ += v * mass;  // dust leaves with the parent's velocity
+    ++stats_.dust_fragments;
+  }
+  const std::vector<Vec3> offset = place_fragments(kept_d, parent_d, placement_attempts_, rng_);
+  for (std::size_t k = 0; k < kept_d.size(); ++k) {
+    const double scale =
+        reduced_threshold_m_ ? stiffness_scale(kept_d[k], *reduced_threshold_m_) : 1.0;
+    const ParticleId id = next_id++;
+    const std::size_t s = p.add(*materials_, material, id, x + offset[k], v + cross(w, offset[k]),
+                                w, kept_d[k], scale);
+    draw_strength(p, s);
+    newborn.push_back({id, family});
+    after_addition(p, s);
+    ++stats_.fragments;
+  }
+}
+
+}  // namespace millsim

@@ -1,0 +1,91 @@
+// Breakage module (DESIGN.md data flow: impacts → selection → fragments; §5 dust table). Built
+// only for scenes with a breakable material. Each step it takes the contact onsets recorded by
+// the force pass, turns each into an equivalent wall-impact energy per breakable partner
+// (strength.h), applies it to the particle's remaining strength (fatigue), and replaces every
+// particle that breaks by fragments drawn from its material's breakage function
+// (fragment_sizes.h) and placed inside it (fragment_spawn.h). Fragments smaller than the dust
+// threshold are never created: their mass, count and momentum go to the dust table.
+// Mass is conserved to rounding: parent = fragments + dust, each fragment's mass from its
+// diameter exactly as the particle store computes it.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <vector>
+
+#include "comminution/fragment_sizes.h"
+#include "contact/contact_forces.h"
+#include "contact/walls.h"
+#include "core/rng.h"
+#include "particles/materials.h"
+#include "particles/particle_store.h"
+#include "process/psd.h"
+#include "scene/scene_config.h"
+#include "search/neighbor_list.h"
+
+namespace millsim {
+
+struct BreakageStats {
+  std::uint64_t impacts = 0;          // impacts on breakable particles above W_min
+  std::uint64_t fatigue_impacts = 0;  // of those, survived (and weakened, with fatigue)
+  std::uint64_t events = 0;           // particles broken
+  std::uint64_t fragments = 0;        // fragments created as particles
+  std::uint64_t dust_fragments = 0;   // fragments sent to the dust table
+  double broken_mass_kg = 0.0;
+};
+
+class Breakage {
+ public:
+  // `reduced_stiffness_threshold_m`: fragments below it get the reduced stiffness (§4).
+  Breakage(const SceneConfig& scene, const MaterialTable& materials,
+           std::optional<double> reduced_stiffness_threshold_m, std::uint64_t seed,
+           std::vector<double> psd_edges_m);
+
+  bool breakable(int material) const { return material_[std::size_t(material)].has_value(); }
+  double dust_threshold_m() const { return dust_threshold_m_; }
+
+  // Draws the strength of the particle in `slot` (a breakable material's particle just added).
+  void draw_strength(ParticleStore& particles, std::size_t slot);
+
+  // Called with a particle's slot just before it is removed and just after a fragment is added,
+  // so the caller can keep its energy ledger.
+  using ParticleHook = std::function<void(const ParticleStore&, std::size_t)>;
+
+  // Applies one step's impacts. Broken particles are removed, fragments appended with new ids
+  // from `next_id` and listed in `newborn` (for the neighbour list). Returns the events.
+  std::uint64_t process(const std::vector<Impact>& impacts, const std::vector<PlaneWall>& walls,
+                        ParticleStore& particles, ParticleId& next_id,
+                        std::vector<Newborn>& newborn, const ParticleHook& before_removal,
+                        const ParticleHook& after_addition);
+
+  const BreakageStats& stats() const { return stats_; }
+  const PsdTally& dust() const { return dust_; }
+  const Vec3& dust_momentum_kg_m_per_s() const { return dust_momentum_; }
+
+ private:
+  struct Material {
+    MaterialBreakageConfig config;
+    FragmentSizeSampler sampler;
+  };
+
+  // Specific energy of the impact on `particle` (J/kg), by the scene's equivalence.
+  double impact_energy_j_per_kg(const Impact& impact, bool on_partner,
+                                const std::vector<PlaneWall>& walls,
+                                const ParticleStore& p) const;
+  void break_particle(std::size_t slot, ParticleStore& p, ParticleId& next_id,
+                      std::vector<Newborn>& newborn, const ParticleHook& after_addition);
+
+  const MaterialTable* materials_;
+  std::vector<std::optional<Material>> material_;
+  ImpactEquivalence equivalence_;
+  int placement_attempts_;
+  double dust_threshold_m_;
+  std::optional<double> reduced_threshold_m_;
+  Rng rng_;
+  PsdTally dust_;
+  Vec3 dust_momentum_;
+  BreakageStats stats_;
+};
+
+}  // namespace millsim

@@ -1,0 +1,27 @@
+// Outlets: a plane (particles whose centre is behind it, against its normal, have left) or a box
+// (particles whose centre is inside have left). The simulation removes such particles and bins
+// them into the outlet PSD (sim/simulation.cpp).
+#pragma once
+
+#include <vector>
+
+#include "core/vec3.h"
+#include "scene/scene_config.h"
+
+namespace millsim {
+
+inline bool outlet_contains(const OutletConfig& o, const Vec3& x) {
+  if (o.kind == OutletKind::Plane) return dot(x - o.point_m, o.normal) < 0.0;
+  for (int a = 0; a < 3; ++a)
+    if (x[a] < o.min_m[a] || x[a] > o.max_m[a]) return false;
+  return true;
+}
+
+// Index of the first outlet containing x, or −1.
+inline int outlet_of(const std::vector<OutletConfig>& outlets, const Vec3& x) {
+  for (std::size_t k = 0; k < outlets.size(); ++k)
+    if (outlet_contains(outlets[k], x)) return int(k);
+  return -1;
+}
+
+}  // namespace millsim
