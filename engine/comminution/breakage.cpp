@@ -65,11 +65,15 @@ double Breakage::impact_energy_j_per_kg(const Impact& impact, bool on_partner,
 }
 
 std::uint64_t Breakage::process(const std::vector<Impact>& impacts,
+                                const std::vector<std::uint32_t>& crushed, double dt_s,
                                 const std::vector<PlaneWall>& walls, ParticleStore& p,
                                 ParticleId& next_id, std::vector<Newborn>& newborn,
                                 const ParticleHook& before_removal,
                                 const ParticleHook& after_addition) {
   std::vector<std::uint32_t> broken;
+  for (std::uint32_t slot : crushed)
+    if (material_[p.material[slot]] && std::find(broken.begin(), broken.end(), slot) == broken.end())
+      broken.push_back(slot), ++stats_.crush_events;
   for (const Impact& impact : impacts) {
     for (int side = 0; side < (impact.with_wall ? 1 : 2); ++side) {
       const std::uint32_t slot = side ? impact.partner : impact.particle;
@@ -86,7 +90,7 @@ std::uint64_t Breakage::process(const std::vector<Impact>& impacts,
     }
   }
   if (broken.empty()) return 0;
-  for (std::uint32_t slot : broken) break_particle(slot, p, next_id, newborn, after_addition);
+  for (std::uint32_t slot : broken) break_particle(slot, dt_s, p, next_id, newborn, after_addition);
   // Remove the parents from the highest slot down: each swap then moves in a particle that is
   // not a parent still to be removed.
   std::sort(broken.begin(), broken.end(), std::greater<>());
@@ -97,7 +101,7 @@ std::uint64_t Breakage::process(const std::vector<Impact>& impacts,
   return broken.size();
 }
 
-void Breakage::break_particle(std::size_t slot, ParticleStore& p, ParticleId& next_id,
+void Breakage::break_particle(std::size_t slot, double dt_s, ParticleStore& p, ParticleId& next_id,
                               std::vector<Newborn>& newborn, const ParticleHook& after_addition) {
   const int material = p.material[slot];
   const Material& m = *material_[std::size_t(material)];
@@ -105,8 +109,11 @@ void Breakage::break_particle(std::size_t slot, ParticleStore& p, ParticleId& ne
   const double parent_d = 2.0 * p.radius_m[slot];
   const Vec3 x = p.position_m[slot], v = p.velocity_m_per_s[slot];
   const Vec3 w = p.angular_velocity_rad_per_s[slot];
+  const Vec3 force = p.force_n[slot], torque = p.torque_n_m[slot];
+  const double parent_mass = p.mass_kg[slot];
+  const ParticleId parent_id = p.id[slot];
   const std::uint64_t family = ++stats_.events;
-  stats_.broken_mass_kg += p.mass_kg[slot];
+  stats_.broken_mass_kg += parent_mass;
 
   std::vector<double> kept_d;
   for (double ratio : m.sampler.draw_ratios(rng_)) {
@@ -117,7 +124,8 @@ void Breakage::break_particle(std::size_t slot, ParticleStore& p, ParticleId& ne
     }
     const double mass = sphere_mass_kg(density, d);
     dust_.add(d, mass);
-    dust_momentum_ += v * mass;  // dust leaves with the parent's velocity
+    // The dust leaves with the parent's velocity and its share of the force in flight.
+    dust_momentum_ += v * mass + force * (0.5 * dt_s * mass / parent_mass);
     ++stats_.dust_fragments;
   }
   const std::vector<Vec3> offset = place_fragments(kept_d, parent_d, placement_attempts_, rng_);
@@ -127,8 +135,11 @@ void Breakage::break_particle(std::size_t slot, ParticleStore& p, ParticleId& ne
     const ParticleId id = next_id++;
     const std::size_t s = p.add(*materials_, material, id, x + offset[k], v + cross(w, offset[k]),
                                 w, kept_d[k], scale);
+    const double share = p.mass_kg[s] / parent_mass;
+    p.force_n[s] = force * share;
+    p.torque_n_m[s] = torque * share;
     draw_strength(p, s);
-    newborn.push_back({id, family});
+    newborn.push_back({id, family, parent_id});
     after_addition(p, s);
     ++stats_.fragments;
   }

@@ -6,10 +6,12 @@
 //   (fragments cannot pack into the parent's volume, so overlaps between siblings remain).
 //   Motion: the parent's rigid-body field, v_k = v + ω × (x_k − x_c), ω_k = ω. With the centre of
 //   mass kept this conserves momentum exactly.
-//   Sibling overlaps: siblings that overlap at birth exert no force on each other until they
-//   first separate (the neighbour list marks them, search/neighbor_list.h), so the stored
-//   overlap never turns into an energy explosion. Contacts a fragment has at birth with other
-//   particles or walls are not new impacts (no breakage cascade within one impact).
+//   Sibling overlaps: siblings that overlap at birth remember that overlap; only overlap beyond
+//   it pushes back, and the memory follows the overlap down as they separate (the neighbour list
+//   marks them, search/neighbor_list.h, kPairGhost). The birth overlap thus stores no energy and
+//   cannot explode, yet siblings do not pass through each other (nor squeeze a third particle).
+//   Contacts a fragment has at birth with other particles or walls are not new impacts (no
+//   breakage cascade within one impact).
 #pragma once
 
 #include <vector>

@@ -37,7 +37,8 @@ bool apply_impact(const MaterialBreakageConfig& b, double diameter_m, double w_j
 //   energy: v m_j / (m_i + m_j), i's speed in the centre-of-mass frame (for equal spheres,
 //           each hits the symmetry plane at v/2);
 //   force:  the rigid-wall speed with the same peak Hertz force,
-//           u² = v² (m*/m_i) (c_i/(c_i + c_j))^{2/3} (R*/R_i)^{1/3}  (equal spheres: u = 2^{-2/3} v).
+//           u² = v² (m*/m_i) (c_i/(c_i + c_j))^{2/3} (R*/R_i)^{1/3}. For equal spheres both
+//           give v/2 (the symmetry plane is a rigid wall); they differ for unlike partners.
 double equivalent_speed_pair(ImpactEquivalence model, double mass_i_kg, double radius_i_m,
                              double compliance_i, double mass_j_kg, double radius_j_m,
                              double compliance_j, double speed_m_per_s);

@@ -60,12 +60,21 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
       continue;
     }
     const std::uint8_t before = touching_flag[k];
-    if (before == kPairGhost) continue;  // siblings born overlapping: no force until apart
-    touching_flag[k] = kPairTouching;
-    ++touching;
     const double dist = std::sqrt(dist2);
+    double overlap = rsum - dist;
+    const bool ghost = before == kPairGhost;
+    if (ghost) {
+      // Born overlapping: only overlap beyond the remembered birth overlap (history[k][0], which
+      // follows the overlap down as the pair separates) pushes back (neighbor_list.h).
+      double& memory = history[k][0];
+      memory = std::min(memory, overlap);
+      overlap -= memory;
+      if (overlap <= 0.0) continue;
+    } else {
+      touching_flag[k] = kPairTouching;
+    }
+    ++touching;
     const Vec3 n = d * (1.0 / dist);
-    const double overlap = rsum - dist;
     const double sqrt_overlap = std::sqrt(overlap);
     const PairConstants& pc = materials.pair(mat[i], mat[j]);
     const PairSprings s = law(i, j, pc);
@@ -78,7 +87,9 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
     if (before == kPairApart && vn < 0.0 && stats.record_impacts)
       stats.impacts.push_back({i, j, false, -vn});
     const double fn = hertz_normal_force_n(s, overlap, sqrt_overlap, vn);
-    const Vec3 ft = tangential_force(s, sqrt_overlap, fn, pc.friction, n, v_t, dt, history[k]);
+    const Vec3 ft = ghost ? Vec3{}
+                          : tangential_force(s, sqrt_overlap, fn, pc.friction, n, v_t, dt,
+                                             history[k]);
     const Vec3 force = n * fn + ft;
     f[i] += force;
     f[j] -= force;
@@ -143,14 +154,22 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Plane
     const std::uint32_t i = nl.wall_particle[k];
     const PlaneWall& wall = walls[nl.wall_index[k]];
     const double r = p.radius_m[i];
-    const double overlap = r - wall_distance_m(wall, p.position_m[i]);
+    double overlap = r - wall_distance_m(wall, p.position_m[i]);
     if (overlap <= 0.0) {
       nl.wall_history_m[k] = {};
       nl.wall_touching[k] = kPairApart;
       continue;
     }
     const bool onset = nl.wall_touching[k] == kPairApart;
-    nl.wall_touching[k] = kPairTouching;
+    const bool ghost = nl.wall_touching[k] == kPairGhost;
+    if (ghost) {  // born deep in the wall: overlap memory, as for particle pairs
+      double& memory = nl.wall_history_m[k][0];
+      memory = std::min(memory, overlap);
+      overlap -= memory;
+      if (overlap <= 0.0) continue;
+    } else {
+      nl.wall_touching[k] = kPairTouching;
+    }
     ++touching;
     const Vec3& n = wall.normal;
     const PairConstants& pc = materials.wall_pair(wall.pair_table, p.material[i]);
@@ -162,8 +181,9 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Plane
     if (onset && vn < 0.0 && stats.record_impacts)
       stats.impacts.push_back({i, nl.wall_index[k], true, -vn});
     const double fn = hertz_normal_force_n(s, overlap, sqrt_overlap, vn);
-    const Vec3 ft =
-        tangential_force(s, sqrt_overlap, fn, pc.friction, n, v_t, dt, nl.wall_history_m[k]);
+    const Vec3 ft = ghost ? Vec3{}
+                          : tangential_force(s, sqrt_overlap, fn, pc.friction, n, v_t, dt,
+                                             nl.wall_history_m[k]);
     p.force_n[i] += n * fn + ft;
     p.torque_n_m[i] -= cross(n, ft) * (r - 0.5 * overlap);
     if (pc.rolling_friction > 0.0) {
@@ -193,23 +213,29 @@ double contact_elastic_energy_j(ContactModel model, const MaterialTable& materia
   for (std::size_t k = 0; k < nl.pairs.size(); ++k) {
     const std::uint32_t i = nl.pairs.first[k], j = nl.pairs.second[k];
     const double dist = norm(box.minimum_image(p.position_m[i] - p.position_m[j]));
-    const double overlap = p.radius_m[i] + p.radius_m[j] - dist;
-    if (overlap <= 0.0 || nl.pair_touching[k] == kPairGhost) continue;
+    const bool ghost = nl.pair_touching[k] == kPairGhost;
+    const double overlap =
+        p.radius_m[i] + p.radius_m[j] - dist - (ghost ? nl.pair_history_m[k][0] : 0.0);
+    if (overlap <= 0.0) continue;
     const PairConstants& pc = materials.pair(p.material[i], p.material[j]);
     const PairSprings s = model == ContactModel::SeriesSprings  ? series_law(i, j, pc)
                           : model == ContactModel::PaperSprings ? paper_law(i, j, pc)
                                                                 : equivalent_law(i, j, pc);
-    energy += 0.4 * s.normal_stiffness * overlap * overlap * std::sqrt(overlap) +
-              0.5 * s.tangential_stiffness * std::sqrt(overlap) * norm2(nl.pair_history_m[k]);
+    energy += 0.4 * s.normal_stiffness * overlap * overlap * std::sqrt(overlap);
+    if (!ghost)
+      energy += 0.5 * s.tangential_stiffness * std::sqrt(overlap) * norm2(nl.pair_history_m[k]);
   }
   for (std::size_t k = 0; k < nl.wall_particle.size(); ++k) {
     const std::uint32_t i = nl.wall_particle[k];
     const PlaneWall& wall = walls[nl.wall_index[k]];
-    const double overlap = p.radius_m[i] - wall_distance_m(wall, p.position_m[i]);
+    const bool ghost = nl.wall_touching[k] == kPairGhost;
+    const double overlap = p.radius_m[i] - wall_distance_m(wall, p.position_m[i]) -
+                           (ghost ? nl.wall_history_m[k][0] : 0.0);
     if (overlap <= 0.0) continue;
     const PairSprings s = wall_springs(p, i, materials.wall_pair(wall.pair_table, p.material[i]));
-    energy += 0.4 * s.normal_stiffness * overlap * overlap * std::sqrt(overlap) +
-              0.5 * s.tangential_stiffness * std::sqrt(overlap) * norm2(nl.wall_history_m[k]);
+    energy += 0.4 * s.normal_stiffness * overlap * overlap * std::sqrt(overlap);
+    if (!ghost)
+      energy += 0.5 * s.tangential_stiffness * std::sqrt(overlap) * norm2(nl.wall_history_m[k]);
   }
   return energy;
 }

@@ -99,8 +99,13 @@ void H5Writer::write_snapshot(std::int64_t step, double time_s, const ParticleSt
 
 void H5Writer::write_timeseries(const std::vector<std::string>& names,
                                 const std::vector<std::vector<double>>& columns) {
-  const hid_t g = H5Gcreate2(file_, "/timeseries", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-  if (g < 0) throw IoError("HDF5: cannot create /timeseries in " + path_.string());
+  write_columns("/timeseries", names, columns);
+}
+
+void H5Writer::write_columns(const std::string& group, const std::vector<std::string>& names,
+                             const std::vector<std::vector<double>>& columns) {
+  const hid_t g = H5Gcreate2(file_, group.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (g < 0) throw IoError("HDF5: cannot create " + group + " in " + path_.string());
   for (std::size_t c = 0; c < names.size(); ++c) {
     const hsize_t dims[1] = {columns[c].size()};
     write_dataset(g, names[c].c_str(), H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, 1, dims,

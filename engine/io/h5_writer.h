@@ -4,6 +4,8 @@
 // Layout:  /snapshots/sNNNNNNNNN/{position, velocity, angular_velocity (N×3), diameter (N),
 //                                  id (N, uint64), material (N, int32)}, attributes step, time_s
 //          /timeseries/<column> (one 1-D dataset per column; "time_s" first)
+//          /psd/<column> (outlet PSD, when the scene has outlets or breakage: edges_m, outlet and
+//                         dust count and mass per class, product cumulative mass)
 //          root attributes: scene, millsim_version
 #pragma once
 
@@ -35,6 +37,9 @@ class H5Writer {
   void write_snapshot(std::int64_t step, double time_s, const ParticleStore& particles);
   void write_timeseries(const std::vector<std::string>& names,
                         const std::vector<std::vector<double>>& columns);
+  // One 1-D double dataset per name under a new group (e.g. "/psd").
+  void write_columns(const std::string& group, const std::vector<std::string>& names,
+                     const std::vector<std::vector<double>>& columns);
   void close();  // flushes; throws IoError on failure
 
   const std::vector<SnapshotInfo>& snapshots() const { return snapshots_; }

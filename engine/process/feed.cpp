@@ -24,12 +24,13 @@ Feeder::Feeder(const FeedConfig& config, double density, std::uint64_t seed)
 
 double Feeder::mass_of(double d) const { return density_ * std::numbers::pi / 6.0 * d * d * d; }
 
-std::vector<ParticleSpec> Feeder::take_due(double t, double dt, const ParticleStore& p,
+std::vector<ParticleSpec> Feeder::take_due(double t, const ParticleStore& p,
                                            const PeriodicBox& box) {
   std::vector<ParticleSpec> out;
-  // The part of the step [t − dt, t] during which the feed was on.
-  const double on_s = std::min(t, config_.end_s) - std::max(t - dt, config_.start_s);
+  // The part of [last call, t] during which the feed was on.
+  const double on_s = std::min(t, config_.end_s) - std::max(accrued_until_s_, config_.start_s);
   if (on_s > 0.0) accrued_kg_ += config_.mass_rate_kg_per_s * on_s;
+  accrued_until_s_ = t;
   if (accrued_kg_ < mass_of(next_diameter_m_)) return out;
 
   // Occupants that could touch a new particle: centres within the region grown by the largest

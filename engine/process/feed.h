@@ -25,8 +25,8 @@ class Feeder {
  public:
   Feeder(const FeedConfig& config, double density_kg_per_m3, std::uint64_t seed);
 
-  // Particles to insert at the end of a step that ended at `time_s`.
-  std::vector<ParticleSpec> take_due(double time_s, double dt_s, const ParticleStore& particles,
+  // Particles to insert at `time_s`, for the mass accrued since the last call.
+  std::vector<ParticleSpec> take_due(double time_s, const ParticleStore& particles,
                                      const PeriodicBox& box);
 
   const FeedConfig& config() const { return config_; }
@@ -40,6 +40,7 @@ class Feeder {
   double density_ = 0.0;
   Rng rng_;
   double accrued_kg_ = 0.0;
+  double accrued_until_s_ = 0.0;
   double next_diameter_m_ = 0.0;
   FeedStats stats_;
 };

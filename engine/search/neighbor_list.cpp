@@ -1,6 +1,7 @@
 #include "search/neighbor_list.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace millsim {
 namespace {
@@ -55,9 +56,21 @@ double occupied_volume_m3(const std::vector<Vec3>& x, const PeriodicBox& box) {
   return volume;
 }
 
+// Whether the pair (a, b) descends from a ghost pair: (parent of a or a, parent of b or b) was
+// a ghost at the last force pass.
+bool parents_were_ghosts(const std::vector<KeyedHistory>& old_pairs, ParticleId a,
+                         const Newborn* na, ParticleId b, const Newborn* nb) {
+  const ParticleId pa = na && na->parent ? na->parent : a;
+  const ParticleId pb = nb && nb->parent ? nb->parent : b;
+  if (pa == a && pb == b) return false;
+  const KeyedHistory* h = lookup(old_pairs, std::min(pa, pb), std::max(pa, pb));
+  return h && h->state == kPairGhost;
+}
+
 }  // namespace
 
-void NeighborList::mark_newborn(std::vector<Newborn> newborn) {
+void NeighborList::mark_newborn(std::vector<Newborn> newborn, double penetration_limit) {
+  newborn_ghost_ratio_ = penetration_limit;
   newborn_.insert(newborn_.end(), newborn.begin(), newborn.end());
   std::sort(newborn_.begin(), newborn_.end(),
             [](const Newborn& x, const Newborn& y) { return x.id < y.id; });
@@ -211,10 +224,17 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
       const Newborn* nj = find_newborn(newborn_, b);
       if (!ni && !nj) continue;
       const double reach = p.radius_m[i] + p.radius_m[j];
-      if (norm2(p.position_m[i] - p.position_m[j] - image_shift_[pair_image[k]]) >= reach * reach)
-        continue;
+      const double dist = norm(p.position_m[i] - p.position_m[j] - image_shift_[pair_image[k]]);
+      if (dist >= reach) continue;
       const bool siblings = ni && nj && ni->family != 0 && ni->family == nj->family;
-      pair_touching[k] = siblings ? kPairGhost : kPairTouching;
+      const bool deep =
+          reach - dist > newborn_ghost_ratio_ * 2.0 * std::min(p.radius_m[i], p.radius_m[j]);
+      if (siblings || deep || parents_were_ghosts(old_pairs, a, ni, b, nj)) {
+        pair_touching[k] = kPairGhost;
+        pair_history_m[k] = {reach - dist, 0.0, 0.0};  // the overlap memory
+      } else {
+        pair_touching[k] = kPairTouching;
+      }
     }
 
   wall_particle.clear(), wall_index.clear();
@@ -230,9 +250,14 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
       if (const KeyedHistory* h = lookup(old_walls, p.id[i], wall_index[k])) {
         wall_history_m[k] = h->history;
         wall_touching[k] = h->state;
-      } else if (find_newborn(newborn_, p.id[i]) &&
-                 wall_distance_m(walls[wall_index[k]], p.position_m[i]) < p.radius_m[i]) {
-        wall_touching[k] = kPairTouching;
+      } else if (find_newborn(newborn_, p.id[i])) {
+        const double overlap = p.radius_m[i] - wall_distance_m(walls[wall_index[k]], p.position_m[i]);
+        if (overlap > newborn_ghost_ratio_ * 2.0 * p.radius_m[i]) {
+          wall_touching[k] = kPairGhost;  // born deep in the wall: overlap memory
+          wall_history_m[k] = {overlap, 0.0, 0.0};
+        } else if (overlap > 0.0) {
+          wall_touching[k] = kPairTouching;
+        }
       }
     }
   newborn_.clear();

@@ -19,15 +19,20 @@ namespace millsim {
 // Contact state of a candidate pair (pair_touching) at the last force pass.
 inline constexpr std::uint8_t kPairApart = 0;
 inline constexpr std::uint8_t kPairTouching = 1;
-// Sibling fragments that overlapped at birth: no force until they first separate
-// (comminution/fragment_spawn.h).
+// Particles born overlapping (comminution/fragment_spawn.h): the pair's history holds the
+// overlap memory δ₀ (x component), the overlap at birth, lowered whenever the overlap falls
+// below it. Only δ − δ₀ > 0 pushes back (normal force, no friction), so the birth overlap stores
+// no energy, yet the pair resists being pushed further together. Ends when the pair separates.
 inline constexpr std::uint8_t kPairGhost = 2;
 
-// A particle added mid-run. Its contacts at birth are not impacts; siblings (same nonzero
-// family, one breakage event) overlapping at birth become ghost pairs.
+// A particle added mid-run. Its contacts at birth are not impacts. Its overlaps at birth become
+// ghost pairs (with overlap memory) when the partner is a sibling (same nonzero family: one breakage event), when its
+// parent was a ghost with the partner (fragments of a fragment still passing through the
+// parent's siblings), or when they are deeper than the penetration limit.
 struct Newborn {
   ParticleId id;
   std::uint64_t family;  // breakage event number; 0 = not a fragment (feed)
+  ParticleId parent;     // the broken particle; 0 = none
 };
 
 struct NeighborStats {
@@ -61,10 +66,13 @@ class NeighborList {
 
   // Particles added since the last rebuild; consumed by the next (forced) rebuild, which must
   // come before any force pass.
-  void mark_newborn(std::vector<Newborn> newborn);
+  void mark_newborn(std::vector<Newborn> newborn, double penetration_limit);
 
   // Separation of pair k's partners: x_i − x_j − pair_shift(k).
   const Vec3& pair_shift(std::size_t k) const { return image_shift_[pair_image[k]]; }
+
+  // True when the cheap motion bound says the next update() may rebuild anyway.
+  bool rebuild_likely() const { return motion_bound_m_ > 0.5 * settings_.skin_m; }
 
   double skin_m() const { return settings_.skin_m; }
   const NeighborStats& stats() const { return stats_; }
@@ -102,6 +110,7 @@ class NeighborList {
   std::vector<Vec3> reference_position_m_;
   std::vector<ParticleId> reference_id_;
   std::vector<Newborn> newborn_;  // sorted by id
+  double newborn_ghost_ratio_ = 0.15;  // overlap / smaller diameter past which a birth contact is a ghost
   NeighborStats stats_;
 };
 

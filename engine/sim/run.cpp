@@ -12,28 +12,89 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// The run's product columns exist only when the scene has outlets, feeds or breakage.
+bool has_product(const Simulation& sim) {
+  return sim.breakage() || !sim.feeders().empty() || !sim.outlet_mass_by_outlet_kg().empty();
+}
+
 struct TimeSeries {
   std::vector<std::string> names = {
       "time_s",         "kinetic_j", "rotational_j",  "potential_j",   "elastic_j",
       "total_energy_j", "particles", "contact_pairs", "wall_contacts", "max_overlap_ratio"};
-  std::vector<std::vector<double>> columns = std::vector<std::vector<double>>(names.size());
+  bool product = false;
+  std::vector<std::vector<double>> columns;
+
+  explicit TimeSeries(bool with_product) : product(with_product) {
+    if (product)
+      for (const char* name : {"fed_mass_kg", "outlet_mass_kg", "dust_mass_kg", "breakage_events"})
+        names.push_back(name);
+    columns.resize(names.size());
+  }
 
   void record(const Simulation& sim) {
     const EnergyReport e = sim.energy();
     const ContactStepStats& c = sim.contact_stats();
-    const double row[] = {sim.time_s(),
-                          e.kinetic_j,
-                          e.rotational_j,
-                          e.potential_j,
-                          e.elastic_j,
-                          e.total_j(),
-                          double(sim.particles().size()),
-                          double(c.touching_pairs),
-                          double(c.touching_walls),
-                          c.max_overlap_ratio};
+    std::vector<double> row = {sim.time_s(),
+                               e.kinetic_j,
+                               e.rotational_j,
+                               e.potential_j,
+                               e.elastic_j,
+                               e.total_j(),
+                               double(sim.particles().size()),
+                               double(c.touching_pairs),
+                               double(c.touching_walls),
+                               c.max_overlap_ratio};
+    if (product) {
+      const MassBalance m = sim.mass_balance();
+      row.insert(row.end(), {m.fed_kg, m.outlet_kg, m.dust_kg,
+                             sim.breakage() ? double(sim.breakage()->stats().events) : 0.0});
+    }
     for (std::size_t k = 0; k < names.size(); ++k) columns[k].push_back(row[k]);
   }
 };
+
+// The product (outlet particles + dust table) and where the mass went, for result.json.
+void add_product_summary(const Simulation& sim, nlohmann::ordered_json& s) {
+  const MassBalance m = sim.mass_balance();
+  s["mass_balance"] = {{"initial_kg", m.initial_kg},     {"fed_kg", m.fed_kg},
+                       {"particles_kg", m.particles_kg}, {"outlet_kg", m.outlet_kg},
+                       {"dust_kg", m.dust_kg},           {"relative_error", m.relative_error()}};
+  if (const Breakage* b = sim.breakage()) {
+    const BreakageStats& st = b->stats();
+    s["breakage"] = {{"dust_threshold_diameter_m", b->dust_threshold_m()},
+                     {"impacts", st.impacts},
+                     {"fatigue_impacts", st.fatigue_impacts},
+                     {"events", st.events},
+                     {"crush_events", st.crush_events},
+                     {"fragments", st.fragments},
+                     {"dust_fragments", st.dust_fragments},
+                     {"broken_mass_kg", st.broken_mass_kg},
+                     {"dust_count", b->dust().total_count()},
+                     {"dust_mass_kg", b->dust().total_mass_kg()}};
+  }
+  nlohmann::ordered_json feeds = nlohmann::ordered_json::array();
+  for (const Feeder& f : sim.feeders())
+    feeds.push_back({{"name", f.config().name},
+                     {"inserted", f.stats().inserted},
+                     {"inserted_mass_kg", f.stats().inserted_mass_kg},
+                     {"blocked_steps", f.stats().blocked_steps}});
+  if (!feeds.empty()) s["feeds"] = feeds;
+  s["outlet_particles"] = {{"count", sim.outlet_tally().total_count()},
+                           {"mass_kg", sim.outlet_tally().total_mass_kg()},
+                           {"mass_by_outlet_kg", sim.outlet_mass_by_outlet_kg()}};
+  s["outlet_psd"] = psd_json(summarize(sim.product_tally()));
+}
+
+void write_psd_h5(const Simulation& sim, H5Writer& h5) {
+  const PsdTally& outlet = sim.outlet_tally();
+  const PsdTally dust = sim.breakage() ? sim.breakage()->dust() : PsdTally(outlet.edges_m);
+  const PsdSummary product = summarize(sim.product_tally());
+  h5.write_columns("/psd",
+                   {"edges_m", "outlet_count", "outlet_mass_kg", "dust_count", "dust_mass_kg",
+                    "product_cumulative_mass"},
+                   {outlet.edges_m, outlet.count, outlet.mass_kg, dust.count, dust.mass_kg,
+                    product.cumulative_mass});
+}
 
 void write_text_atomically(const std::filesystem::path& path, const std::string& text) {
   const std::filesystem::path partial = path.string() + ".partial";
@@ -83,7 +144,7 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
 
   const std::size_t initial_particles = sim.particles().size();
   const EnergyReport initial_energy = sim.energy();
-  TimeSeries series;
+  TimeSeries series(has_product(sim));
   series.record(sim);
   if (h5) h5->write_snapshot(0, 0.0, sim.particles());
 
@@ -144,8 +205,7 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
   s["simulated_time_s"] = sim.time_s();
   s["wall_time_s"] = wall_s;
   const double step_seconds = sim.profile().total();
-  s["particle_steps_per_second"] =
-      step_seconds > 0 ? double(initial_particles) * double(sim.step_index()) / step_seconds : 0.0;
+  s["particle_steps_per_second"] = step_seconds > 0 ? sim.particle_steps() / step_seconds : 0.0;
   nlohmann::ordered_json phases = nlohmann::ordered_json::object();
   for (std::size_t k = 0; k < kPhaseNames.size(); ++k)
     phases[std::string(kPhaseNames[k])] = sim.profile().seconds[k];
@@ -168,11 +228,13 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
   s["energy"] = {{"initial", energy_json(initial_energy)},
                  {"final", energy_json(final_energy)},
                  {"dissipated_j", initial_energy.total_j() - final_energy.total_j()}};
+  if (has_product(sim)) add_product_summary(sim, s);
 
   if (write_files) {
     nlohmann::ordered_json outputs = nlohmann::ordered_json::object();
     if (h5) {
       h5->write_timeseries(series.names, series.columns);
+      if (has_product(sim)) write_psd_h5(sim, *h5);
       h5->close();
       std::filesystem::rename(h5_partial, options.out_dir / "run.h5");
       write_xdmf(options.out_dir / "run.xdmf", "run.h5", h5->snapshots());

@@ -246,26 +246,30 @@ Simulation::Simulation(const SceneConfig& scene)
 
   contact_stats_.record_impacts = breakage_.has_value();  // the initial overlaps were no impacts
 
-  const EnergyReport e0 = energy();
-  energy_reference_j_ = e0.total_j();
-  double mass = 0.0;
-  for (double m : particles_.mass_kg) mass += m;
-  initial_mass_kg_ = mass;
-  double fed_kinetic_j = 0.0;  // what the feeds may bring in, for the energy scale
+  for (double m : particles_.mass_kg) initial_mass_kg_ += m;
   for (const FeedConfig& f : scene.feeds) {
     const double fed = f.mass_rate_kg_per_s * std::min(f.end_s - f.start_s, scene.time.end_s);
     const double speed = norm(f.velocity_m_per_s) + 3.0 * f.velocity_spread_m_per_s;
-    mass += fed;
-    fed_kinetic_j += 0.5 * fed * speed * speed;
+    feed_mass_bound_kg_ += fed;
+    feed_kinetic_bound_j_ += 0.5 * fed * speed * speed;
   }
-  double height = 0.0;
   const double g = norm(gravity_m_per_s2_);
-  for (int a = 0; a < 3 && g > 0.0; ++a) {
-    height += std::abs(gravity_m_per_s2_[a] / g) * box_.length(a);
+  for (int a = 0; a < 3 && g > 0.0; ++a)
     if (box_.periodic[a] && gravity_m_per_s2_[a] != 0.0) check_energy_ = false;  // no potential
-  }
-  energy_scale_j_ =
-      e0.kinetic_j + e0.rotational_j + e0.elastic_j + fed_kinetic_j + mass * g * height + 1e-300;
+  set_energy_baseline();
+}
+
+void Simulation::set_energy_baseline() {
+  const EnergyReport e0 = energy();
+  energy_reference_j_ = e0.total_j();
+  energy_added_j_ = 0.0;
+  double mass = feed_mass_bound_kg_, height = 0.0;
+  for (double m : particles_.mass_kg) mass += m;
+  const double g = norm(gravity_m_per_s2_);
+  for (int a = 0; a < 3 && g > 0.0; ++a)
+    height += std::abs(gravity_m_per_s2_[a] / g) * box_.length(a);
+  energy_scale_j_ = e0.kinetic_j + e0.rotational_j + e0.elastic_j + feed_kinetic_bound_j_ +
+                    mass * g * height + 1e-300;
 }
 
 // The tighter of two sets of bounds.
@@ -344,6 +348,7 @@ void Simulation::compute_forces() {
 void Simulation::refresh_forces() {
   neighbors_.update(particles_, box_, walls_, true);
   compute_forces();
+  set_energy_baseline();
 }
 
 std::optional<StepFailure> Simulation::step() {
@@ -388,12 +393,33 @@ void Simulation::process_population() {
   const auto added = [this](const ParticleStore&, std::size_t i) {
     energy_added_j_ += particle_energy_j(i);
   };
-  if (breakage_ && !contact_stats_.impacts.empty())
+  const ContactStepStats& c = contact_stats_;
+  if (breakage_ &&
+      !(c.impacts.empty() && c.pairs_over_limit.empty() && c.walls_over_limit.empty()))
     profile_.time(Phase::Breakage, [&] {
-      breakage_->process(contact_stats_.impacts, walls_, particles_, next_id_, newborn, removed,
-                         added);
+      // The smaller partner of each contact past the penetration limit is crushed.
+      std::vector<std::uint32_t> crushed;
+      for (std::uint32_t k : c.pairs_over_limit) {
+        const std::uint32_t i = neighbors_.pairs.first[k], j = neighbors_.pairs.second[k];
+        crushed.push_back(particles_.radius_m[i] <= particles_.radius_m[j] ? i : j);
+      }
+      for (std::uint32_t k : c.walls_over_limit) crushed.push_back(neighbors_.wall_particle[k]);
+      breakage_->process(c.impacts, crushed, time_.step_s, walls_, particles_, next_id_, newborn,
+                         removed, added);
       contact_stats_.impacts.clear();  // slots are stale now
+      contact_stats_.pairs_over_limit.clear();
+      contact_stats_.walls_over_limit.clear();
     });
+  // Outlets and feeds change the population too, and each change costs a neighbour-list
+  // rebuild. They are applied when the list rebuilds anyway (a breakage event, or the motion
+  // bound), and at least every kMaxDeferredSteps steps: a particle past an outlet lingers, and
+  // fed mass waits, for at most that long. The feed's rate is kept exactly (mass accrues).
+  constexpr std::int64_t kMaxDeferredSteps = 64;
+  const bool apply_now = particles_.population_version != version ||
+                         neighbors_.rebuild_likely() ||
+                         step_index_ - last_population_step_ >= kMaxDeferredSteps;
+  if (!apply_now) return;
+  last_population_step_ = step_index_;
   profile_.time(Phase::Population, [&] {
     if (!outlets_.empty())
       for (std::size_t i = particles_.size(); i-- > 0;) {
@@ -402,14 +428,16 @@ void Simulation::process_population() {
         const double m = particles_.mass_kg[i];
         outlet_.add(2.0 * particles_.radius_m[i], m);
         outlet_mass_kg_[std::size_t(outlet)] += m;
-        outlet_momentum_ += particles_.velocity_m_per_s[i] * m;
+        // With its force in flight (the next half-kick), as the breakage module does for dust.
+        outlet_momentum_ +=
+            particles_.velocity_m_per_s[i] * m + particles_.force_n[i] * (0.5 * time_.step_s);
         removed(particles_, i);
         particles_.remove_swap(i);
       }
     for (Feeder& feeder : feeders_) {
       const int material = feeder.config().material;
       for (const ParticleSpec& spec :
-           feeder.take_due(time_s(), time_.step_s, particles_, box_)) {
+           feeder.take_due(time_s(), particles_, box_)) {
         const double scale =
             reduced_ ? stiffness_scale(spec.diameter_m, reduced_->threshold_diameter_m) : 1.0;
         const ParticleId id = next_id_++;
@@ -418,13 +446,13 @@ void Simulation::process_population() {
         if (breakage_) breakage_->draw_strength(particles_, slot);
         fed_mass_kg_ += particles_.mass_kg[slot];
         added(particles_, slot);
-        newborn.push_back({id, 0});
+        newborn.push_back({id, 0, 0});
       }
     }
     if (particles_.population_version != version) {
       // Rebuild now, so the list never refers to removed slots and the newborn are marked
       // before the next force pass.
-      neighbors_.mark_newborn(std::move(newborn));
+      neighbors_.mark_newborn(std::move(newborn), contact_.penetration_limit);
       neighbors_.update(particles_, box_, walls_, true);
     }
   });

@@ -103,7 +103,8 @@ class Simulation {
   double particle_steps() const { return particle_steps_; }
 
   EnergyReport energy() const;
-  // Recomputes forces for the current state (after editing particles by hand).
+  // Recomputes forces for the current state after editing particles by hand; the edited state
+  // becomes the energy guard's reference.
   void refresh_forces();
 
  private:
@@ -114,6 +115,8 @@ class Simulation {
   // population changed.
   void process_population();
   double particle_energy_j(std::size_t slot) const;
+  // The energy guard's reference and scale, from the current state.
+  void set_energy_baseline();
   std::optional<StepFailure> check_health();
   std::string describe_worst_overlap() const;
 
@@ -145,6 +148,9 @@ class Simulation {
   Vec3 outlet_momentum_;
   double initial_mass_kg_ = 0.0;
   double fed_mass_kg_ = 0.0;
+  std::int64_t last_population_step_ = 0;  // when outlets and feeds were last applied
+  double feed_mass_bound_kg_ = 0.0;    // what the feeds can bring in over the run
+  double feed_kinetic_bound_j_ = 0.0;
 };
 
 }  // namespace millsim
