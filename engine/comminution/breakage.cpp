@@ -40,8 +40,8 @@ void Breakage::draw_strength(ParticleStore& p, std::size_t slot) {
   const auto& m = material_[p.material[slot]];
   if (!m) return;
   // u in (0, 1]: 1 − uniform01 never returns 0.
-  p.remaining_capacity_j_per_kg[slot] =
-      capacity_from_uniform_j_per_kg(m->config.strength, 2.0 * p.radius_m[slot], 1.0 - uniform01(rng_));
+  p.remaining_capacity_j_per_kg[slot] = capacity_from_uniform_j_per_kg(
+      m->config.strength, 2.0 * p.radius_m[slot], 1.0 - uniform01(rng_));
 }
 
 double Breakage::impact_energy_j_per_kg(const Impact& impact, bool on_partner,
@@ -72,7 +72,8 @@ std::uint64_t Breakage::process(const std::vector<Impact>& impacts,
                                 const ParticleHook& after_addition) {
   std::vector<std::uint32_t> broken;
   for (std::uint32_t slot : crushed)
-    if (material_[p.material[slot]] && std::find(broken.begin(), broken.end(), slot) == broken.end())
+    if (material_[p.material[slot]] &&
+        std::find(broken.begin(), broken.end(), slot) == broken.end())
       broken.push_back(slot), ++stats_.crush_events;
   for (const Impact& impact : impacts) {
     for (int side = 0; side < (impact.with_wall ? 1 : 2); ++side) {

@@ -64,10 +64,9 @@ class Breakage {
   // coarse particle).
   std::uint64_t process(const std::vector<Impact>& impacts,
                         const std::vector<std::uint32_t>& crushed, double dt_s,
-                        const std::vector<PlaneWall>& walls,
-                        ParticleStore& particles, ParticleId& next_id,
-                        std::vector<Newborn>& newborn, const ParticleHook& before_removal,
-                        const ParticleHook& after_addition);
+                        const std::vector<PlaneWall>& walls, ParticleStore& particles,
+                        ParticleId& next_id, std::vector<Newborn>& newborn,
+                        const ParticleHook& before_removal, const ParticleHook& after_addition);
 
   const BreakageStats& stats() const { return stats_; }
   const PsdTally& dust() const { return dust_; }
@@ -81,8 +80,7 @@ class Breakage {
 
   // Specific energy of the impact on `particle` (J/kg), by the scene's equivalence.
   double impact_energy_j_per_kg(const Impact& impact, bool on_partner,
-                                const std::vector<PlaneWall>& walls,
-                                const ParticleStore& p) const;
+                                const std::vector<PlaneWall>& walls, const ParticleStore& p) const;
   void break_particle(std::size_t slot, double dt_s, ParticleStore& p, ParticleId& next_id,
                       std::vector<Newborn>& newborn, const ParticleHook& after_addition);
 

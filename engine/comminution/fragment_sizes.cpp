@@ -51,8 +51,8 @@ double FragmentSizeSampler::mass_cumulative(double r) const {
 double FragmentSizeSampler::draw_one(Rng& rng) const {
   const double u = uniform01(rng);
   const auto it = std::upper_bound(number_cdf_.begin(), number_cdf_.end(), u);
-  const std::size_t hi = std::clamp<std::size_t>(std::size_t(it - number_cdf_.begin()), 1,
-                                                 number_cdf_.size() - 1);
+  const std::size_t hi =
+      std::clamp<std::size_t>(std::size_t(it - number_cdf_.begin()), 1, number_cdf_.size() - 1);
   const std::size_t lo = hi - 1;
   const double span = number_cdf_[hi] - number_cdf_[lo];
   const double t = span > 0.0 ? (u - number_cdf_[lo]) / span : 0.0;

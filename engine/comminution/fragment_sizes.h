@@ -28,7 +28,7 @@ class FragmentSizeSampler {
   double draw_one(Rng& rng) const;
 
   FragmentConfig config_;
-  std::vector<double> log_ratio_;  // grid in ln r
+  std::vector<double> log_ratio_;   // grid in ln r
   std::vector<double> number_cdf_;  // number CDF at the grid points
 };
 

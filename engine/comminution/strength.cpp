@@ -11,8 +11,8 @@ namespace {
 double capacity_cdf(const StrengthConfig& s, double d, double e) {
   if (e <= 0.0) return 0.0;
   if (s.model == StrengthModel::VogelPeukert) return -std::expm1(-s.f_mat_kg_per_j_m * d * e);
-  const double median = s.median_energy_j_per_kg * std::pow(d / s.reference_diameter_m,
-                                                              -s.size_exponent);
+  const double median =
+      s.median_energy_j_per_kg * std::pow(d / s.reference_diameter_m, -s.size_exponent);
   return -std::expm1(-std::numbers::ln2 * std::pow(e / median, s.weibull_modulus));
 }
 
@@ -25,8 +25,8 @@ double threshold_energy_j_per_kg(const StrengthConfig& s, double d) {
 double capacity_from_uniform_j_per_kg(const StrengthConfig& s, double d, double u) {
   const double minus_log = -std::log(std::max(u, 1e-300));
   if (s.model == StrengthModel::VogelPeukert) return minus_log / (s.f_mat_kg_per_j_m * d);
-  const double median = s.median_energy_j_per_kg * std::pow(d / s.reference_diameter_m,
-                                                              -s.size_exponent);
+  const double median =
+      s.median_energy_j_per_kg * std::pow(d / s.reference_diameter_m, -s.size_exponent);
   return median * std::pow(minus_log / std::numbers::ln2, 1.0 / s.weibull_modulus);
 }
 
@@ -49,7 +49,7 @@ bool apply_impact(const MaterialBreakageConfig& b, double d, double w, double& r
 double equivalent_speed_pair(ImpactEquivalence model, double m_i, double r_i, double c_i,
                              double m_j, double r_j, double c_j, double v) {
   if (model == ImpactEquivalence::Energy) return v * m_j / (m_i + m_j);
-  const double reduced_mass_ratio = m_j / (m_i + m_j);  // m*/m_i
+  const double reduced_mass_ratio = m_j / (m_i + m_j);    // m*/m_i
   const double reduced_radius_ratio = r_j / (r_i + r_j);  // R*/R_i
   const double stiffness_ratio = c_i / (c_i + c_j);       // E*_pair / E*_rigid wall
   return v * std::sqrt(reduced_mass_ratio * std::cbrt(stiffness_ratio * stiffness_ratio) *

@@ -87,9 +87,8 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
     if (before == kPairApart && vn < 0.0 && stats.record_impacts)
       stats.impacts.push_back({i, j, false, -vn});
     const double fn = hertz_normal_force_n(s, overlap, sqrt_overlap, vn);
-    const Vec3 ft = ghost ? Vec3{}
-                          : tangential_force(s, sqrt_overlap, fn, pc.friction, n, v_t, dt,
-                                             history[k]);
+    const Vec3 ft =
+        ghost ? Vec3{} : tangential_force(s, sqrt_overlap, fn, pc.friction, n, v_t, dt, history[k]);
     const Vec3 force = n * fn + ft;
     f[i] += force;
     f[j] -= force;

@@ -22,7 +22,9 @@ Feeder::Feeder(const FeedConfig& config, double density, std::uint64_t seed)
   next_diameter_m_ = sample_diameter(config_.sizes, rng_);
 }
 
-double Feeder::mass_of(double d) const { return density_ * std::numbers::pi / 6.0 * d * d * d; }
+double Feeder::mass_of(double d) const {
+  return density_ * std::numbers::pi / 6.0 * d * d * d;
+}
 
 std::vector<ParticleSpec> Feeder::take_due(double t, const ParticleStore& p,
                                            const PeriodicBox& box) {

@@ -10,9 +10,9 @@
 namespace millsim {
 
 struct PsdTally {
-  std::vector<double> edges_m;  // ascending, bins = edges − 1
-  std::vector<double> count;    // per bin
-  std::vector<double> mass_kg;  // per bin
+  std::vector<double> edges_m;                    // ascending, bins = edges − 1
+  std::vector<double> count;                      // per bin
+  std::vector<double> mass_kg;                    // per bin
   double under_count = 0.0, under_mass_kg = 0.0;  // d < edges.front()
   double over_count = 0.0, over_mass_kg = 0.0;    // d >= edges.back()
 
@@ -27,7 +27,7 @@ struct PsdTally {
 struct PsdSummary {
   std::vector<double> edges_m;
   std::vector<double> count, mass_kg;
-  std::vector<double> number_fraction, mass_fraction;        // per bin, of the total
+  std::vector<double> number_fraction, mass_fraction;            // per bin, of the total
   std::vector<double> number_density_per_m, mass_density_per_m;  // fraction / bin width
   // Cumulative fractions below each edge (size edges.size()); the first is the underflow.
   std::vector<double> cumulative_number, cumulative_mass;

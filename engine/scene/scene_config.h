@@ -23,8 +23,8 @@ enum class StrengthModel {
 
 struct StrengthConfig {
   StrengthModel model = StrengthModel::VogelPeukert;
-  double f_mat_kg_per_j_m = 0.0;     // Vogel–Peukert f_mat
-  double x_w_min_j_m_per_kg = 0.0;   // Vogel–Peukert x·W_m,min
+  double f_mat_kg_per_j_m = 0.0;        // Vogel–Peukert f_mat
+  double x_w_min_j_m_per_kg = 0.0;      // Vogel–Peukert x·W_m,min
   double median_energy_j_per_kg = 0.0;  // Weibull W50 at the reference diameter
   double reference_diameter_m = 1e-4;   // Weibull x_ref
   double size_exponent = 0.0;           // Weibull φ: W50 = median (x / x_ref)^(−φ)
@@ -40,17 +40,17 @@ enum class FragmentModel {
 
 struct FragmentConfig {
   FragmentModel model = FragmentModel::PowerLaw;
-  double exponent = 1.0;    // power-law q
-  double min_ratio = 0.05;  // r_min: smallest fragment / parent diameter
-  double max_ratio = 0.7;   // r_max: largest fragment / parent diameter (< 1)
-  int count = 8;            // equal: fragments per breakage
-  int max_fragments = 5000; // per breakage event; the rest of the volume is one last fragment
+  double exponent = 1.0;     // power-law q
+  double min_ratio = 0.05;   // r_min: smallest fragment / parent diameter
+  double max_ratio = 0.7;    // r_max: largest fragment / parent diameter (< 1)
+  int count = 8;             // equal: fragments per breakage
+  int max_fragments = 5000;  // per breakage event; the rest of the volume is one last fragment
 };
 
 struct MaterialBreakageConfig {
   StrengthConfig strength;
-  bool fatigue = true;         // sub-critical impacts lower the remaining strength
-  double fatigue_factor = 1.0; // damage per J/kg of sub-critical excess energy (1 = Vogel–Peukert)
+  bool fatigue = true;          // sub-critical impacts lower the remaining strength
+  double fatigue_factor = 1.0;  // damage per J/kg of sub-critical excess energy (1 = Vogel–Peukert)
   FragmentConfig fragments;
 };
 

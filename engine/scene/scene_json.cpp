@@ -47,8 +47,7 @@ StrengthConfig parse_strength(const json& v, const std::string& path, InputError
   } else {
     s.model = StrengthModel::VogelPeukert;
     s.f_mat_kg_per_j_m = r.required_number("f_mat_kg_per_j_m", NumberRange::open_closed(0.0, 1e12));
-    s.x_w_min_j_m_per_kg =
-        r.required_number("x_w_min_j_m_per_kg", NumberRange::closed(0.0, 1e6));
+    s.x_w_min_j_m_per_kg = r.required_number("x_w_min_j_m_per_kg", NumberRange::closed(0.0, 1e6));
   }
   r.finish();
   return s;
@@ -236,8 +235,7 @@ ParticleSpec parse_particle(const json& v, const std::string& path, InputErrors&
 }
 
 // Reads {min_m, max_m} with max > min on every axis.
-void parse_region(const json& v, const std::string& path, Vec3& lo, Vec3& hi,
-                  InputErrors& errors) {
+void parse_region(const json& v, const std::string& path, Vec3& lo, Vec3& hi, InputErrors& errors) {
   JsonObjectReader rr(v, path, errors);
   lo = rr.vec3("min_m", {});
   hi = rr.vec3("max_m", {});
@@ -516,8 +514,8 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
   }
   if (const json* v = top.child("dust")) {
     JsonObjectReader r(*v, "/dust", errors);
-    scene.dust = DustConfig{
-        r.required_number("threshold_diameter_m", NumberRange::open_closed(0.0, 10.0))};
+    scene.dust =
+        DustConfig{r.required_number("threshold_diameter_m", NumberRange::open_closed(0.0, 10.0))};
     r.finish();
   }
   if (const json* v = top.child("psd")) scene.psd = parse_psd(*v, errors);

@@ -251,7 +251,8 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
         wall_history_m[k] = h->history;
         wall_touching[k] = h->state;
       } else if (find_newborn(newborn_, p.id[i])) {
-        const double overlap = p.radius_m[i] - wall_distance_m(walls[wall_index[k]], p.position_m[i]);
+        const double overlap =
+            p.radius_m[i] - wall_distance_m(walls[wall_index[k]], p.position_m[i]);
         if (overlap > newborn_ghost_ratio_ * 2.0 * p.radius_m[i]) {
           wall_touching[k] = kPairGhost;  // born deep in the wall: overlap memory
           wall_history_m[k] = {overlap, 0.0, 0.0};

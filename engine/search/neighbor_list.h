@@ -26,9 +26,9 @@ inline constexpr std::uint8_t kPairTouching = 1;
 inline constexpr std::uint8_t kPairGhost = 2;
 
 // A particle added mid-run. Its contacts at birth are not impacts. Its overlaps at birth become
-// ghost pairs (with overlap memory) when the partner is a sibling (same nonzero family: one breakage event), when its
-// parent was a ghost with the partner (fragments of a fragment still passing through the
-// parent's siblings), or when they are deeper than the penetration limit.
+// ghost pairs (with overlap memory) when the partner is a sibling (same nonzero family: one
+// breakage event), when its parent was a ghost with the partner (fragments of a fragment still
+// passing through the parent's siblings), or when they are deeper than the penetration limit.
 struct Newborn {
   ParticleId id;
   std::uint64_t family;  // breakage event number; 0 = not a fragment (feed)
@@ -110,7 +110,8 @@ class NeighborList {
   std::vector<Vec3> reference_position_m_;
   std::vector<ParticleId> reference_id_;
   std::vector<Newborn> newborn_;  // sorted by id
-  double newborn_ghost_ratio_ = 0.15;  // overlap / smaller diameter past which a birth contact is a ghost
+  double newborn_ghost_ratio_ =
+      0.15;  // overlap / smaller diameter past which a birth contact is a ghost
   NeighborStats stats_;
 };
 

@@ -83,6 +83,17 @@ void add_product_summary(const Simulation& sim, nlohmann::ordered_json& s) {
                            {"mass_kg", sim.outlet_tally().total_mass_kg()},
                            {"mass_by_outlet_kg", sim.outlet_mass_by_outlet_kg()}};
   s["outlet_psd"] = psd_json(summarize(sim.product_tally()));
+  // Everything made so far: the product plus the hold-up still in the domain. Runs that end
+  // before the hold-up has left compare fairly on this one.
+  PsdTally all = sim.product_tally();
+  const ParticleStore& p = sim.particles();
+  for (std::size_t i = 0; i < p.size(); ++i) all.add(2.0 * p.radius_m[i], p.mass_kg[i]);
+  const PsdSummary total = summarize(all);
+  s["total_psd"] = {{"d10_m", total.d10_m},
+                    {"d50_m", total.d50_m},
+                    {"d90_m", total.d90_m},
+                    {"total_mass_kg", total.total_mass_kg},
+                    {"cumulative_mass", total.cumulative_mass}};
 }
 
 void write_psd_h5(const Simulation& sim, H5Writer& h5) {

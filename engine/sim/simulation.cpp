@@ -133,7 +133,8 @@ Simulation::Simulation(const SceneConfig& scene)
   const SourceParticles sources = collect_sources(scene, box_, errors);
   if (!errors.empty()) throw InputErrorList(std::move(errors));
   if (sources.specs.empty() && scene.feeds.empty())
-    throw InputErrorList({{"/sources", "", "the sources produced no particles and no feed is set"}});
+    throw InputErrorList(
+        {{"/sources", "", "the sources produced no particles and no feed is set"}});
 
   double d_min = 1e300, d_max = 0.0, fastest = 0.0;
   int smallest_material = 0;
@@ -186,10 +187,10 @@ Simulation::Simulation(const SceneConfig& scene)
       scene.psd.edges_m.empty() ? default_psd_edges(scene, d_min, d_max) : scene.psd.edges_m;
   if (scene.breakage) {
     particles_.enable_breakage_state();
-    breakage_.emplace(scene, materials_,
-                      reduced_ ? std::optional<double>(reduced_->threshold_diameter_m)
-                               : std::nullopt,
-                      scene.seed ^ 0x9e3779b97f4a7c15ULL, psd_edges);
+    breakage_.emplace(
+        scene, materials_,
+        reduced_ ? std::optional<double>(reduced_->threshold_diameter_m) : std::nullopt,
+        scene.seed ^ 0x9e3779b97f4a7c15ULL, psd_edges);
   }
   outlets_ = scene.outlets;
   outlet_ = PsdTally(psd_edges);
@@ -394,8 +395,7 @@ void Simulation::process_population() {
     energy_added_j_ += particle_energy_j(i);
   };
   const ContactStepStats& c = contact_stats_;
-  if (breakage_ &&
-      !(c.impacts.empty() && c.pairs_over_limit.empty() && c.walls_over_limit.empty()))
+  if (breakage_ && !(c.impacts.empty() && c.pairs_over_limit.empty() && c.walls_over_limit.empty()))
     profile_.time(Phase::Breakage, [&] {
       // The smaller partner of each contact past the penetration limit is crushed.
       std::vector<std::uint32_t> crushed;
@@ -415,8 +415,7 @@ void Simulation::process_population() {
   // bound), and at least every kMaxDeferredSteps steps: a particle past an outlet lingers, and
   // fed mass waits, for at most that long. The feed's rate is kept exactly (mass accrues).
   constexpr std::int64_t kMaxDeferredSteps = 64;
-  const bool apply_now = particles_.population_version != version ||
-                         neighbors_.rebuild_likely() ||
+  const bool apply_now = particles_.population_version != version || neighbors_.rebuild_likely() ||
                          step_index_ - last_population_step_ >= kMaxDeferredSteps;
   if (!apply_now) return;
   last_population_step_ = step_index_;
@@ -436,8 +435,7 @@ void Simulation::process_population() {
       }
     for (Feeder& feeder : feeders_) {
       const int material = feeder.config().material;
-      for (const ParticleSpec& spec :
-           feeder.take_due(time_s(), particles_, box_)) {
+      for (const ParticleSpec& spec : feeder.take_due(time_s(), particles_, box_)) {
         const double scale =
             reduced_ ? stiffness_scale(spec.diameter_m, reduced_->threshold_diameter_m) : 1.0;
         const ParticleId id = next_id_++;

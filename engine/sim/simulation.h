@@ -68,6 +68,9 @@ class Simulation {
   // packings, a time step above the stable bound, particles outside the domain or overlapping
   // past the penetration limit at the start, ...).
   explicit Simulation(const SceneConfig& scene);
+  // Modules keep pointers to the material table: a simulation stays where it was built.
+  Simulation(const Simulation&) = delete;
+  Simulation& operator=(const Simulation&) = delete;
 
   // One DEM step; returns the failure when the stability guard stops the run.
   std::optional<StepFailure> step();
@@ -149,7 +152,7 @@ class Simulation {
   double initial_mass_kg_ = 0.0;
   double fed_mass_kg_ = 0.0;
   std::int64_t last_population_step_ = 0;  // when outlets and feeds were last applied
-  double feed_mass_bound_kg_ = 0.0;    // what the feeds can bring in over the run
+  double feed_mass_bound_kg_ = 0.0;        // what the feeds can bring in over the run
   double feed_kinetic_bound_j_ = 0.0;
 };
 

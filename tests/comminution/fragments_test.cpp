@@ -53,7 +53,8 @@ TEST(FragmentSizes, MassDistributionFollowsTheBreakageFunction) {
     std::vector<std::pair<double, double>> fragments;  // ratio, volume
     double total = 0.0;
     for (int event = 0; event < 3000; ++event)
-      for (double r : sampler.draw_ratios(rng)) fragments.push_back({r, r * r * r}), total += r * r * r;
+      for (double r : sampler.draw_ratios(rng))
+        fragments.push_back({r, r * r * r}), total += r * r * r;
     std::sort(fragments.begin(), fragments.end());
     double below = 0.0, ks = 0.0;
     for (const auto& [r, v] : fragments) {

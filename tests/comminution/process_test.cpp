@@ -75,9 +75,7 @@ json breakable_scene() {
 }
 
 InputErrors errors_of(const json& doc) {
-  InputErrors errors;
-  parse_scene(doc, ".", errors);
-  return errors;
+  return test::scene_errors(doc);
 }
 
 bool has_error(const InputErrors& errors, const std::string& path, const std::string& text) {

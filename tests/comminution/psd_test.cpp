@@ -8,15 +8,17 @@
 namespace millsim {
 namespace {
 
-std::vector<double> decade_edges() { return {1e-6, 1e-5, 1e-4, 1e-3, 1e-2}; }
+std::vector<double> decade_edges() {
+  return {1e-6, 1e-5, 1e-4, 1e-3, 1e-2};
+}
 
 TEST(Psd, TallyAndSummaryOfAKnownSet) {
   PsdTally t(decade_edges());
-  t.add(5e-6, 1.0);           // bin 0
-  t.add(2e-5, 2.0, 3.0);      // bin 1: three particles, 2 kg
-  t.add(1e-4, 3.0);           // exactly on an edge: the upper bin (2)
-  t.add(5e-7, 0.5);           // underflow
-  t.add(2e-2, 0.25);          // overflow
+  t.add(5e-6, 1.0);       // bin 0
+  t.add(2e-5, 2.0, 3.0);  // bin 1: three particles, 2 kg
+  t.add(1e-4, 3.0);       // exactly on an edge: the upper bin (2)
+  t.add(5e-7, 0.5);       // underflow
+  t.add(2e-2, 0.25);      // overflow
   EXPECT_DOUBLE_EQ(t.total_count(), 7.0);
   EXPECT_DOUBLE_EQ(t.total_mass_kg(), 6.75);
   const PsdSummary s = summarize(t);
@@ -57,8 +59,8 @@ TEST(Psd, DistanceBetweenDistributions) {
   // The cumulatives differ by 1 at the edge 1e-4 only, 0 at its neighbours: trapezoids give
   // half a decade on each side, one decade of the four.
   EXPECT_NEAR(d.l1, 0.25, 1e-15);
-  EXPECT_NEAR(d.d50_relative_error, (std::sqrt(10.0) * 1e-5 - std::sqrt(10.0) * 1e-4) /
-                                        (std::sqrt(10.0) * 1e-4), 1e-12);
+  EXPECT_NEAR(d.d50_relative_error,
+              (std::sqrt(10.0) * 1e-5 - std::sqrt(10.0) * 1e-4) / (std::sqrt(10.0) * 1e-4), 1e-12);
   PsdTally other({1e-6, 1e-3});
   EXPECT_THROW(compare_psd(summarize(a), summarize(other)), std::invalid_argument);
 }

@@ -81,7 +81,8 @@ TEST(Strength, FatigueBreaksAfterThePredictedNumberOfImpacts) {
     double remaining = capacity;
     int impacts = 0;
     bool broken = false;
-    while (!broken && impacts < 100) broken = apply_impact(b, d, w_min + excess, remaining), ++impacts;
+    while (!broken && impacts < 100)
+      broken = apply_impact(b, d, w_min + excess, remaining), ++impacts;
     EXPECT_TRUE(broken);
     EXPECT_EQ(impacts, int(std::ceil(ratio))) << "capacity / excess = " << ratio;
   }
@@ -107,8 +108,8 @@ TEST(Strength, EquivalentSpeeds) {
   // Equal spheres: each hits the symmetry plane, a rigid wall, at v/2; both equivalences agree.
   EXPECT_NEAR(equivalent_speed_pair(ImpactEquivalence::Energy, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, v),
               5.0, 1e-14);
-  EXPECT_NEAR(equivalent_speed_pair(ImpactEquivalence::Force, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, v),
-              5.0, 1e-13);
+  EXPECT_NEAR(equivalent_speed_pair(ImpactEquivalence::Force, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, v), 5.0,
+              1e-13);
   EXPECT_EQ(equivalent_speed_wall(ImpactEquivalence::Energy, 1e-10, 1e-11, v), v);
 
   // Unlike pair: the force-equivalent rigid-wall impact gives the pair's peak force.
@@ -121,8 +122,9 @@ TEST(Strength, EquivalentSpeeds) {
   // Against an elastic wall likewise.
   const double c_wall = 1.0 / 200e9;
   const double u_wall = equivalent_speed_wall(ImpactEquivalence::Force, c_i, c_wall, v);
-  EXPECT_NEAR(peak_force(1.0 / c_i, r_i, m_i, u_wall) / peak_force(1.0 / (c_i + c_wall), r_i, m_i, v),
-              1.0, 1e-12);
+  EXPECT_NEAR(
+      peak_force(1.0 / c_i, r_i, m_i, u_wall) / peak_force(1.0 / (c_i + c_wall), r_i, m_i, v), 1.0,
+      1e-12);
   // Energy: a fine particle hitting a much heavier one sees nearly the full speed.
   EXPECT_NEAR(equivalent_speed_pair(ImpactEquivalence::Energy, m_i, r_i, c_i, m_j, r_j, c_j, v),
               v * m_j / (m_i + m_j), 1e-14);

@@ -4,6 +4,7 @@
 
 #include "core/json_reader.h"
 #include "scene/scene_json.h"
+#include "support/scenes.h"
 
 namespace millsim {
 namespace {
@@ -23,9 +24,7 @@ json valid_scene() {
 }
 
 InputErrors errors_of(const json& doc) {
-  InputErrors errors;
-  parse_scene(doc, ".", errors);
-  return errors;
+  return test::scene_errors(doc);
 }
 
 const InputError* find_error(const InputErrors& errors, const std::string& path) {

@@ -1,9 +1,17 @@
 #include "support/scenes.h"
 
+#include "scene/scene_json.h"
+
 #include <unistd.h>
 #include <random>
 
 namespace millsim::test {
+
+InputErrors scene_errors(const nlohmann::json& doc) {
+  InputErrors errors;
+  parse_scene(doc, ".", errors);
+  return errors;
+}
 
 MaterialConfig table1_material(double restitution, double friction) {
   MaterialConfig m;

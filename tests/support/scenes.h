@@ -5,6 +5,9 @@
 #include <filesystem>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
+#include "core/errors.h"
 #include "particles/particle_store.h"
 #include "scene/scene_config.h"
 
@@ -24,6 +27,9 @@ SceneConfig periodic_random_gas(double box_length_m, std::int64_t count,
 // Adds one list source with a particle.
 void add_particle(SceneConfig& scene, Vec3 position_m, Vec3 velocity_m_per_s, double diameter_m,
                   int material = 0);
+
+// Every error parse_scene reports for a scene document (base directory ".").
+InputErrors scene_errors(const nlohmann::json& doc);
 
 // Σ m v over the particles.
 Vec3 total_momentum(const ParticleStore& particles);
