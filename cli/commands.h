@@ -10,5 +10,6 @@ namespace millsim::cli {
 enum ExitCode { kOk = 0, kUnexpected = 1, kBadInput = 2, kUnstable = 3, kEnvironment = 4 };
 
 int cmd_run(const std::vector<std::string>& args);
+int cmd_study(const std::vector<std::string>& args);
 
 }  // namespace millsim::cli

@@ -17,6 +17,9 @@ struct Verb {
 
 constexpr Verb kVerbs[] = {
     {"run", millsim::cli::cmd_run, "run one scene: millsim run SCENE.json [--out DIR] [--quiet]"},
+    {"study", millsim::cli::cmd_study,
+     "run a parameter study on this machine: millsim study STUDY.json --local [--db FILE] "
+     "[--out DIR] [--workers N] [--format table|json|csv] [--resume STUDY_ID]"},
 };
 
 void usage(std::FILE* to) {

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The README's quick start. On a fresh Debian 12 machine (as root, or with sudo):
-#   bash deploy/quickstart.sh run        build, then run the default scene and print its summary
+#   bash deploy/quickstart.sh run        build, then run the default study locally and print its results
 #   bash deploy/quickstart.sh test       build, then run the whole test suite
 #   bash deploy/quickstart.sh sanitize   build with AddressSanitizer + UBSan, then run the tests
 # Installs missing Debian packages first (deploy/install-deps.sh).
@@ -21,7 +21,8 @@ build() {  # build DIR [cmake options...]
 case "$mode" in
   run)
     build build
-    ./build/cli/millsim run cases/settling_column.json --out out/settling_column
+    # The main job: a whole parameter study run locally on an embedded SQLite file (out/millsim.db).
+    ./build/cli/millsim study cases/studies/dust_threshold_scan.json --local
     ;;
   test)
     build build

@@ -8,37 +8,15 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "support/process.h"
 #include "support/scenes.h"
 
 namespace millsim {
 namespace {
 
-struct CommandResult {
-  int exit_code = -1;
-  std::string out, err;
-};
-
-CommandResult run_millsim(const std::string& args, const std::filesystem::path& work) {
-  const std::filesystem::path err_file = work / "stderr.txt";
-  const std::string command = std::string("cd '") + work.string() + "' && '" MILLSIM_BINARY "' " +
-                              args + " 2>'" + err_file.string() + "' </dev/null";
-  CommandResult result;
-  FILE* pipe = popen(command.c_str(), "r");
-  char buffer[4096];
-  for (std::size_t n; (n = std::fread(buffer, 1, sizeof buffer, pipe)) > 0;)
-    result.out.append(buffer, n);
-  const int status = pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  std::ifstream err(err_file);
-  std::stringstream text;
-  text << err.rdbuf();
-  result.err = text.str();
-  return result;
-}
-
-void write_file(const std::filesystem::path& path, const std::string& text) {
-  std::ofstream(path) << text;
-}
+using test::CommandResult;
+using test::run_millsim;
+using test::write_file;
 
 TEST(CliRun, ImpactCaseRunsAndWritesResults) {
   test::TempDir dir;

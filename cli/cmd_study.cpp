@@ -1,0 +1,161 @@
+// millsim study STUDY.json --local [--db FILE] [--out DIR] [--workers N]
+//                                  [--format table|json|csv] [--resume STUDY_ID]
+// Expands and validates the study (all errors at once, exit 2, nothing queued), records it in
+// the SQLite file, runs its runs as `millsim run` children (N at a time, default one per core),
+// and prints the results table with each run's error against the reference run and its run time;
+// writes DIR/<study>/results.json, results.csv and error_vs_time.svg. --resume finishes a study
+// a previous runner left (runs it had leased are taken again when their lease expires).
+// Exit 0 when every run completed, 3 when some failed, 2 bad input, 4 database or disk error.
+#include <unistd.h>
+
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <thread>
+
+#include "commands.h"
+#include "local_runner.h"
+#include "results.h"
+#include "study.h"
+
+namespace millsim::cli {
+namespace {
+
+constexpr int kMaxRunsPerStudy = 10000;
+
+struct StudyArgs {
+  std::string study_path;
+  bool local = false;
+  std::string db = "out/millsim.db";
+  std::string out = "out/studies";
+  int workers = 0;
+  std::string format = "table";
+  std::string resume;
+};
+
+bool parse_study_args(const std::vector<std::string>& args, StudyArgs& out) {
+  for (std::size_t k = 0; k < args.size(); ++k) {
+    const std::string& a = args[k];
+    const bool has_value = k + 1 < args.size();
+    if (a == "--local") {
+      out.local = true;
+    } else if (a == "--db" && has_value) {
+      out.db = args[++k];
+    } else if (a == "--out" && has_value) {
+      out.out = args[++k];
+    } else if (a == "--workers" && has_value) {
+      out.workers = std::atoi(args[++k].c_str());
+      if (out.workers < 1 || out.workers > 1024) {
+        std::fprintf(stderr, "millsim study: --workers = %s: expected an integer in [1, 1024]\n",
+                     args[k].c_str());
+        return false;
+      }
+    } else if (a == "--format" && has_value) {
+      out.format = args[++k];
+      if (out.format != "table" && out.format != "json" && out.format != "csv") {
+        std::fprintf(stderr, "millsim study: --format = %s: expected table, json or csv\n",
+                     out.format.c_str());
+        return false;
+      }
+    } else if (a == "--resume" && has_value) {
+      out.resume = args[++k];
+    } else if (!a.empty() && a[0] == '-') {
+      std::fprintf(stderr,
+                   "millsim study: unknown option \"%s\"; allowed: --local, --db FILE, --out DIR, "
+                   "--workers N, --format table|json|csv, --resume STUDY_ID\n",
+                   a.c_str());
+      return false;
+    } else if (out.study_path.empty()) {
+      out.study_path = a;
+    } else {
+      std::fprintf(stderr, "millsim study: unexpected argument \"%s\"\n", a.c_str());
+      return false;
+    }
+  }
+  if (out.study_path.empty() && out.resume.empty()) {
+    std::fprintf(stderr,
+                 "usage: millsim study STUDY.json --local [--db FILE] [--out DIR] "
+                 "[--workers N] [--format table|json|csv] [--resume STUDY_ID]\n");
+    return false;
+  }
+  if (!out.local) {
+    std::fprintf(stderr,
+                 "millsim study: only --local is available in this version (the server "
+                 "and remote workers come next); add --local\n");
+    return false;
+  }
+  return true;
+}
+
+void print_progress(const Progress& p) {
+  if (!isatty(STDERR_FILENO)) return;
+  const int done = p.total - p.count(RunState::Queued) - p.count(RunState::Running) -
+                   p.count(RunState::Canceling);
+  std::fprintf(stderr, "\r[%d/%d] running %d, complete %d, failed %d   ", done, p.total,
+               p.count(RunState::Running), p.count(RunState::Complete),
+               p.count(RunState::ExecutorError) + p.count(RunState::SystemError));
+}
+
+}  // namespace
+
+int cmd_study(const std::vector<std::string>& args) {
+  StudyArgs a;
+  if (!parse_study_args(args, a)) return kBadInput;
+  std::optional<Study> study;
+  if (a.resume.empty()) {
+    try {
+      study = load_study(a.study_path, kMaxRunsPerStudy);
+    } catch (const InputErrorList& e) {
+      std::fprintf(stderr, "%s", format_input_errors(a.study_path, e.errors()).c_str());
+      return kBadInput;
+    }
+  }
+  try {
+    std::filesystem::create_directories(std::filesystem::path(a.db).parent_path().empty()
+                                            ? "."
+                                            : std::filesystem::path(a.db).parent_path());
+    Store store(a.db);
+    const std::filesystem::path out_root = std::filesystem::absolute(a.out);
+    std::string study_id = a.resume;
+    if (study) {
+      study_id = store.submit(*study, std::nullopt, out_root, wall_clock_s()).study_id;
+      std::fprintf(stderr, "millsim study: %s, %zu runs, recorded as %s in %s\n",
+                   study->name.c_str(), study->runs.size(), study_id.c_str(), a.db.c_str());
+    } else if (!store.study(study_id)) {
+      std::fprintf(stderr, "millsim study: no study \"%s\" in %s\n", study_id.c_str(),
+                   a.db.c_str());
+      return kBadInput;
+    }
+    LocalExecutor executor(std::filesystem::read_symlink("/proc/self/exe"));
+    LocalRunOptions options;
+    options.workers =
+        a.workers > 0 ? a.workers : int(std::max(1u, std::thread::hardware_concurrency()));
+    options.on_progress = print_progress;
+    run_study_locally(store, study_id, executor, options);
+    if (isatty(STDERR_FILENO)) std::fprintf(stderr, "\n");
+
+    const nlohmann::ordered_json table = results_table(store, study_id);
+    const std::filesystem::path dir = out_root / study_id;
+    std::filesystem::create_directories(dir);
+    std::ofstream(dir / "results.json") << table.dump(2) << "\n";
+    std::ofstream(dir / "results.csv") << results_csv(table);
+    if (table["reference_run"].is_string())
+      std::ofstream(dir / "error_vs_time.svg") << error_vs_time_svg(table);
+    if (a.format == "json")
+      std::cout << table.dump(2) << std::endl;
+    else if (a.format == "csv")
+      std::cout << results_csv(table);
+    else
+      std::cout << results_text(table) << "results: " << (dir / "results.json").string() << "\n";
+    const Progress p = store.progress(study_id);
+    return p.count(RunState::Complete) == p.total ? kOk : kUnstable;
+  } catch (const DbError& e) {
+    std::fprintf(stderr, "millsim study: %s\n", e.what());
+    return kEnvironment;
+  } catch (const IoError& e) {
+    std::fprintf(stderr, "millsim study: %s\n", e.what());
+    return kEnvironment;
+  }
+}
+
+}  // namespace millsim::cli

@@ -1,0 +1,144 @@
+#include "executor.h"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <fstream>
+#include <sstream>
+#include <vector>
+
+#include "core/errors.h"
+
+namespace millsim {
+
+double wall_clock_s() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+LocalExecutor::LocalExecutor(std::filesystem::path millsim_binary)
+    : binary_(std::move(millsim_binary)) {}
+
+ExecHandle LocalExecutor::start(const RunRecord& run, double now) {
+  ExecHandle h;
+  h.out_dir = run.out_dir;
+  std::error_code ec;
+  std::filesystem::create_directories(h.out_dir, ec);
+  if (ec) throw IoError("cannot create " + h.out_dir.string() + ": " + ec.message());
+  std::filesystem::remove(h.out_dir / "result.json", ec);  // a previous attempt's
+  {
+    std::ofstream scene(h.out_dir / "scene.json", std::ios::trunc);
+    scene << nlohmann::json::parse(run.scene).dump(1) << "\n";
+    if (!scene) throw IoError("cannot write " + (h.out_dir / "scene.json").string());
+  }
+  const std::string log = (h.out_dir / "log.txt").string();
+  const std::string binary = binary_.string();
+  const std::string dir = h.out_dir.string();
+  const rlim_t memory = rlim_t(run.memory_limit_mb * 1024.0 * 1024.0);
+
+  const pid_t pid = fork();
+  if (pid < 0) throw IoError("fork failed");
+  if (pid == 0) {  // child: only async-signal-safe calls until exec
+    setpgid(0, 0);
+    if (chdir(dir.c_str()) != 0) _exit(4);
+    const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+    if (fd < 0) _exit(4);
+    dup2(fd, STDOUT_FILENO);
+    dup2(fd, STDERR_FILENO);
+    close(fd);
+    const struct rlimit limit = {memory, memory};
+    setrlimit(RLIMIT_AS, &limit);
+    execl(binary.c_str(), "millsim", "run", "scene.json", "--out", ".", "--quiet",
+          static_cast<char*>(nullptr));
+    _exit(4);  // exec failed: an environment error
+  }
+  setpgid(pid, pid);  // also from the parent, so the group exists before any kill
+  h.pid = pid;
+  h.started_at = now;
+  h.deadline = now + run.wall_limit_s;
+  return h;
+}
+
+std::optional<ChildExit> LocalExecutor::poll(ExecHandle& h, double now) {
+  int status = 0;
+  const pid_t done = waitpid(h.pid, &status, WNOHANG);
+  if (done == h.pid) {
+    // The child is gone; stop anything it left in its group.
+    kill(-h.pid, SIGKILL);
+    ChildExit e;
+    e.timed_out = h.timed_out;
+    e.canceled = h.canceled;
+    e.wall_time_s = now - h.started_at;
+    if (WIFEXITED(status)) {
+      e.exit_code = WEXITSTATUS(status);
+    } else {
+      e.exit_code = -1;
+      e.signal = WIFSIGNALED(status) ? WTERMSIG(status) : 0;
+    }
+    return e;
+  }
+  if (h.term_sent_at == 0.0 && now >= h.deadline) {
+    h.timed_out = true;
+    h.term_sent_at = now;
+    kill(-h.pid, SIGTERM);
+  } else if (h.term_sent_at > 0.0 && now - h.term_sent_at > kGraceSeconds) {
+    kill(-h.pid, SIGKILL);
+  }
+  return std::nullopt;
+}
+
+void LocalExecutor::cancel(ExecHandle& h, double now) {
+  if (h.term_sent_at > 0.0) return;
+  h.canceled = true;
+  h.term_sent_at = now;
+  kill(-h.pid, SIGTERM);
+}
+
+std::string tail_of_file(const std::filesystem::path& path, std::size_t max_lines) {
+  std::ifstream in(path);
+  if (!in) return "";
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);) {
+    lines.push_back(line);
+    if (lines.size() > max_lines) lines.erase(lines.begin());
+  }
+  std::string out;
+  for (const std::string& l : lines) out += l + "\n";
+  return out;
+}
+
+FinishReport report_from_exit(const ChildExit& e, const std::filesystem::path& out_dir) {
+  FinishReport r;
+  r.exit_code = e.exit_code >= 0 ? std::optional<int>(e.exit_code) : std::nullopt;
+  r.wall_time_s = e.wall_time_s;
+  if (e.canceled) {
+    r.state = RunState::Canceled;
+    r.error = "canceled";
+    return r;
+  }
+  if (e.timed_out) {
+    r.state = RunState::ExecutorError;  // the limit is the study's: trying again would not help
+    r.error = concat("stopped at the wall-time limit after ", e.wall_time_s, " s");
+    return r;
+  }
+  const ChildOutcome outcome = classify_child_exit(e.exit_code, e.signal);
+  r.state = outcome.state;
+  r.retryable = outcome.retryable;
+  std::ifstream result(out_dir / "result.json");
+  if (result) {
+    std::stringstream text;
+    text << result.rdbuf();
+    r.result = text.str();
+  }
+  if (r.state != RunState::Complete) {
+    r.error = e.signal ? concat("killed by signal ", e.signal, " (memory limit, OOM or kill)\n")
+                       : concat("exit status ", e.exit_code, "\n");
+    r.error += tail_of_file(out_dir / "log.txt", 20);
+  }
+  return r;
+}
+
+}  // namespace millsim

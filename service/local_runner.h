@@ -1,0 +1,26 @@
+// Runs one study's queued runs on this machine: up to `workers` `millsim run` children at once
+// through an Executor, with leases renewed while they run, limits enforced, cancel honoured, and
+// every attempt recorded in the Store (this process is its only writer). Runs left RUNNING by a
+// runner that died are taken again once their lease expires.
+#pragma once
+
+#include <functional>
+#include <string>
+
+#include "executor.h"
+#include "store.h"
+
+namespace millsim {
+
+struct LocalRunOptions {
+  int workers = 1;
+  double lease_s = 30.0;
+  double poll_interval_s = 0.05;
+  std::function<void(const Progress&)> on_progress;  // after every state change
+};
+
+// Returns when no run of the study is queued, running or canceling.
+void run_study_locally(Store& store, const std::string& study_id, Executor& executor,
+                       const LocalRunOptions& options);
+
+}  // namespace millsim

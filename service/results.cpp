@@ -1,0 +1,193 @@
+#include "results.h"
+
+#include <cmath>
+#include <cstdio>
+#include <optional>
+
+#include "io/svg_plot.h"
+#include "process/psd.h"
+
+namespace millsim {
+namespace {
+
+using nlohmann::json;
+using nlohmann::ordered_json;
+
+std::optional<PsdSummary> outlet_psd(const json& result) {
+  if (!result.contains("outlet_psd")) return std::nullopt;
+  const json& p = result["outlet_psd"];
+  PsdSummary s;
+  s.edges_m = p.value("edges_m", std::vector<double>{});
+  s.cumulative_mass = p.value("cumulative_mass", std::vector<double>{});
+  s.d50_m = p.value("d50_m", 0.0);
+  s.total_mass_kg = p.value("total_mass_kg", 0.0);
+  return s;
+}
+
+std::optional<double> number_at(const json& result, const std::string& pointer) {
+  try {
+    const json& v = result.at(json::json_pointer(pointer));
+    if (v.is_number()) return v.get<double>();
+  } catch (const std::exception&) {
+  }
+  return std::nullopt;
+}
+
+// The run's error against the reference by `metric`; nullopt when it cannot be measured.
+std::optional<double> error_against(const json& run, const json& reference,
+                                    const std::string& metric) {
+  if (metric == "psd_ks" || metric == "psd_l1" || metric == "d50") {
+    const auto a = outlet_psd(run), b = outlet_psd(reference);
+    if (!a || !b || a->edges_m != b->edges_m || a->total_mass_kg <= 0 || b->total_mass_kg <= 0)
+      return std::nullopt;
+    const PsdDistance d = compare_psd(*a, *b);
+    return metric == "psd_ks" ? d.ks : metric == "psd_l1" ? d.l1 : std::abs(d.d50_relative_error);
+  }
+  const auto a = number_at(run, metric), b = number_at(reference, metric);
+  if (!a || !b || *b == 0.0) return std::nullopt;
+  return std::abs(*a - *b) / std::abs(*b);
+}
+
+json parse_or_null(const std::string& text) {
+  if (text.empty()) return nullptr;
+  try {
+    return json::parse(text);
+  } catch (const std::exception&) {
+    return nullptr;
+  }
+}
+
+std::string number_text(const ordered_json& v, const char* format) {
+  if (!v.is_number()) return "-";
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, format, v.get<double>());
+  return buffer;
+}
+
+}  // namespace
+
+ordered_json results_table(Store& store, const std::string& study_id) {
+  const std::optional<StudyRecord> study = store.study(study_id);
+  if (!study) return nullptr;
+  const std::vector<RunRecord> runs = store.runs(study_id);
+  json reference = nullptr;
+  if (study->reference_run)
+    for (const RunRecord& r : runs)
+      if (r.id == *study->reference_run && r.state == RunState::Complete)
+        reference = parse_or_null(r.result);
+  std::string metric = study->error_metric;
+  if (metric.empty())
+    metric = reference.is_object() && reference.contains("outlet_psd") ? "psd_ks"
+                                                                       : "/energy/final/kinetic_j";
+  ordered_json table;
+  table["study"] = study->id;
+  table["name"] = study->name;
+  table["reference_run"] = study->reference_run ? ordered_json(*study->reference_run) : nullptr;
+  table["error_metric"] = metric;
+  const Progress progress = store.progress(study_id);
+  ordered_json counts = ordered_json::object();
+  for (int s = 0; s <= int(RunState::Canceled); ++s)
+    if (progress.by_state[s])
+      counts[std::string(run_state_name(RunState(s)))] = progress.by_state[s];
+  table["counts"] = counts;
+  ordered_json rows = ordered_json::array();
+  for (const RunRecord& r : runs) {
+    const json result = parse_or_null(r.result);
+    ordered_json row;
+    row["run"] = r.id;
+    row["params"] = r.params;
+    row["seed"] = r.seed;
+    row["state"] = std::string(run_state_name(r.state));
+    row["attempts"] = r.attempts;
+    row["reference"] = r.is_reference;
+    row["wall_time_s"] = r.state == RunState::Complete ? ordered_json(r.wall_time_s) : nullptr;
+    row["particle_steps_per_second"] =
+        result.is_object() ? ordered_json(result.value("particle_steps_per_second", 0.0))
+                           : ordered_json(nullptr);
+    row["phase_seconds"] = result.is_object() && result.contains("phase_seconds")
+                               ? ordered_json(result["phase_seconds"])
+                               : ordered_json(nullptr);
+    for (const char* d : {"d10_m", "d50_m", "d90_m"})
+      row[d] = result.is_object() && result.contains("outlet_psd")
+                   ? ordered_json(result["outlet_psd"].value(d, 0.0))
+                   : ordered_json(nullptr);
+    std::optional<double> error;
+    if (result.is_object() && reference.is_object())
+      error = error_against(result, reference, metric);
+    row["error"] = error ? ordered_json(*error) : ordered_json(nullptr);
+    row["message"] = r.state == RunState::Complete ? "" : r.error.substr(0, 400);
+    rows.push_back(row);
+  }
+  table["runs"] = rows;
+  return table;
+}
+
+std::string results_csv(const ordered_json& table) {
+  std::string out = "run,";
+  const ordered_json& rows = table["runs"];
+  if (!rows.empty())
+    for (const auto& [key, value] : rows[0]["params"].items()) out += key + ",";
+  out += "state,attempts,wall_time_s,particle_steps_per_second,d10_m,d50_m,d90_m,error\n";
+  for (const ordered_json& r : rows) {
+    out += r["run"].get<std::string>() + ",";
+    for (const auto& [key, value] : r["params"].items()) out += value.dump() + ",";
+    out += r["state"].get<std::string>() + "," + std::to_string(r["attempts"].get<int>()) + ",";
+    for (const char* k : {"wall_time_s", "particle_steps_per_second", "d10_m", "d50_m", "d90_m"})
+      out += (r[k].is_number() ? number_text(r[k], "%.6g") : std::string()) + ",";
+    out += r["error"].is_number() ? number_text(r["error"], "%.6g") : std::string();
+    out += "\n";
+  }
+  return out;
+}
+
+std::string results_text(const ordered_json& table) {
+  std::string out = "study " + table["study"].get<std::string>() + " (" +
+                    table["name"].get<std::string>() +
+                    "), error: " + table["error_metric"].get<std::string>() + " against " +
+                    (table["reference_run"].is_string() ? table["reference_run"].get<std::string>()
+                                                        : std::string("no reference")) +
+                    "\n";
+  char line[512];
+  std::snprintf(line, sizeof line, "%-12s %-36s %-14s %9s %10s %9s %9s %9s %9s\n", "run",
+                "parameters", "state", "wall s", "psteps/s", "d10 um", "d50 um", "d90 um", "error");
+  out += line;
+  for (const ordered_json& r : table["runs"]) {
+    std::string params;
+    for (const auto& [key, value] : r["params"].items()) {
+      if (!params.empty()) params += ' ';
+      params += key.substr(key.find_last_of("./") + 1);  // the last key of the path
+      params += '=';
+      params += value.dump();
+    }
+    if (r["reference"].get<bool>()) params += " (ref)";
+    const auto um = [](const ordered_json& v) {
+      return v.is_number() ? ordered_json(v.get<double>() * 1e6) : ordered_json(nullptr);
+    };
+    std::snprintf(
+        line, sizeof line, "%-12s %-36s %-14s %9s %10s %9s %9s %9s %9s\n",
+        r["run"].get<std::string>().c_str(), params.c_str(), r["state"].get<std::string>().c_str(),
+        number_text(r["wall_time_s"], "%.2f").c_str(),
+        number_text(r["particle_steps_per_second"], "%.3g").c_str(),
+        number_text(um(r["d10_m"]), "%.1f").c_str(), number_text(um(r["d50_m"]), "%.1f").c_str(),
+        number_text(um(r["d90_m"]), "%.1f").c_str(), number_text(r["error"], "%.4f").c_str());
+    out += line;
+  }
+  return out;
+}
+
+std::string error_vs_time_svg(const ordered_json& table) {
+  PlotPanel panel;
+  panel.title = "study " + table["study"].get<std::string>() + ": error against run time";
+  panel.x_label = "wall time (s)";
+  panel.y_label = "error (" + table["error_metric"].get<std::string>() + ")";
+  PlotSeries series{"runs", {}, {}, "#1f77b4", false, true};
+  for (const ordered_json& r : table["runs"])
+    if (r["wall_time_s"].is_number() && r["error"].is_number()) {
+      series.x.push_back(r["wall_time_s"].get<double>());
+      series.y.push_back(r["error"].get<double>());
+    }
+  panel.series.push_back(series);
+  return render_svg({panel});
+}
+
+}  // namespace millsim

@@ -1,0 +1,24 @@
+// A study's results table: per run its parameters, state, attempts, wall time, particle-steps/s,
+// phase timings, outlet PSD summary (d10/d50/d90) and its error against the study's reference
+// run, by the study's metric:
+//   psd_ks / psd_l1 — the KS or L1 distance between the cumulative mass distributions of the
+//                     outlet PSDs (process/psd.h); d50 — |d50 − d50_ref| / d50_ref;
+//   a JSON pointer  — |x − x_ref| / |x_ref| of that number in result.json.
+// Default metric: psd_ks when the reference has an outlet PSD, else the final kinetic energy.
+// Rendered as JSON, CSV, a text table, or an SVG plot of error against wall time.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "store.h"
+
+namespace millsim {
+
+nlohmann::ordered_json results_table(Store& store, const std::string& study_id);
+
+std::string results_csv(const nlohmann::ordered_json& table);
+std::string results_text(const nlohmann::ordered_json& table);
+std::string error_vs_time_svg(const nlohmann::ordered_json& table);
+
+}  // namespace millsim

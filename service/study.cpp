@@ -1,0 +1,299 @@
+#include "study.h"
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "core/json_reader.h"
+#include "scene/scene_json.h"
+
+namespace millsim {
+namespace {
+
+using nlohmann::json;
+
+struct Parameter {
+  std::string path;
+  std::vector<json> values;
+};
+
+std::vector<json> range_values(const json& v, const std::string& path, InputErrors& errors) {
+  JsonObjectReader r(v, path, errors);
+  const double from = r.required_number("from", NumberRange::any());
+  const double to = r.required_number("to", NumberRange::any());
+  const long long count = r.integer("count", 0, 1, 100000);
+  const std::optional<double> step = r.optional_number("step", NumberRange::positive());
+  const std::string spacing = r.string("spacing", "linear", {"linear", "log"});
+  r.finish();
+  std::vector<json> out;
+  if (!errors.empty()) return out;
+  if (step) {
+    if (r.has("count")) errors.push_back({path, "", "give either count or step, not both"});
+    for (double x = from; x <= to * (1 + 1e-12) && out.size() < 100001; x += *step)
+      out.push_back(std::abs(x - std::round(x)) < 1e-12 ? json(std::llround(x)) : json(x));
+    return out;
+  }
+  if (count < 1) {
+    errors.push_back({path + "/count", "", "missing; expected count (>= 1) or step"});
+    return out;
+  }
+  if (spacing == "log" && (from <= 0 || to <= 0)) {
+    errors.push_back({path + "/from", concat(from), "log spacing needs from and to > 0"});
+    return out;
+  }
+  for (long long k = 0; k < count; ++k) {
+    const double t = count == 1 ? 0.0 : double(k) / double(count - 1);
+    out.push_back(spacing == "log" ? from * std::pow(to / from, t) : from + (to - from) * t);
+  }
+  return out;
+}
+
+std::vector<Parameter> parse_parameters(JsonObjectReader& top, InputErrors& errors) {
+  std::vector<Parameter> out;
+  const json* list = top.array("parameters");
+  if (!list) return out;
+  for (std::size_t i = 0; i < list->size(); ++i) {
+    const std::string path = json_pointer_join("/parameters", i);
+    JsonObjectReader r((*list)[i], path, errors);
+    Parameter p;
+    p.path = r.required_string("path");
+    if (const json* values = r.array("values")) {
+      if (values->empty())
+        errors.push_back({r.path_of("values"), "[]", "expected at least one value"});
+      for (const json& v : *values) p.values.push_back(v);
+      if (r.has("range")) errors.push_back({path, "", "give either values or range, not both"});
+    } else if (const json* range = r.child("range")) {
+      p.values = range_values(*range, r.path_of("range"), errors);
+    } else if (r.is_object()) {
+      errors.push_back({path, "", "expected values (a list) or range {from, to, count|step}"});
+    }
+    r.finish();
+    for (const Parameter& earlier : out)
+      if (earlier.path == p.path)
+        errors.push_back({r.path_of("path"), "\"" + p.path + "\"", "each parameter once"});
+    out.push_back(std::move(p));
+  }
+  return out;
+}
+
+// Sets doc at the key path; creates missing object keys, never missing array elements.
+bool set_at(json& doc, const std::vector<std::string>& keys, const json& value,
+            std::string& problem) {
+  json* node = &doc;
+  for (std::size_t k = 0; k < keys.size(); ++k) {
+    const std::string& key = keys[k];
+    const bool last = k + 1 == keys.size();
+    if (node->is_array()) {
+      char* end = nullptr;
+      const long index = std::strtol(key.c_str(), &end, 10);
+      if (key.empty() || *end != '\0' || index < 0 || std::size_t(index) >= node->size()) {
+        problem = concat("\"", key, "\" is not an index of the ", node->size(), "-element array");
+        return false;
+      }
+      node = &(*node)[std::size_t(index)];
+    } else if (node->is_object() || node->is_null()) {
+      node = &(*node)[key];
+    } else {
+      problem = concat("\"", key, "\" is below a value that is not an object or array");
+      return false;
+    }
+    if (last) *node = value;
+  }
+  return true;
+}
+
+// File sources name paths relative to the scene: make them absolute so a run can start anywhere.
+void absolutize_paths(json& scene, const std::filesystem::path& scene_dir) {
+  if (!scene.contains("sources") || !scene["sources"].is_array()) return;
+  for (json& s : scene["sources"])
+    if (s.is_object() && s.value("type", "") == "file" && s.contains("path") &&
+        s["path"].is_string()) {
+      const std::filesystem::path p = s["path"].get<std::string>();
+      if (p.is_relative()) s["path"] = (scene_dir / p).lexically_normal().string();
+    }
+}
+
+std::string describe_point(const json& params) {
+  std::string text;
+  for (const auto& [key, value] : params.items())
+    text += (text.empty() ? "" : ", ") + key + " = " + value.dump();
+  return text;
+}
+
+json read_json_file(const std::filesystem::path& path, const std::string& what) {
+  std::ifstream in(path);
+  if (!in) throw InputErrorList({{what, path.string(), "cannot read this file"}});
+  std::stringstream text;
+  text << in.rdbuf();
+  try {
+    return json::parse(text.str());
+  } catch (const json::parse_error& e) {
+    throw InputErrorList({{what, path.string(), std::string("not valid JSON: ") + e.what()}});
+  }
+}
+
+}  // namespace
+
+std::vector<std::string> parameter_keys(const std::string& path) {
+  std::vector<std::string> keys;
+  const char separator = !path.empty() && path[0] == '/' ? '/' : '.';
+  std::string key;
+  for (std::size_t i = separator == '/' ? 1 : 0; i <= path.size(); ++i) {
+    if (i == path.size() || path[i] == separator) {
+      keys.push_back(key);
+      key.clear();
+    } else {
+      key += path[i];
+    }
+  }
+  return keys;
+}
+
+Study expand_study(const json& spec, const std::filesystem::path& base_dir, int max_runs) {
+  InputErrors errors;
+  Study study;
+  study.spec = spec;
+  JsonObjectReader top(spec, "", errors);
+  if (!top.is_object()) throw InputErrorList(std::move(errors));
+  study.name = top.string("name", "study");
+  study.description = top.string("description", "");
+
+  // The base scene: inline, or a path relative to the study file.
+  json scene;
+  std::filesystem::path scene_dir = base_dir;
+  if (const json* s = top.child("scene")) {
+    if (s->is_string()) {
+      std::filesystem::path p = s->get<std::string>();
+      if (p.is_relative()) p = base_dir / p;
+      scene_dir = p.parent_path();
+      if (!std::filesystem::is_regular_file(p))
+        errors.push_back(
+            {"/scene", s->dump(), "no such scene file (looked at " + p.string() + ")"});
+      else
+        scene = read_json_file(p, "/scene");
+    } else if (s->is_object()) {
+      scene = *s;
+    } else {
+      errors.push_back({"/scene", json_value_text(*s), "expected a scene object or a path"});
+    }
+  } else {
+    errors.push_back({"/scene", "", "missing; expected a scene object or a path"});
+  }
+  if (const json* set = top.child("set")) {
+    if (!set->is_object())
+      errors.push_back({"/set", json_value_text(*set), "expected an object {path: value}"});
+    else
+      for (const auto& [path, value] : set->items()) {
+        std::string problem;
+        if (scene.is_object() && !set_at(scene, parameter_keys(path), value, problem))
+          errors.push_back({"/set/" + path, value.dump(), problem});
+      }
+  }
+  const std::vector<Parameter> parameters = parse_parameters(top, errors);
+  const std::string combine = top.string("combine", "grid", {"grid", "zip"});
+  const int repeats = int(top.integer("repeats", 1, 1, 1000));
+  study.error_metric = top.string("error", "");
+  if (!study.error_metric.empty() && study.error_metric[0] != '/' &&
+      study.error_metric != "psd_ks" && study.error_metric != "psd_l1" &&
+      study.error_metric != "d50")
+    errors.push_back({"/error", "\"" + study.error_metric + "\"",
+                      "expected psd_ks, psd_l1, d50 or a JSON pointer into result.json (e.g. "
+                      "/energy/final/kinetic_j)"});
+  if (const json* l = top.child("limits")) {
+    JsonObjectReader r(*l, "/limits", errors);
+    study.limits.wall_time_s = r.number("wall_time_s", 3600.0, NumberRange::open_closed(0, 1e7));
+    study.limits.memory_mb = r.number("memory_mb", 4096.0, NumberRange::closed(16, 1e7));
+    study.limits.max_attempts = int(r.integer("max_attempts", 3, 1, 100));
+    r.finish();
+  }
+  const json* reference = top.child("reference");
+  if (reference && !reference->is_object())
+    errors.push_back({"/reference", json_value_text(*reference), "expected {path: value}"});
+  top.finish();
+
+  // The points: a full grid (last parameter fastest) or zipped lists of equal length.
+  std::size_t points = 1;
+  if (combine == "zip" && !parameters.empty()) {
+    points = parameters[0].values.size();
+    for (std::size_t i = 1; i < parameters.size(); ++i)
+      if (parameters[i].values.size() != points)
+        errors.push_back({json_pointer_join("/parameters", i), "",
+                          concat("zip needs lists of equal length: ", parameters[i].values.size(),
+                                 " values against ", points)});
+  } else {
+    for (const Parameter& p : parameters) {
+      points *= std::max<std::size_t>(p.values.size(), 1);
+      if (points > 1'000'000) break;
+    }
+  }
+  const double total = double(points) * repeats;
+  if (total > max_runs)
+    errors.push_back(
+        {"/parameters", "",
+         concat("the study expands to ", total, " runs; this service allows at most ", max_runs)});
+  if (!errors.empty()) throw InputErrorList(std::move(errors));
+
+  std::uint64_t base_seed =
+      scene.is_object() && scene.contains("seed") && scene["seed"].is_number_unsigned()
+          ? scene["seed"].get<std::uint64_t>()
+          : 1;
+  for (std::size_t point = 0; point < points; ++point) {
+    json params = json::object();
+    std::size_t rest = point;
+    for (std::size_t i = parameters.size(); i-- > 0;) {
+      const Parameter& p = parameters[i];
+      const std::size_t n = p.values.size();
+      const std::size_t pick = combine == "zip" ? point : rest % n;
+      if (combine != "zip") rest /= n;
+      params[p.path] = p.values[pick];
+    }
+    nlohmann::ordered_json ordered = nlohmann::ordered_json::object();
+    for (const Parameter& p : parameters) ordered[p.path] = params[p.path];
+    for (int r = 0; r < repeats; ++r) {
+      StudyRun run;
+      run.index = int(study.runs.size());
+      run.params = ordered;
+      run.repeat = r;
+      run.scene = scene;
+      for (const Parameter& p : parameters) {
+        std::string problem;
+        if (!set_at(run.scene, parameter_keys(p.path), params[p.path], problem))
+          errors.push_back(
+              {concat("run ", run.index, " (", describe_point(params), ")"), p.path, problem});
+      }
+      run.seed = run.scene.contains("seed") && run.scene["seed"].is_number_unsigned()
+                     ? run.scene["seed"].get<std::uint64_t>() + std::uint64_t(r)
+                     : base_seed + std::uint64_t(r);
+      run.scene["seed"] = run.seed;
+      absolutize_paths(run.scene, scene_dir);
+      InputErrors scene_errors;
+      parse_scene(run.scene, scene_dir, scene_errors);
+      for (const InputError& e : scene_errors)
+        errors.push_back({concat("run ", run.index, " (", describe_point(params), ") ", e.path),
+                          e.value, e.allowed});
+      if (reference && reference->is_object() && !study.reference_index) {
+        bool match = !reference->empty();
+        for (const auto& [key, value] : reference->items())
+          match = match && params.contains(key) && params[key] == value;
+        if (match && r == 0) {
+          run.is_reference = true;
+          study.reference_index = run.index;
+        }
+      }
+      study.runs.push_back(std::move(run));
+    }
+  }
+  if (reference && reference->is_object() && !study.reference_index)
+    errors.push_back({"/reference", reference->dump(),
+                      "matches no point of the study: give one value of each varied parameter"});
+  if (!errors.empty()) throw InputErrorList(std::move(errors));
+  return study;
+}
+
+Study load_study(const std::filesystem::path& path, int max_runs) {
+  if (!std::filesystem::is_regular_file(path))
+    throw InputErrorList({{path.string(), "", "no such study file"}});
+  return expand_study(read_json_file(path, path.string()), path.parent_path(), max_runs);
+}
+
+}  // namespace millsim

@@ -1,0 +1,55 @@
+// Study files (docs/studies.md): a base scene, fixed overrides, the parameters to vary (by their
+// key path in the scene, as lists or ranges, combined as a full grid or zipped), an optional
+// reference point, repeats with seeds, per-run limits and the error metric. expand_study()
+// turns one into its runs and validates every run's scene with the scene loader before
+// anything is queued: a bad path or value names the parameter and the point.
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/errors.h"
+
+namespace millsim {
+
+struct StudyLimits {
+  double wall_time_s = 3600.0;
+  double memory_mb = 4096.0;
+  int max_attempts = 3;  // system errors are retried up to this many attempts in all
+};
+
+struct StudyRun {
+  int index = 0;
+  nlohmann::ordered_json params;  // {path: value} of the varied parameters
+  int repeat = 0;
+  std::uint64_t seed = 1;
+  nlohmann::json scene;  // the complete scene, file paths made absolute
+  bool is_reference = false;
+};
+
+struct Study {
+  std::string name;
+  std::string description;
+  nlohmann::json spec;  // as submitted
+  std::vector<StudyRun> runs;
+  std::optional<int> reference_index;  // the first run at the reference point
+  std::string error_metric;            // "psd_ks", "psd_l1", "d50" or a JSON pointer
+  StudyLimits limits;
+};
+
+// Parses and expands a study. `base_dir` resolves a scene path (the study file's directory).
+// Throws InputErrorList with every problem (paths like /parameters/0/values/2, or
+// "run 3 (dust.threshold_diameter_m = 8e-05)" for a scene that does not validate), and when
+// the study would have more than `max_runs` runs.
+Study expand_study(const nlohmann::json& spec, const std::filesystem::path& base_dir, int max_runs);
+
+// Reads a study file; throws InputErrorList / IoError.
+Study load_study(const std::filesystem::path& path, int max_runs);
+
+// Splits "dust.threshold_diameter_m" or "/dust/threshold_diameter_m" into keys.
+std::vector<std::string> parameter_keys(const std::string& path);
+
+}  // namespace millsim

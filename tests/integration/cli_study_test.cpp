@@ -1,0 +1,138 @@
+// `millsim study --local` as a real process with real `millsim run` children and a real SQLite
+// file: a study runs to its results table; a child killed with SIGKILL is run again and the
+// study still completes every run exactly once; the wall-time limit stops a run; a bad study is
+// refused with nothing queued.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <fstream>
+#include <thread>
+
+#include "store.h"
+#include "support/process.h"
+#include "support/scenes.h"
+
+namespace millsim {
+namespace {
+
+using nlohmann::json;
+using test::run_millsim;
+using test::write_file;
+
+// A study over the settling column shortened to `end_s`, varying the restitution.
+json settling_study(double end_s, std::vector<double> restitutions) {
+  return {{"name", "settle"},
+          {"scene", MILLSIM_SOURCE_DIR "/cases/settling_column.json"},
+          {"set", {{"time.end_s", end_s}, {"output.h5", false}}},
+          {"parameters", {{{"path", "materials.0.restitution"}, {"values", restitutions}}}},
+          {"reference", {{"materials.0.restitution", restitutions.back()}}}};
+}
+
+// Children of `parent` (from /proc/*/stat).
+std::vector<pid_t> children_of(pid_t parent) {
+  std::vector<pid_t> out;
+  for (const auto& entry : std::filesystem::directory_iterator("/proc")) {
+    const std::string name = entry.path().filename();
+    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+    std::ifstream stat(entry.path() / "stat");
+    std::string line;
+    if (!std::getline(stat, line)) continue;
+    const std::size_t close = line.rfind(')');
+    if (close == std::string::npos) continue;
+    char state;
+    int ppid = 0;
+    if (std::sscanf(line.c_str() + close + 1, " %c %d", &state, &ppid) == 2 && ppid == parent)
+      out.push_back(pid_t(std::stoi(name)));
+  }
+  return out;
+}
+
+TEST(CliStudy, LocalStudyRunsToItsResultsTable) {
+  test::TempDir dir;
+  write_file(dir.path() / "study.json", settling_study(0.002, {0.3, 0.5, 0.7}).dump());
+  const test::CommandResult r = run_millsim(
+      "study study.json --local --db q.db --out runs --workers 2 --format json", dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  const json table = json::parse(r.out);
+  ASSERT_EQ(table["runs"].size(), 3u);
+  EXPECT_EQ(table["error_metric"], "/energy/final/kinetic_j");  // no outlet PSD in this scene
+  for (const json& row : table["runs"]) {
+    EXPECT_EQ(row["state"], "COMPLETE");
+    EXPECT_EQ(row["attempts"], 1);
+    EXPECT_GT(row["wall_time_s"].get<double>(), 0.0);
+    EXPECT_TRUE(std::filesystem::exists(dir.path() / "runs" / table["study"].get<std::string>() /
+                                        row["run"].get<std::string>() / "result.json"));
+  }
+  EXPECT_EQ(table["runs"][2]["error"].get<double>(), 0.0);  // the reference itself
+  EXPECT_GE(table["runs"][0]["error"].get<double>(), 0.0);
+  const std::filesystem::path study_dir = dir.path() / "runs" / table["study"].get<std::string>();
+  EXPECT_TRUE(std::filesystem::exists(study_dir / "results.csv"));
+  EXPECT_TRUE(std::filesystem::exists(study_dir / "error_vs_time.svg"));
+}
+
+TEST(CliStudy, KilledChildIsRunAgainAndEveryRunCompletesOnce) {
+  test::TempDir dir;
+  write_file(dir.path() / "study.json", settling_study(0.12, {0.4, 0.6}).dump());
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    if (chdir(dir.path().c_str()) != 0) _exit(99);
+    freopen("/dev/null", "w", stdout);
+    execl(MILLSIM_BINARY, "millsim", "study", "study.json", "--local", "--db", "q.db", "--out",
+          "runs", "--workers", "2", static_cast<char*>(nullptr));
+    _exit(98);
+  }
+  // Wait for a `millsim run` child to be running a while, then kill it hard.
+  pid_t victim = -1;
+  for (int k = 0; k < 200 && victim < 0; ++k) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(25));
+    const std::vector<pid_t> kids = children_of(pid);
+    if (!kids.empty() && k > 20) victim = kids.front();
+  }
+  ASSERT_GT(victim, 0) << "no child run appeared";
+  kill(victim, SIGKILL);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+  Store store(dir.path() / "q.db");
+  const std::vector<RunRecord> runs = store.runs("s000001");
+  ASSERT_EQ(runs.size(), 2u);
+  int retried = 0;
+  for (const RunRecord& r : runs) {
+    EXPECT_EQ(r.state, RunState::Complete);
+    retried += r.attempts == 2;
+    EXPECT_LE(r.attempts, 2);
+  }
+  EXPECT_EQ(retried, 1);
+}
+
+TEST(CliStudy, WallTimeLimitStopsARunAndBadStudiesQueueNothing) {
+  test::TempDir dir;
+  json study = settling_study(0.3, {0.5});
+  study["limits"] = {{"wall_time_s", 0.5}};
+  write_file(dir.path() / "slow.json", study.dump());
+  test::CommandResult r = run_millsim("study slow.json --local --db q.db --out runs", dir.path());
+  EXPECT_EQ(r.exit_code, 3) << r.err;
+  {
+    Store store(dir.path() / "q.db");
+    const RunRecord run = *store.run("s000001-r0");
+    EXPECT_EQ(run.state, RunState::ExecutorError);
+    EXPECT_NE(run.error.find("wall-time limit"), std::string::npos);
+  }
+  study = settling_study(0.01, {0.5, 2.0});  // restitution 2 is out of range
+  write_file(dir.path() / "bad.json", study.dump());
+  r = run_millsim("study bad.json --local --db q.db --out runs", dir.path());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("run 1 (materials.0.restitution = 2.0) /materials/0/restitution"),
+            std::string::npos)
+      << r.err;
+  Store store(dir.path() / "q.db");
+  EXPECT_EQ(store.studies(10, 0).size(), 1u);  // only the first study
+}
+
+}  // namespace
+}  // namespace millsim

@@ -1,0 +1,130 @@
+// Study expansion: grids, zips and ranges give the expected points; the reference is found;
+// every run's scene is validated and a bad path or value names the parameter and the point;
+// over-large studies are refused before anything is queued.
+#include "study.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+namespace millsim {
+namespace {
+
+using nlohmann::json;
+
+json base_scene() {
+  return json::parse(R"({
+    "domain": {"min_m": [0,0,0], "max_m": [1e-3,1e-3,1e-3]},
+    "materials": [{"name": "m", "youngs_modulus_pa": 1e9, "poisson_ratio": 0.3,
+                   "density_kg_per_m3": 2000, "restitution": 0.5}],
+    "sources": [{"type": "list", "material": "m",
+                 "particles": [{"position_m": [5e-4,5e-4,5e-4], "diameter_m": 1e-4}]}],
+    "seed": 10,
+    "time": {"end_s": 1e-5}
+  })");
+}
+
+json study_with(json parameters) {
+  json s = {{"name", "t"}, {"scene", base_scene()}, {"parameters", parameters}};
+  return s;
+}
+
+std::vector<InputError> errors_of(const json& spec, int max_runs = 1000) {
+  try {
+    expand_study(spec, ".", max_runs);
+  } catch (const InputErrorList& e) {
+    return e.errors();
+  }
+  return {};
+}
+
+TEST(Study, GridZipAndRangesExpandAsDeclared) {
+  json spec = study_with(
+      {{{"path", "search.subcells"}, {"values", {1, 2, 3}}},
+       {{"path", "time.safety_factor"}, {"range", {{"from", 0.1}, {"to", 0.4}, {"count", 4}}}}});
+  Study grid = expand_study(spec, ".", 1000);
+  ASSERT_EQ(grid.runs.size(), 12u);
+  // Last parameter fastest; values applied to the scene.
+  EXPECT_EQ(grid.runs[5].params["search.subcells"], 2);
+  EXPECT_NEAR(grid.runs[5].params["time.safety_factor"].get<double>(), 0.2, 1e-15);
+  EXPECT_EQ(grid.runs[5].scene["search"]["subcells"], 2);  // created: the base has no "search"
+  EXPECT_NEAR(grid.runs[5].scene["time"]["safety_factor"].get<double>(), 0.2, 1e-15);
+
+  spec["parameters"][1]["range"] = {{"from", 0.1}, {"to", 0.3}, {"count", 3}};
+  spec["combine"] = "zip";
+  EXPECT_EQ(expand_study(spec, ".", 1000).runs.size(), 3u);
+
+  json log =
+      study_with({{{"path", "/contact/max_impact_speed_m_per_s"},
+                   {"range", {{"from", 1}, {"to", 100}, {"count", 3}, {"spacing", "log"}}}}});
+  const Study logs = expand_study(log, ".", 1000);
+  ASSERT_EQ(logs.runs.size(), 3u);
+  EXPECT_NEAR(logs.runs[1].scene["contact"]["max_impact_speed_m_per_s"].get<double>(), 10.0, 1e-12);
+}
+
+TEST(Study, RepeatsGetSuccessiveSeedsAndTheReferenceIsFound) {
+  json spec = study_with({{{"path", "time.safety_factor"}, {"values", {0.1, 0.2}}}});
+  spec["repeats"] = 3;
+  spec["reference"] = {{"time.safety_factor", 0.1}};
+  const Study s = expand_study(spec, ".", 1000);
+  ASSERT_EQ(s.runs.size(), 6u);
+  EXPECT_EQ(s.runs[0].seed, 10u);
+  EXPECT_EQ(s.runs[2].seed, 12u);
+  EXPECT_EQ(s.runs[2].scene["seed"], 12);
+  ASSERT_TRUE(s.reference_index.has_value());
+  EXPECT_EQ(*s.reference_index, 0);
+  EXPECT_TRUE(s.runs[0].is_reference);
+  EXPECT_FALSE(s.runs[1].is_reference);
+}
+
+TEST(Study, BadInputNamesTheParameterAndThePoint) {
+  // A value the scene rejects: the run, its point and the scene's own message.
+  auto errors = errors_of(study_with({{{"path", "time.safety_factor"}, {"values", {0.2, 5.0}}}}));
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_EQ(errors[0].path, "run 1 (time.safety_factor = 5.0) /time/safety_factor");
+  EXPECT_NE(errors[0].allowed.find("(0, 1]"), std::string::npos);
+
+  // A key the scene does not know.
+  errors = errors_of(study_with({{{"path", "time.saftey_factor"}, {"values", {0.2}}}}));
+  ASSERT_FALSE(errors.empty());
+  EXPECT_NE(errors[0].allowed.find("did you mean \"safety_factor\""), std::string::npos);
+
+  // An index past an array.
+  errors = errors_of(study_with({{{"path", "materials.3.restitution"}, {"values", {0.5}}}}));
+  ASSERT_FALSE(errors.empty());
+  EXPECT_NE(errors[0].allowed.find("1-element array"), std::string::npos);
+
+  // Reference matching no point; a bad metric; no values.
+  json spec = study_with({{{"path", "time.safety_factor"}, {"values", {0.1}}}});
+  spec["reference"] = {{"time.safety_factor", 0.3}};
+  errors = errors_of(spec);
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_EQ(errors[0].path, "/reference");
+  spec["error"] = "rmse";
+  errors = errors_of(spec);
+  ASSERT_EQ(errors.size(), 1u);  // the study's own fields are checked before the expansion
+  EXPECT_EQ(errors[0].path, "/error");
+  errors = errors_of(study_with({{{"path", "seed"}}}));
+  ASSERT_FALSE(errors.empty());
+  EXPECT_EQ(errors[0].path, "/parameters/0");
+}
+
+TEST(Study, OverLargeStudiesAreRefused) {
+  const json spec = study_with(
+      {{{"path", "seed"}, {"range", {{"from", 1}, {"to", 40}, {"step", 1}}}},
+       {{"path", "time.safety_factor"}, {"range", {{"from", 0.1}, {"to", 0.5}, {"count", 30}}}}});
+  const auto errors = errors_of(spec, 1000);
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_NE(errors[0].allowed.find("expands to 1200 runs"), std::string::npos);
+  EXPECT_EQ(expand_study(spec, ".", 2000).runs.size(), 1200u);
+}
+
+TEST(Study, ParameterPathsSplitOnDotsOrSlashes) {
+  EXPECT_EQ(parameter_keys("dust.threshold_diameter_m"),
+            (std::vector<std::string>{"dust", "threshold_diameter_m"}));
+  EXPECT_EQ(parameter_keys("/materials/0/restitution"),
+            (std::vector<std::string>{"materials", "0", "restitution"}));
+}
+
+}  // namespace
+}  // namespace millsim

@@ -1,0 +1,33 @@
+#include "support/process.h"
+
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+namespace millsim::test {
+
+CommandResult run_millsim(const std::string& args, const std::filesystem::path& work) {
+  const std::filesystem::path err_file = work / "stderr.txt";
+  const std::string command = std::string("cd '") + work.string() + "' && '" MILLSIM_BINARY "' " +
+                              args + " 2>'" + err_file.string() + "' </dev/null";
+  CommandResult result;
+  FILE* pipe = popen(command.c_str(), "r");
+  char buffer[4096];
+  for (std::size_t n; (n = std::fread(buffer, 1, sizeof buffer, pipe)) > 0;)
+    result.out.append(buffer, n);
+  const int status = pclose(pipe);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::ifstream err(err_file);
+  std::stringstream text;
+  text << err.rdbuf();
+  result.err = text.str();
+  return result;
+}
+
+void write_file(const std::filesystem::path& path, const std::string& text) {
+  std::ofstream(path) << text;
+}
+
+}  // namespace millsim::test
