@@ -11,5 +11,12 @@ enum ExitCode { kOk = 0, kUnexpected = 1, kBadInput = 2, kUnstable = 3, kEnviron
 
 int cmd_run(const std::vector<std::string>& args);
 int cmd_study(const std::vector<std::string>& args);
+int cmd_serve(const std::vector<std::string>& args);
+int cmd_worker(const std::vector<std::string>& args);
+int cmd_submit(const std::vector<std::string>& args);
+int cmd_status(const std::vector<std::string>& args);
+int cmd_results(const std::vector<std::string>& args);
+int cmd_psd(const std::vector<std::string>& args);
+int cmd_cancel(const std::vector<std::string>& args);
 
 }  // namespace millsim::cli

@@ -20,6 +20,18 @@ constexpr Verb kVerbs[] = {
     {"study", millsim::cli::cmd_study,
      "run a parameter study on this machine: millsim study STUDY.json --local [--db FILE] "
      "[--out DIR] [--workers N] [--format table|json|csv] [--resume STUDY_ID]"},
+    {"serve", millsim::cli::cmd_serve,
+     "the batch service: millsim serve [--host H] [--port P] [--db FILE] [--token T] "
+     "[--workers N] [--out DIR] [--scenes DIR] [--lease S]"},
+    {"worker", millsim::cli::cmd_worker,
+     "one worker: millsim worker [--server URL] [--token T] [--name NAME] [--until-empty]"},
+    {"submit", millsim::cli::cmd_submit, "submit a study: millsim submit STUDY.json [--wait]"},
+    {"status", millsim::cli::cmd_status,
+     "studies, or one study's progress: millsim status [STUDY] [--watch]"},
+    {"results", millsim::cli::cmd_results,
+     "a study's results table: millsim results STUDY [--format table|json|csv]"},
+    {"psd", millsim::cli::cmd_psd, "a run's outlet PSD as JSON: millsim psd RUN"},
+    {"cancel", millsim::cli::cmd_cancel, "cancel a study: millsim cancel STUDY"},
 };
 
 void usage(std::FILE* to) {

@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -37,20 +38,23 @@ ExecHandle LocalExecutor::start(const RunRecord& run, double now) {
   const std::string log = (h.out_dir / "log.txt").string();
   const std::string binary = binary_.string();
   const std::string dir = h.out_dir.string();
-  const rlim_t memory = rlim_t(run.memory_limit_mb * 1024.0 * 1024.0);
+  [[maybe_unused]] const rlim_t memory = rlim_t(run.memory_limit_mb * 1024.0 * 1024.0);
 
   const pid_t pid = fork();
   if (pid < 0) throw IoError("fork failed");
   if (pid == 0) {  // child: only async-signal-safe calls until exec
     setpgid(0, 0);
+    prctl(PR_SET_PDEATHSIG, SIGKILL);  // dies with its worker (no orphan writing the directory)
     if (chdir(dir.c_str()) != 0) _exit(4);
     const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
     if (fd < 0) _exit(4);
     dup2(fd, STDOUT_FILENO);
     dup2(fd, STDERR_FILENO);
     close(fd);
+#ifndef __SANITIZE_ADDRESS__  // ASan reserves terabytes of address space for its shadow
     const struct rlimit limit = {memory, memory};
     setrlimit(RLIMIT_AS, &limit);
+#endif
     execl(binary.c_str(), "millsim", "run", "scene.json", "--out", ".", "--quiet",
           static_cast<char*>(nullptr));
     _exit(4);  // exec failed: an environment error

@@ -18,6 +18,8 @@
 namespace millsim {
 namespace {
 
+using test::children_of;
+
 using nlohmann::json;
 using test::run_millsim;
 using test::write_file;
@@ -29,25 +31,6 @@ json settling_study(double end_s, std::vector<double> restitutions) {
           {"set", {{"time.end_s", end_s}, {"output.h5", false}}},
           {"parameters", {{{"path", "materials.0.restitution"}, {"values", restitutions}}}},
           {"reference", {{"materials.0.restitution", restitutions.back()}}}};
-}
-
-// Children of `parent` (from /proc/*/stat).
-std::vector<pid_t> children_of(pid_t parent) {
-  std::vector<pid_t> out;
-  for (const auto& entry : std::filesystem::directory_iterator("/proc")) {
-    const std::string name = entry.path().filename();
-    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
-    std::ifstream stat(entry.path() / "stat");
-    std::string line;
-    if (!std::getline(stat, line)) continue;
-    const std::size_t close = line.rfind(')');
-    if (close == std::string::npos) continue;
-    char state;
-    int ppid = 0;
-    if (std::sscanf(line.c_str() + close + 1, " %c %d", &state, &ppid) == 2 && ppid == parent)
-      out.push_back(pid_t(std::stoi(name)));
-  }
-  return out;
 }
 
 TEST(CliStudy, LocalStudyRunsToItsResultsTable) {

@@ -1,8 +1,10 @@
 // Running the real `millsim` binary from tests.
 #pragma once
 
+#include <sys/types.h>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 namespace millsim::test {
 
@@ -14,6 +16,9 @@ struct CommandResult {
 // Runs `millsim ARGS` in `work` (a shell command line; quote paths yourself) and collects its
 // exit code, stdout and stderr.
 CommandResult run_millsim(const std::string& args, const std::filesystem::path& work);
+
+// Processes whose parent is `parent` (from /proc/*/stat).
+std::vector<pid_t> children_of(pid_t parent);
 
 void write_file(const std::filesystem::path& path, const std::string& text);
 

@@ -1,0 +1,135 @@
+// millsim serve [--host H] [--port P] [--db FILE] [--token T] [--workers N] [--out DIR]
+//               [--scenes DIR] [--lease S] [--max-body BYTES] [--max-runs N]
+// The batch service: the HTTP API (service/api_server.h) on H:P (default 127.0.0.1:8080), the
+// SQLite file (default ./millsim.db), and N worker processes (`millsim worker`, default one per
+// core; a worker that dies is started again). Without --token one is generated and printed.
+// Stops cleanly on SIGINT/SIGTERM (workers first: their runs go back to the queue).
+#include <signal.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <fstream>
+#include <thread>
+#include <vector>
+
+#include "api_server.h"
+#include "cli_args.h"
+#include "commands.h"
+#include "core/errors.h"
+
+namespace millsim::cli {
+namespace {
+
+std::string random_token() {
+  std::ifstream urandom("/dev/urandom", std::ios::binary);
+  unsigned char bytes[16] = {};
+  urandom.read(reinterpret_cast<char*>(bytes), sizeof bytes);
+  std::string hex;
+  for (unsigned char b : bytes) {
+    static const char* digits = "0123456789abcdef";
+    hex += digits[b >> 4];
+    hex += digits[b & 15];
+  }
+  return hex;
+}
+
+pid_t start_worker(const std::string& self, const std::string& url, const std::string& token,
+                   int index) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    prctl(PR_SET_PDEATHSIG, SIGTERM);  // a worker stops when its server dies
+    sigset_t none;
+    sigemptyset(&none);
+    sigprocmask(SIG_SETMASK, &none, nullptr);
+    const std::string name = "local-" + std::to_string(index);
+    execl(self.c_str(), "millsim", "worker", "--server", url.c_str(), "--token", token.c_str(),
+          "--name", name.c_str(), static_cast<char*>(nullptr));
+    _exit(4);
+  }
+  return pid;
+}
+
+}  // namespace
+
+int cmd_serve(const std::vector<std::string>& args) {
+  ServerConfig config;
+  config.workers = int(std::max(1u, std::thread::hardware_concurrency()));
+  ArgReader r("serve", args);
+  while (r.next()) {
+    if (r.option("--host", config.host) || r.option("--token", config.token)) continue;
+    std::string db, out, scenes;
+    if (r.option("--db", db)) {
+      config.db = db;
+      continue;
+    }
+    if (r.option("--out", out)) {
+      config.out_root = out;
+      continue;
+    }
+    if (r.option("--scenes", scenes)) {
+      config.scenes_root = scenes;
+      continue;
+    }
+    if (r.int_option("--port", config.port, 0, 65535) ||
+        r.int_option("--workers", config.workers, 0, 1024) ||
+        r.int_option("--max-runs", config.max_runs_per_study, 1, 1000000) ||
+        r.double_option("--lease", config.lease_s, 0.5, 3600))
+      continue;
+    int max_body = 0;
+    if (r.int_option("--max-body", max_body, 1024, 1 << 30)) {
+      config.max_body_bytes = std::size_t(max_body);
+      continue;
+    }
+    r.unknown(
+        "--host H, --port P, --db FILE, --token T, --workers N, --out DIR, --scenes DIR, "
+        "--lease S, --max-body BYTES, --max-runs N");
+  }
+  if (!r.ok()) return kBadInput;
+  if (config.token.empty()) config.token = random_token();
+
+  // SIGINT/SIGTERM are taken by sigwait below, in this thread only.
+  sigset_t stop_signals;
+  sigemptyset(&stop_signals);
+  sigaddset(&stop_signals, SIGINT);
+  sigaddset(&stop_signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
+
+  try {
+    std::unique_ptr<ApiServer> server = std::make_unique<ApiServer>(config);
+    server->bind();
+    const std::string url = "http://" + config.host + ":" + std::to_string(server->bound_port());
+    std::printf("millsim serve: listening on %s (database %s, %d workers)\ntoken: %s\n",
+                url.c_str(), config.db.c_str(), config.workers, config.token.c_str());
+    std::fflush(stdout);
+    std::thread http([&] { server->serve(); });
+
+    const std::string self = std::filesystem::read_symlink("/proc/self/exe");
+    std::vector<pid_t> workers;
+    for (int k = 0; k < config.workers; ++k)
+      workers.push_back(start_worker(self, url, config.token, k));
+    const timespec tick = {0, 200'000'000};
+    while (sigtimedwait(&stop_signals, nullptr, &tick) < 0) {
+      for (std::size_t k = 0; k < workers.size(); ++k) {
+        int status = 0;
+        if (waitpid(workers[k], &status, WNOHANG) == workers[k])
+          workers[k] = start_worker(self, url, config.token, int(k));  // keep N workers
+      }
+    }
+    std::fprintf(stderr, "millsim serve: stopping\n");
+    for (pid_t w : workers) kill(w, SIGTERM);
+    for (pid_t w : workers) waitpid(w, nullptr, 0);
+    server->stop();
+    http.join();
+    return kOk;
+  } catch (const DbError& e) {
+    std::fprintf(stderr, "millsim serve: %s\n", e.what());
+    return kEnvironment;
+  } catch (const IoError& e) {
+    std::fprintf(stderr, "millsim serve: %s\n", e.what());
+    return kEnvironment;
+  }
+}
+
+}  // namespace millsim::cli

@@ -1,0 +1,457 @@
+#include "api_server.h"
+
+#include <httplib.h>
+
+#include <fstream>
+#include <regex>
+
+#include "core/errors.h"
+#include "executor.h"
+#include "results.h"
+#include "sim/run.h"
+
+namespace millsim {
+namespace {
+
+using httplib::Request;
+using httplib::Response;
+using nlohmann::json;
+using nlohmann::ordered_json;
+
+const std::regex kStudyId("^s[0-9]{6}$");
+const std::regex kRunId("^s[0-9]{6}-r[0-9]{1,9}$");
+
+void send_json(Response& res, int status, const ordered_json& body) {
+  res.status = status;
+  res.set_content(body.dump(2) + "\n", "application/json");
+}
+
+void send_error(Response& res, int status, const std::string& code, const std::string& message,
+                const ordered_json& details = nullptr) {
+  ordered_json error = {{"code", code}, {"message", message}};
+  if (!details.is_null()) error["details"] = details;
+  send_json(res, status, {{"error", error}});
+}
+
+// Reads a non-negative integer query parameter within [lo, hi]; reports 400 when bad.
+bool query_int(const Request& req, Response& res, const char* name, int fallback, int lo, int hi,
+               int& out) {
+  out = fallback;
+  if (!req.has_param(name)) return true;
+  const std::string text = req.get_param_value(name);
+  char* end = nullptr;
+  const long v = std::strtol(text.c_str(), &end, 10);
+  if (text.empty() || *end != '\0' || v < lo || v > hi) {
+    send_error(res, 400, "bad_parameter",
+               concat("query parameter ", name, " = \"", text, "\": expected an integer in [", lo,
+                      ", ", hi, "]"));
+    return false;
+  }
+  out = int(v);
+  return true;
+}
+
+bool parse_body(const Request& req, Response& res, json& out) {
+  try {
+    out = json::parse(req.body);
+    return true;
+  } catch (const json::parse_error& e) {
+    send_error(res, 400, "invalid_json", std::string("the body is not valid JSON: ") + e.what());
+    return false;
+  }
+}
+
+ordered_json progress_json(const Progress& p, double mean_wall_s, int workers) {
+  ordered_json counts = ordered_json::object();
+  for (int s = 0; s <= int(RunState::Canceled); ++s)
+    counts[std::string(run_state_name(RunState(s)))] = p.by_state[s];
+  const int left = p.count(RunState::Queued) + p.count(RunState::Running);
+  return {{"total", p.total},
+          {"counts", counts},
+          {"finished", p.finished()},
+          {"eta_s", mean_wall_s > 0 ? ordered_json(mean_wall_s * left / std::max(1, workers))
+                                    : ordered_json(nullptr)}};
+}
+
+ordered_json run_json(const RunRecord& r, bool with_scene) {
+  ordered_json j = {{"id", r.id},
+                    {"study", r.study_id},
+                    {"index", r.index},
+                    {"params", r.params},
+                    {"seed", r.seed},
+                    {"reference", r.is_reference},
+                    {"state", std::string(run_state_name(r.state))},
+                    {"attempts", r.attempts},
+                    {"max_attempts", r.max_attempts},
+                    {"created_at", r.created_at},
+                    {"started_at", r.started_at},
+                    {"finished_at", r.finished_at},
+                    {"exit_code", r.exit_code ? ordered_json(*r.exit_code) : ordered_json(nullptr)},
+                    {"error", r.error},
+                    {"wall_time_s", r.wall_time_s},
+                    {"wall_limit_s", r.wall_limit_s},
+                    {"memory_limit_mb", r.memory_limit_mb}};
+  if (with_scene) {
+    j["scene"] = json::parse(r.scene);
+    j["out_dir"] = r.out_dir;
+  }
+  return j;
+}
+
+// Scene paths in submitted studies must stay under the server's scenes root.
+bool scene_path_allowed(const json& spec, std::string& problem) {
+  if (!spec.is_object() || !spec.contains("scene") || !spec["scene"].is_string()) return true;
+  const std::filesystem::path p = spec["scene"].get<std::string>();
+  if (p.is_absolute()) {
+    problem = "the scene path must be relative to the server's scenes root";
+    return false;
+  }
+  for (const auto& part : p)
+    if (part == "..") {
+      problem = "the scene path must not leave the server's scenes root (no \"..\")";
+      return false;
+    }
+  return true;
+}
+
+}  // namespace
+
+bool is_loopback_host(const std::string& host) {
+  return host == "127.0.0.1" || host == "localhost" || host == "::1";
+}
+
+ApiServer::ApiServer(ServerConfig config)
+    : config_(std::move(config)), http_(std::make_unique<httplib::Server>()) {
+  store_ = std::make_unique<Store>(config_.db);
+  routes();
+}
+
+ApiServer::~ApiServer() {
+  stop();
+  if (reaper_.joinable()) reaper_.join();
+}
+
+void ApiServer::bind() {
+  port_ = config_.port == 0 ? http_->bind_to_any_port(config_.host)
+                            : (http_->bind_to_port(config_.host, config_.port) ? config_.port : -1);
+  if (port_ < 0)
+    throw IoError(concat("cannot listen on ", config_.host, ":", config_.port,
+                         " (in use, or not an address of this machine)"));
+}
+
+void ApiServer::serve() {
+  reaper_ = std::thread([this] {
+    while (!stopping_) {
+      {
+        std::lock_guard<std::mutex> lock(store_mutex_);
+        store_->requeue_expired(wall_clock_s());
+      }
+      for (int k = 0; k < 10 && !stopping_; ++k)
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+  });
+  http_->listen_after_bind();
+}
+
+void ApiServer::stop() {
+  stopping_ = true;
+  if (http_) http_->stop();
+}
+
+void ApiServer::routes() {
+  httplib::Server& s = *http_;
+  s.set_payload_max_length(config_.max_body_bytes);
+  s.set_error_handler([this](const Request&, Response& res) {
+    if (!res.body.empty()) return;
+    if (res.status == 413)
+      send_error(res, 413, "body_too_large",
+                 concat("the request body exceeds ", config_.max_body_bytes, " bytes"));
+    else if (res.status == 404)
+      send_error(res, 404, "not_found", "no such endpoint");
+    else
+      send_error(res, res.status, "http_error", concat("HTTP status ", res.status));
+  });
+  s.set_exception_handler([](const Request&, Response& res, std::exception_ptr ep) {
+    std::string what = "unknown";
+    try {
+      std::rethrow_exception(ep);
+    } catch (const std::exception& e) {
+      what = e.what();
+    } catch (...) {
+    }
+    send_error(res, 500, "internal", what);
+  });
+  const bool public_reads = !is_loopback_host(config_.host);
+  const std::string expected = "Bearer " + config_.token;
+  // Wraps a handler with the token check (always for writes; for reads off loopback).
+  auto guard = [this, expected](bool needs_token, auto handler) {
+    return [this, expected, needs_token, handler](const Request& req, Response& res) {
+      if (needs_token && req.get_header_value("Authorization") != expected) {
+        send_error(res, 401, "unauthorized",
+                   "this endpoint needs the header \"Authorization: Bearer <token>\" with the "
+                   "server's token");
+        return;
+      }
+      handler(req, res);
+    };
+  };
+
+  s.Get("/v1/health", guard(public_reads, [](const Request&, Response& res) {
+          send_json(res, 200, {{"status", "ok"}});
+        }));
+
+  s.Get("/v1/info", guard(public_reads, [this](const Request&, Response& res) {
+          std::lock_guard<std::mutex> lock(store_mutex_);
+          send_json(res, 200,
+                    {{"millsim_version", kMillsimVersion},
+                     {"schema_version", store_->schema_version()},
+                     {"workers", config_.workers},
+                     {"limits",
+                      {{"max_body_bytes", config_.max_body_bytes},
+                       {"max_runs_per_study", config_.max_runs_per_study},
+                       {"lease_s", config_.lease_s}}}});
+        }));
+
+  s.Post(
+      "/v1/studies", guard(true, [this](const Request& req, Response& res) {
+        json spec;
+        if (!parse_body(req, res, spec)) return;
+        std::string problem;
+        if (!scene_path_allowed(spec, problem))
+          return send_error(res, 400, "invalid_study", problem);
+        Study study;
+        try {
+          study = expand_study(spec, config_.scenes_root, config_.max_runs_per_study);
+        } catch (const InputErrorList& e) {
+          ordered_json details = ordered_json::array();
+          for (const InputError& err : e.errors())
+            details.push_back({{"path", err.path}, {"value", err.value}, {"allowed", err.allowed}});
+          return send_error(
+              res, 400, "invalid_study",
+              concat(e.errors().size(), " problem(s) in the study; nothing was queued"), details);
+        }
+        std::optional<std::string> key;
+        if (req.has_header("Idempotency-Key")) key = req.get_header_value("Idempotency-Key");
+        std::lock_guard<std::mutex> lock(store_mutex_);
+        const Store::Submitted sub =
+            store_->submit(study, key, std::filesystem::absolute(config_.out_root), wall_clock_s());
+        send_json(res, sub.created ? 201 : 200,
+                  {{"study", sub.study_id},
+                   {"runs", store_->progress(sub.study_id).total},
+                   {"created", sub.created}});
+      }));
+
+  auto study_summary = [this](const StudyRecord& st) {
+    const Progress p = store_->progress(st.id);
+    double wall = 0.0;
+    int complete = 0;
+    for (const RunRecord& r : store_->runs(st.id, RunState::Complete))
+      wall += r.wall_time_s, ++complete;
+    return ordered_json{{"id", st.id},
+                        {"name", st.name},
+                        {"created_at", st.created_at},
+                        {"canceled", st.canceled},
+                        {"reference_run", st.reference_run ? ordered_json(*st.reference_run)
+                                                           : ordered_json(nullptr)},
+                        {"error_metric", st.error_metric},
+                        {"progress", progress_json(p, complete ? wall / complete : 0.0,
+                                                   std::max(1, config_.workers))}};
+  };
+
+  s.Get("/v1/studies",
+        guard(public_reads, [this, study_summary](const Request& req, Response& res) {
+          int limit = 0, offset = 0;
+          if (!query_int(req, res, "limit", 100, 1, 1000, limit) ||
+              !query_int(req, res, "offset", 0, 0, 1 << 30, offset))
+            return;
+          std::lock_guard<std::mutex> lock(store_mutex_);
+          ordered_json list = ordered_json::array();
+          for (const StudyRecord& st : store_->studies(limit, offset))
+            list.push_back(study_summary(st));
+          send_json(res, 200, {{"studies", list}, {"limit", limit}, {"offset", offset}});
+        }));
+
+  // Resolves {id} of a study route; 404 for an unknown or malformed id.
+  auto with_study = [this](const Request& req, Response& res, std::optional<StudyRecord>& out) {
+    const std::string id = req.matches[1];
+    if (std::regex_match(id, kStudyId)) out = store_->study(id);
+    if (!out) send_error(res, 404, "not_found", "no study \"" + id + "\"");
+    return out.has_value();
+  };
+  auto with_run = [this](const Request& req, Response& res, std::optional<RunRecord>& out) {
+    const std::string id = req.matches[1];
+    if (std::regex_match(id, kRunId)) out = store_->run(id);
+    if (!out) send_error(res, 404, "not_found", "no run \"" + id + "\"");
+    return out.has_value();
+  };
+
+  s.Get(R"(/v1/studies/([^/]+))",
+        guard(public_reads, [this, with_study, study_summary](const Request& req, Response& res) {
+          std::lock_guard<std::mutex> lock(store_mutex_);
+          std::optional<StudyRecord> st;
+          if (!with_study(req, res, st)) return;
+          ordered_json body = study_summary(*st);
+          body["spec"] = json::parse(st->spec);
+          send_json(res, 200, body);
+        }));
+
+  s.Get(R"(/v1/studies/([^/]+)/runs)",
+        guard(public_reads, [this, with_study](const Request& req, Response& res) {
+          int limit = 0, offset = 0;
+          if (!query_int(req, res, "limit", 100, 1, 1000, limit) ||
+              !query_int(req, res, "offset", 0, 0, 1 << 30, offset))
+            return;
+          std::optional<RunState> state;
+          if (req.has_param("state")) {
+            state = run_state_from_name(req.get_param_value("state"));
+            if (!state)
+              return send_error(res, 400, "bad_parameter",
+                                "query parameter state = \"" + req.get_param_value("state") +
+                                    "\": expected QUEUED, RUNNING, COMPLETE, EXECUTOR_ERROR, "
+                                    "SYSTEM_ERROR, CANCELING or CANCELED");
+          }
+          std::lock_guard<std::mutex> lock(store_mutex_);
+          std::optional<StudyRecord> st;
+          if (!with_study(req, res, st)) return;
+          ordered_json list = ordered_json::array();
+          for (const RunRecord& r : store_->runs(st->id, state, limit, offset))
+            list.push_back(run_json(r, false));
+          send_json(res, 200, {{"runs", list}, {"limit", limit}, {"offset", offset}});
+        }));
+
+  s.Get(R"(/v1/studies/([^/]+)/results)",
+        guard(public_reads, [this, with_study](const Request& req, Response& res) {
+          std::lock_guard<std::mutex> lock(store_mutex_);
+          std::optional<StudyRecord> st;
+          if (!with_study(req, res, st)) return;
+          send_json(res, 200, results_table(*store_, st->id));
+        }));
+
+  s.Get(R"(/v1/studies/([^/]+)/plot/error-vs-time)",
+        guard(public_reads, [this, with_study](const Request& req, Response& res) {
+          std::lock_guard<std::mutex> lock(store_mutex_);
+          std::optional<StudyRecord> st;
+          if (!with_study(req, res, st)) return;
+          res.set_content(error_vs_time_svg(results_table(*store_, st->id)), "image/svg+xml");
+        }));
+
+  s.Post(R"(/v1/studies/([^/]+)/cancel)",
+         guard(true, [this, with_study](const Request& req, Response& res) {
+           std::lock_guard<std::mutex> lock(store_mutex_);
+           std::optional<StudyRecord> st;
+           if (!with_study(req, res, st)) return;
+           store_->cancel_study(st->id, wall_clock_s());
+           send_json(res, 200, {{"study", st->id}, {"canceled", true}});
+         }));
+
+  s.Get(R"(/v1/runs/([^/]+))",
+        guard(public_reads, [this, with_run](const Request& req, Response& res) {
+          std::lock_guard<std::mutex> lock(store_mutex_);
+          std::optional<RunRecord> r;
+          if (!with_run(req, res, r)) return;
+          ordered_json body = run_json(*r, false);
+          body["log_tail"] = tail_of_file(std::filesystem::path(r->out_dir) / "log.txt", 40);
+          send_json(res, 200, body);
+        }));
+
+  s.Get(R"(/v1/runs/([^/]+)/psd)",
+        guard(public_reads, [this, with_run](const Request& req, Response& res) {
+          std::lock_guard<std::mutex> lock(store_mutex_);
+          std::optional<RunRecord> r;
+          if (!with_run(req, res, r)) return;
+          if (r->state != RunState::Complete)
+            return send_error(res, 409, "not_complete",
+                              "run " + r->id + " is " + std::string(run_state_name(r->state)) +
+                                  "; its PSD exists once it is COMPLETE");
+          const json result = json::parse(r->result);
+          if (!result.contains("outlet_psd"))
+            return send_error(res, 404, "no_psd",
+                              "run " + r->id + "'s scene has no outlets or breakage, so no PSD");
+          send_json(res, 200, {{"run", r->id}, {"outlet_psd", result["outlet_psd"]}});
+        }));
+
+  s.Get(R"(/v1/runs/([^/]+)/h5)",
+        guard(public_reads, [this, with_run](const Request& req, Response& res) {
+          std::optional<RunRecord> r;
+          {
+            std::lock_guard<std::mutex> lock(store_mutex_);
+            if (!with_run(req, res, r)) return;
+          }
+          const std::filesystem::path file = std::filesystem::path(r->out_dir) / "run.h5";
+          std::error_code ec;
+          const auto size = std::filesystem::file_size(file, ec);
+          if (ec) return send_error(res, 404, "no_h5", "run " + r->id + " has no run.h5");
+          auto stream = std::make_shared<std::ifstream>(file, std::ios::binary);
+          res.set_content_provider(
+              size, "application/x-hdf5",
+              [stream](std::size_t offset, std::size_t length, httplib::DataSink& sink) {
+                std::vector<char> buffer(std::min<std::size_t>(length, 1 << 16));
+                stream->seekg(std::streamoff(offset));
+                stream->read(buffer.data(), std::streamsize(buffer.size()));
+                sink.write(buffer.data(), std::size_t(stream->gcount()));
+                return stream->gcount() > 0;
+              });
+        }));
+
+  // Worker protocol: claim, heartbeat, finish (each with the run's fencing token).
+  s.Post(
+      "/v1/worker/claim", guard(true, [this](const Request& req, Response& res) {
+        json body;
+        if (!parse_body(req, res, body)) return;
+        const std::string worker = body.value("worker", std::string("worker"));
+        std::lock_guard<std::mutex> lock(store_mutex_);
+        std::optional<Claim> c = store_->claim(worker, config_.lease_s, wall_clock_s());
+        if (!c) {
+          res.status = 204;
+          return;
+        }
+        send_json(
+            res, 200,
+            {{"run", run_json(c->run, true)}, {"token", c->token}, {"lease_s", config_.lease_s}});
+      }));
+
+  s.Post(R"(/v1/worker/runs/([^/]+)/heartbeat)",
+         guard(true, [this](const Request& req, Response& res) {
+           json body;
+           if (!parse_body(req, res, body)) return;
+           if (!body.contains("token") || !body["token"].is_number_integer())
+             return send_error(res, 400, "invalid_body", "expected {\"token\": integer}");
+           std::lock_guard<std::mutex> lock(store_mutex_);
+           if (!store_->heartbeat(req.matches[1], body["token"].get<std::int64_t>(),
+                                  config_.lease_s, wall_clock_s()))
+             return send_error(res, 409, "lease_lost",
+                               "the run was canceled or given to another worker: stop it");
+           send_json(res, 200, {{"lease_s", config_.lease_s}});
+         }));
+
+  s.Post(R"(/v1/worker/runs/([^/]+)/finish)",
+         guard(true, [this](const Request& req, Response& res) {
+           json body;
+           if (!parse_body(req, res, body)) return;
+           FinishReport report;
+           try {
+             const std::optional<RunState> state =
+                 run_state_from_name(body.at("state").get<std::string>());
+             if (!state) throw std::invalid_argument("state");
+             report.state = *state;
+             report.retryable = body.value("retryable", false);
+             if (body.contains("exit_code") && body["exit_code"].is_number_integer())
+               report.exit_code = body["exit_code"].get<int>();
+             report.error = body.value("error", std::string());
+             report.wall_time_s = body.value("wall_time_s", 0.0);
+             report.result = body.value("result", std::string());
+             const std::int64_t token = body.at("token").get<std::int64_t>();
+             std::lock_guard<std::mutex> lock(store_mutex_);
+             if (!store_->finish(req.matches[1], token, report, wall_clock_s()))
+               return send_error(res, 409, "lease_lost",
+                                 "stale token: this attempt's report was not recorded");
+           } catch (const std::exception&) {
+             return send_error(res, 400, "invalid_body",
+                               "expected {token, state, retryable, exit_code, error, "
+                               "wall_time_s, result}");
+           }
+           send_json(res, 200, {{"recorded", true}});
+         }));
+}
+
+}  // namespace millsim

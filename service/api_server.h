@@ -1,0 +1,64 @@
+// The HTTP API under /v1 (docs/openapi.yaml), on cpp-httplib. It owns the Store: every write to
+// the SQLite file goes through this process, serialised by one mutex; workers (local or on
+// other machines) talk to it over HTTP. JSON error bodies {"error": {"code", "message",
+// "details"}} with 400/401/404/409/413. Mutating endpoints need the bearer token; read endpoints
+// too when the server listens beyond loopback. A background thread re-queues runs whose lease
+// expired.
+#pragma once
+
+#include <atomic>
+#include <filesystem>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include "store.h"
+
+namespace httplib {
+class Server;
+}
+
+namespace millsim {
+
+struct ServerConfig {
+  std::string host = "127.0.0.1";
+  int port = 8080;  // 0: any free port (bound_port() tells which)
+  std::filesystem::path db = "millsim.db";
+  std::filesystem::path out_root = "out/studies";  // runs' directories
+  std::filesystem::path scenes_root = ".";         // scene paths in studies resolve here
+  std::string token;
+  std::size_t max_body_bytes = 1 << 20;
+  int max_runs_per_study = 10000;
+  double lease_s = 30.0;
+  int workers = 0;  // reported in /v1/info (the serve command starts them)
+};
+
+class ApiServer {
+ public:
+  explicit ApiServer(ServerConfig config);
+  ~ApiServer();
+  ApiServer(const ApiServer&) = delete;
+  ApiServer& operator=(const ApiServer&) = delete;
+
+  // Binds; throws IoError when the address is taken.
+  void bind();
+  int bound_port() const { return port_; }
+  // Serves until stop(); call from one thread.
+  void serve();
+  void stop();
+
+ private:
+  void routes();
+  ServerConfig config_;
+  std::unique_ptr<httplib::Server> http_;
+  std::unique_ptr<Store> store_;
+  std::mutex store_mutex_;
+  std::atomic<bool> stopping_{false};
+  std::thread reaper_;
+  int port_ = 0;
+};
+
+bool is_loopback_host(const std::string& host);
+
+}  // namespace millsim

@@ -1,0 +1,299 @@
+// The batch service as real processes on loopback: `millsim serve` with its SQLite file and
+// worker processes, driven over HTTP and through the CLI. A study finishes and serves its
+// results and PSDs; a worker killed with SIGKILL loses its run to another attempt; a server
+// stopped and restarted mid-study resumes it; cancel stops running children; bad requests get
+// their documented 4xx and change nothing. Every process a test starts is stopped by pid.
+#include <gtest/gtest.h>
+#include <httplib.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <fstream>
+#include <regex>
+#include <set>
+#include <thread>
+
+#include "store.h"
+#include "support/process.h"
+#include "support/scenes.h"
+
+namespace millsim {
+namespace {
+
+using test::children_of;
+
+using nlohmann::json;
+
+constexpr const char* kToken = "test-token";
+
+// A `millsim serve` child on a free loopback port; stopped (SIGTERM, then SIGKILL) by pid.
+class ServerProcess {
+ public:
+  ServerProcess(const std::filesystem::path& dir, int workers, double lease_s = 2.0) : dir_(dir) {
+    const std::filesystem::path log = dir / ("serve-" + std::to_string(++starts_) + ".log");
+    pid_ = fork();
+    if (pid_ == 0) {
+      if (chdir(dir.c_str()) != 0) _exit(99);
+      freopen(log.c_str(), "w", stdout);
+      freopen((log.string() + ".err").c_str(), "w", stderr);
+      const std::string w = std::to_string(workers), lease = std::to_string(lease_s);
+      execl(MILLSIM_BINARY, "millsim", "serve", "--port", "0", "--db", "q.db", "--token", kToken,
+            "--workers", w.c_str(), "--lease", lease.c_str(), "--out", "runs", "--max-body",
+            "200000", static_cast<char*>(nullptr));
+      _exit(98);
+    }
+    const std::regex listening("listening on (http://127.0.0.1:[0-9]+)");
+    for (int k = 0; k < 200 && url_.empty(); ++k) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(25));
+      std::ifstream in(log);
+      std::string line;
+      std::smatch m;
+      while (std::getline(in, line))
+        if (std::regex_search(line, m, listening)) url_ = m[1];
+    }
+  }
+  ~ServerProcess() { stop(); }
+
+  void stop() {
+    if (pid_ <= 0) return;
+    kill(pid_, SIGTERM);
+    for (int k = 0; k < 200; ++k) {
+      if (waitpid(pid_, nullptr, WNOHANG) == pid_) {
+        pid_ = -1;
+        return;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    kill(pid_, SIGKILL);
+    waitpid(pid_, nullptr, 0);
+    pid_ = -1;
+  }
+
+  const std::string& url() const { return url_; }
+  pid_t pid() const { return pid_; }
+
+  httplib::Result get(const std::string& path, bool auth = false) const {
+    httplib::Client c(url_);
+    httplib::Headers h;
+    if (auth) h.emplace("Authorization", std::string("Bearer ") + kToken);
+    return c.Get(path.c_str(), h);
+  }
+  httplib::Result post(const std::string& path, const std::string& body, bool auth = true,
+                       httplib::Headers h = {}) const {
+    httplib::Client c(url_);
+    if (auth) h.emplace("Authorization", std::string("Bearer ") + kToken);
+    return c.Post(path.c_str(), h, body, "application/json");
+  }
+
+  // Polls the study until no run is queued, running or canceling.
+  json wait_finished(const std::string& id, double timeout_s = 120.0) const {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    while (std::chrono::steady_clock::now() < end) {
+      auto res = get("/v1/studies/" + id);
+      if (res && res->status == 200) {
+        const json s = json::parse(res->body);
+        if (s["progress"]["finished"].get<bool>()) return s;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    return nullptr;
+  }
+
+ private:
+  std::filesystem::path dir_;
+  pid_t pid_ = -1;
+  std::string url_;
+  static inline int starts_ = 0;
+};
+
+// A study over the attrition case (outlets and breakage, so it has a PSD), quick runs.
+json attrition_study(std::vector<double> thresholds, double end_s = 0.0004) {
+  std::ifstream in(MILLSIM_SOURCE_DIR "/cases/attrition_target.json");
+  const json scene = json::parse(in);
+  return {{"name", "attrition"},
+          {"scene", scene},
+          {"set", {{"time.end_s", end_s}, {"output.h5", false}}},
+          {"parameters", {{{"path", "dust.threshold_diameter_m"}, {"values", thresholds}}}},
+          {"reference", {{"dust.threshold_diameter_m", thresholds.back()}}}};
+}
+
+// A study over the settling column: runs that take seconds (for kills, restarts and cancels).
+json slow_study(int runs, double end_s) {
+  std::ifstream in(MILLSIM_SOURCE_DIR "/cases/settling_column.json");
+  json values = json::array();
+  for (int k = 0; k < runs; ++k) values.push_back(0.3 + 0.1 * k);
+  return {{"name", "slow"},
+          {"scene", json::parse(in)},
+          {"set", {{"time.end_s", end_s}, {"output.h5", false}}},
+          {"parameters", {{{"path", "materials.0.restitution"}, {"values", values}}}}};
+}
+
+TEST(Service, StudyOverHttpFinishesWithResultsAndPsd) {
+  test::TempDir dir;
+  ServerProcess server(dir.path(), 2);
+  ASSERT_FALSE(server.url().empty()) << "the server did not start";
+  auto res = server.post("/v1/studies", attrition_study({1.2e-4, 8e-5, 6e-5}).dump(), true,
+                         {{"Idempotency-Key", "k1"}});
+  ASSERT_TRUE(res);
+  ASSERT_EQ(res->status, 201) << res->body;
+  const std::string id = json::parse(res->body)["study"];
+  // The same key again: the same study, nothing new.
+  res = server.post("/v1/studies", attrition_study({1.2e-4, 8e-5, 6e-5}).dump(), true,
+                    {{"Idempotency-Key", "k1"}});
+  ASSERT_EQ(res->status, 200);
+  EXPECT_EQ(json::parse(res->body)["study"], id);
+
+  const json study = server.wait_finished(id);
+  ASSERT_FALSE(study.is_null());
+  EXPECT_EQ(study["progress"]["counts"]["COMPLETE"], 3);
+  const json table = json::parse(server.get("/v1/studies/" + id + "/results")->body);
+  EXPECT_EQ(table["error_metric"], "psd_ks");
+  ASSERT_EQ(table["runs"].size(), 3u);
+  EXPECT_EQ(table["runs"][2]["error"].get<double>(), 0.0);
+  for (const json& row : table["runs"]) EXPECT_GT(row["d50_m"].get<double>(), 0.0);
+  const json psd = json::parse(server.get("/v1/runs/" + id + "-r1/psd")->body);
+  EXPECT_EQ(psd["outlet_psd"]["cumulative_mass"].size(), psd["outlet_psd"]["edges_m"].size());
+  auto run = server.get("/v1/runs/" + id + "-r1");
+  EXPECT_EQ(json::parse(run->body)["state"], "COMPLETE");
+  auto plot = server.get("/v1/studies/" + id + "/plot/error-vs-time");
+  EXPECT_NE(plot->body.find("<svg"), std::string::npos);
+  auto runs = server.get("/v1/studies/" + id + "/runs?state=COMPLETE&limit=2");
+  EXPECT_EQ(json::parse(runs->body)["runs"].size(), 2u);
+
+  // The CLI against the same server.
+  test::write_file(dir.path() / "study.json", attrition_study({1e-4, 8e-5}).dump());
+  const std::string common = " --server " + server.url() + " --token " + kToken;
+  const test::CommandResult submitted =
+      test::run_millsim("submit study.json --wait --format json" + common, dir.path());
+  ASSERT_EQ(submitted.exit_code, 0) << submitted.err;
+  const json cli_table = json::parse(submitted.out.substr(submitted.out.find('{')));
+  EXPECT_EQ(cli_table["counts"]["COMPLETE"], 2);
+  const test::CommandResult psd_cli = test::run_millsim(
+      "psd " + cli_table["study"].get<std::string>() + "-r0" + common, dir.path());
+  EXPECT_EQ(psd_cli.exit_code, 0) << psd_cli.err;
+  EXPECT_NE(psd_cli.out.find("cumulative_mass"), std::string::npos);
+  const test::CommandResult listed = test::run_millsim("status" + common, dir.path());
+  EXPECT_NE(listed.out.find(id), std::string::npos);
+}
+
+TEST(Service, BadRequestsGetTheirStatusAndChangeNothing) {
+  test::TempDir dir;
+  ServerProcess server(dir.path(), 0);
+  ASSERT_FALSE(server.url().empty());
+  auto code = [](const httplib::Result& r) { return r ? r->status : -1; };
+  auto error_code = [](const httplib::Result& r) {
+    return json::parse(r->body)["error"]["code"].get<std::string>();
+  };
+  EXPECT_EQ(code(server.post("/v1/studies", "{}", false)), 401);  // no token
+  auto r = server.post("/v1/studies", "{not json");
+  EXPECT_EQ(code(r), 400);
+  EXPECT_EQ(error_code(r), "invalid_json");
+  json bad = attrition_study({1e-4});
+  bad["parameters"][0]["path"] = "dust.treshold_diameter_m";  // unknown key
+  r = server.post("/v1/studies", bad.dump());
+  EXPECT_EQ(code(r), 400);
+  EXPECT_EQ(error_code(r), "invalid_study");
+  EXPECT_NE(r->body.find("did you mean"), std::string::npos);
+  bad = attrition_study({1e-4});
+  bad["parameters"][0]["values"] = "many";  // wrong type
+  EXPECT_EQ(code(server.post("/v1/studies", bad.dump())), 400);
+  bad = {{"scene", "../../etc/passwd"}};  // a path trick
+  EXPECT_EQ(code(server.post("/v1/studies", bad.dump())), 400);
+  EXPECT_EQ(code(server.post("/v1/studies", std::string(300000, ' '))), 413);  // huge body
+  EXPECT_EQ(code(server.get("/v1/runs/..%2F..%2Fetc%2Fpasswd")), 404);
+  EXPECT_EQ(code(server.get("/v1/runs/s000001-r0;drop")), 404);
+  EXPECT_EQ(code(server.get("/v1/studies/s999999")), 404);
+  EXPECT_EQ(code(server.get("/v1/studies?limit=0")), 400);
+  EXPECT_EQ(code(server.post("/v1/worker/runs/s000001-r0/finish", "{\"token\": \"x\"}")), 400);
+  const json list = json::parse(server.get("/v1/studies")->body);
+  EXPECT_TRUE(list["studies"].empty());  // nothing was stored
+  EXPECT_EQ(json::parse(server.get("/v1/info")->body)["limits"]["max_body_bytes"], 200000);
+}
+
+TEST(Service, KilledWorkerLosesItsRunToAnotherAttempt) {
+  test::TempDir dir;
+  ServerProcess server(dir.path(), 2, 1.0);
+  ASSERT_FALSE(server.url().empty());
+  auto res = server.post("/v1/studies", slow_study(2, 0.1).dump());
+  ASSERT_EQ(res->status, 201) << res->body;
+  const std::string id = json::parse(res->body)["study"];
+  // Wait for both runs to start, then kill one worker hard (its child dies with it).
+  pid_t victim = -1;
+  for (int k = 0; k < 200 && victim < 0; ++k) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    for (pid_t w : children_of(server.pid()))
+      if (!children_of(w).empty() && k > 10) victim = w;
+  }
+  ASSERT_GT(victim, 0);
+  kill(victim, SIGKILL);
+  const json study = server.wait_finished(id);
+  ASSERT_FALSE(study.is_null());
+  EXPECT_EQ(study["progress"]["counts"]["COMPLETE"], 2);
+  const json runs = json::parse(server.get("/v1/studies/" + id + "/runs")->body);
+  int retried = 0;
+  for (const json& r : runs["runs"]) retried += r["attempts"].get<int>() == 2;
+  EXPECT_EQ(retried, 1);
+}
+
+TEST(Service, RestartedServerResumesAndCancelStopsRunningChildren) {
+  test::TempDir dir;
+  std::string id;
+  {
+    ServerProcess server(dir.path(), 2, 1.0);
+    ASSERT_FALSE(server.url().empty());
+    auto res = server.post("/v1/studies", slow_study(3, 0.08).dump());
+    ASSERT_EQ(res->status, 201);
+    id = json::parse(res->body)["study"];
+    std::this_thread::sleep_for(std::chrono::milliseconds(700));  // two runs under way
+  }  // stopped: SIGTERM, workers stop and their runs go back to the queue
+  {
+    ServerProcess server(dir.path(), 2, 1.0);
+    ASSERT_FALSE(server.url().empty());
+    const json study = server.wait_finished(id);
+    ASSERT_FALSE(study.is_null());
+    EXPECT_EQ(study["progress"]["counts"]["COMPLETE"], 3);
+    Store store(dir.path() / "q.db");
+    for (const RunRecord& r : store.runs(id)) EXPECT_EQ(r.state, RunState::Complete);
+
+    // Cancel a fresh study while its runs are running.
+    auto res = server.post("/v1/studies", slow_study(4, 0.3).dump());
+    const std::string second = json::parse(res->body)["study"];
+    std::this_thread::sleep_for(std::chrono::milliseconds(800));
+    EXPECT_EQ(server.post("/v1/studies/" + second + "/cancel", "{}")->status, 200);
+    const json canceled = server.wait_finished(second, 30.0);
+    ASSERT_FALSE(canceled.is_null());
+    EXPECT_EQ(canceled["progress"]["counts"]["CANCELED"], 4);
+    EXPECT_TRUE(canceled["canceled"].get<bool>());
+  }
+}
+
+TEST(Service, TwoWorkersRacingOnManyRunsRunEachOnce) {
+  test::TempDir dir;
+  ServerProcess server(dir.path(), 2);
+  ASSERT_FALSE(server.url().empty());
+  json study = {
+      {"name", "many"},
+      {"scene", MILLSIM_SOURCE_DIR "/cases/impact_two_spheres.json"},
+      {"set", {{"output.h5", false}}},
+      {"parameters", {{{"path", "seed"}, {"range", {{"from", 1}, {"to", 60}, {"step", 1}}}}}}};
+  // A path under the scenes root (the server runs in dir): inline instead.
+  std::ifstream in(MILLSIM_SOURCE_DIR "/cases/impact_two_spheres.json");
+  study["scene"] = json::parse(in);
+  auto res = server.post("/v1/studies", study.dump());
+  ASSERT_EQ(res->status, 201) << res->body;
+  const std::string id = json::parse(res->body)["study"];
+  const json done = server.wait_finished(id);
+  ASSERT_FALSE(done.is_null());
+  EXPECT_EQ(done["progress"]["counts"]["COMPLETE"], 60);
+  Store store(dir.path() / "q.db");
+  std::set<std::string> workers;
+  for (const RunRecord& r : store.runs(id)) {
+    EXPECT_EQ(r.attempts, 1) << r.id;
+    EXPECT_EQ(r.state, RunState::Complete);
+  }
+}
+
+}  // namespace
+}  // namespace millsim
