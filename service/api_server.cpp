@@ -158,6 +158,17 @@ void ApiServer::stop() {
   if (http_) http_->stop();
 }
 
+const nlohmann::ordered_json& ApiServer::cached_results(const std::string& study_id) {
+  // Rebuilt only when a run of the study changed state or finished since the last build.
+  const std::string signature = store_->change_signature(study_id);
+  CachedTable& cached = results_cache_[study_id];
+  if (cached.signature != signature || cached.table.is_null()) {
+    cached.table = results_table(*store_, study_id);
+    cached.signature = signature;
+  }
+  return cached.table;
+}
+
 void ApiServer::routes() {
   httplib::Server& s = *http_;
   s.set_payload_max_length(config_.max_body_bytes);
@@ -243,10 +254,7 @@ void ApiServer::routes() {
 
   auto study_summary = [this](const StudyRecord& st) {
     const Progress p = store_->progress(st.id);
-    double wall = 0.0;
-    int complete = 0;
-    for (const RunRecord& r : store_->runs(st.id, RunState::Complete))
-      wall += r.wall_time_s, ++complete;
+    const double mean_wall = store_->mean_wall_time_s(st.id);
     return ordered_json{{"id", st.id},
                         {"name", st.name},
                         {"created_at", st.created_at},
@@ -254,8 +262,7 @@ void ApiServer::routes() {
                         {"reference_run", st.reference_run ? ordered_json(*st.reference_run)
                                                            : ordered_json(nullptr)},
                         {"error_metric", st.error_metric},
-                        {"progress", progress_json(p, complete ? wall / complete : 0.0,
-                                                   std::max(1, config_.workers))}};
+                        {"progress", progress_json(p, mean_wall, std::max(1, config_.workers))}};
   };
 
   s.Get("/v1/studies",
@@ -324,7 +331,7 @@ void ApiServer::routes() {
           std::lock_guard<std::mutex> lock(store_mutex_);
           std::optional<StudyRecord> st;
           if (!with_study(req, res, st)) return;
-          send_json(res, 200, results_table(*store_, st->id));
+          send_json(res, 200, cached_results(st->id));
         }));
 
   s.Get(R"(/v1/studies/([^/]+)/plot/error-vs-time)",
@@ -332,7 +339,7 @@ void ApiServer::routes() {
           std::lock_guard<std::mutex> lock(store_mutex_);
           std::optional<StudyRecord> st;
           if (!with_study(req, res, st)) return;
-          res.set_content(error_vs_time_svg(results_table(*store_, st->id)), "image/svg+xml");
+          res.set_content(error_vs_time_svg(cached_results(st->id)), "image/svg+xml");
         }));
 
   s.Post(R"(/v1/studies/([^/]+)/cancel)",
@@ -398,6 +405,8 @@ void ApiServer::routes() {
       "/v1/worker/claim", guard(true, [this](const Request& req, Response& res) {
         json body;
         if (!parse_body(req, res, body)) return;
+        if (!body.is_object() || (body.contains("worker") && !body["worker"].is_string()))
+          return send_error(res, 400, "invalid_body", "expected {\"worker\": string}");
         const std::string worker = body.value("worker", std::string("worker"));
         std::lock_guard<std::mutex> lock(store_mutex_);
         std::optional<Claim> c = store_->claim(worker, config_.lease_s, wall_clock_s());

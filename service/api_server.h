@@ -8,8 +8,10 @@
 
 #include <atomic>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <mutex>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <thread>
 
@@ -50,6 +52,13 @@ class ApiServer {
 
  private:
   void routes();
+  // The study's results table, rebuilt only when one of its runs changed (store_mutex_ held).
+  const nlohmann::ordered_json& cached_results(const std::string& study_id);
+  struct CachedTable {
+    std::string signature;
+    nlohmann::ordered_json table;
+  };
+  std::map<std::string, CachedTable> results_cache_;
   ServerConfig config_;
   std::unique_ptr<httplib::Server> http_;
   std::unique_ptr<Store> store_;

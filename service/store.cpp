@@ -336,4 +336,23 @@ Progress Store::progress(const std::string& study_id) {
   return p;
 }
 
+double Store::mean_wall_time_s(const std::string& study_id) {
+  Statement s = db_.prepare(
+      "SELECT COALESCE(AVG(wall_time_s), 0) FROM runs WHERE study_id = ? AND state = 'COMPLETE'");
+  s.bind(1, study_id);
+  return s.step() ? s.real(0) : 0.0;
+}
+
+std::string Store::change_signature(const std::string& study_id) {
+  Statement s = db_.prepare(
+      "SELECT COUNT(*), SUM(attempts), MAX(finished_at), "
+      "SUM(state = 'COMPLETE'), SUM(state = 'RUNNING'), SUM(state = 'QUEUED'), "
+      "(SELECT canceled FROM studies WHERE id = ?1) FROM runs WHERE study_id = ?1");
+  s.bind(1, study_id);
+  if (!s.step()) return "";
+  std::string signature;
+  for (int c = 0; c < 7; ++c) signature += s.text(c) + "/";
+  return signature;
+}
+
 }  // namespace millsim

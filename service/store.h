@@ -113,6 +113,10 @@ class Store {
                               const std::optional<RunState>& state = std::nullopt,
                               int limit = 1000000, int offset = 0);
   Progress progress(const std::string& study_id);
+  // Mean wall time of the study's completed runs (0 when none).
+  double mean_wall_time_s(const std::string& study_id);
+  // Changes whenever a run of the study changes state or finishes (for caches).
+  std::string change_signature(const std::string& study_id);
 
  private:
   void migrate();
