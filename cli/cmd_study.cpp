@@ -1,5 +1,6 @@
 // millsim study STUDY.json --local [--db FILE] [--out DIR] [--workers N]
 //                                  [--format table|json|csv] [--resume STUDY_ID]
+//                                  [--executor local|slurm]
 // Expands and validates the study (all errors at once, exit 2, nothing queued), records it in
 // the SQLite file, runs its runs as `millsim run` children (N at a time, default one per core),
 // and prints the results table with each run's error against the reference run and its run time;
@@ -16,6 +17,7 @@
 #include "commands.h"
 #include "local_runner.h"
 #include "results.h"
+#include "slurm_executor.h"
 #include "study.h"
 
 namespace millsim::cli {
@@ -31,6 +33,7 @@ struct StudyArgs {
   int workers = 0;
   std::string format = "table";
   std::string resume;
+  std::string executor = "local";
 };
 
 bool parse_study_args(const std::vector<std::string>& args, StudyArgs& out) {
@@ -59,10 +62,18 @@ bool parse_study_args(const std::vector<std::string>& args, StudyArgs& out) {
       }
     } else if (a == "--resume" && has_value) {
       out.resume = args[++k];
+    } else if (a == "--executor" && has_value) {
+      out.executor = args[++k];
+      if (out.executor != "local" && out.executor != "slurm") {
+        std::fprintf(stderr, "millsim study: --executor = %s: expected local or slurm\n",
+                     out.executor.c_str());
+        return false;
+      }
     } else if (!a.empty() && a[0] == '-') {
       std::fprintf(stderr,
                    "millsim study: unknown option \"%s\"; allowed: --local, --db FILE, --out DIR, "
-                   "--workers N, --format table|json|csv, --resume STUDY_ID\n",
+                   "--workers N, --format table|json|csv, --resume STUDY_ID, "
+                   "--executor local|slurm\n",
                    a.c_str());
       return false;
     } else if (out.study_path.empty()) {
@@ -126,12 +137,20 @@ int cmd_study(const std::vector<std::string>& args) {
                    a.db.c_str());
       return kBadInput;
     }
-    LocalExecutor executor(std::filesystem::read_symlink("/proc/self/exe"));
+    const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe");
+    std::unique_ptr<Executor> executor;
+    if (a.executor == "slurm") {
+      if (!SlurmExecutor::available())
+        throw IoError("--executor slurm: sinfo does not answer (no Slurm cluster configured)");
+      executor = std::make_unique<SlurmExecutor>(self);
+    } else {
+      executor = std::make_unique<LocalExecutor>(self);
+    }
     LocalRunOptions options;
     options.workers =
         a.workers > 0 ? a.workers : int(std::max(1u, std::thread::hardware_concurrency()));
     options.on_progress = print_progress;
-    run_study_locally(store, study_id, executor, options);
+    run_study_locally(store, study_id, *executor, options);
     if (isatty(STDERR_FILENO)) std::fprintf(stderr, "\n");
 
     const nlohmann::ordered_json table = results_table(store, study_id);

@@ -1,6 +1,8 @@
 // millsim worker [--server URL] [--token T] [--name NAME] [--until-empty]
+//                [--executor local|slurm] [--slots N] [--sbatch-args "..."]
 // One worker process (service/worker.h): claims runs from the server and executes each as a
-// `millsim run` child. SIGTERM/SIGINT stop it; a run it was executing goes back to the queue.
+// `millsim run` child (local) or a Slurm batch job (slurm; --slots jobs at once). SIGTERM/SIGINT
+// stop it; the runs it was executing go back to the queue.
 #include <signal.h>
 
 #include <atomic>
@@ -10,6 +12,7 @@
 #include "cli_args.h"
 #include "commands.h"
 #include "core/errors.h"
+#include "slurm_executor.h"
 #include "worker.h"
 
 namespace millsim::cli {
@@ -25,25 +28,42 @@ void on_stop_signal(int) {
 int cmd_worker(const std::vector<std::string>& args) {
   WorkerConfig config;
   if (const char* t = std::getenv("MILLSIM_TOKEN")) config.token = t;
+  std::string executor_name = "local", sbatch_args;
   ArgReader r("worker", args);
   while (r.next()) {
     if (r.option("--server", config.server) || r.option("--token", config.token) ||
-        r.option("--name", config.name))
+        r.option("--name", config.name) || r.option("--executor", executor_name) ||
+        r.option("--sbatch-args", sbatch_args) || r.int_option("--slots", config.slots, 1, 100000))
       continue;
     if (r.is_flag("--until-empty")) {
       config.until_empty = true;
       continue;
     }
-    r.unknown("--server URL, --token T, --name NAME, --until-empty");
+    r.unknown(
+        "--server URL, --token T, --name NAME, --until-empty, --executor local|slurm, "
+        "--slots N, --sbatch-args ARGS");
   }
   if (!r.ok()) return kBadInput;
+  if (executor_name != "local" && executor_name != "slurm") {
+    std::fprintf(stderr, "millsim worker: --executor = %s: expected local or slurm\n",
+                 executor_name.c_str());
+    return kBadInput;
+  }
   struct sigaction action = {};
   action.sa_handler = on_stop_signal;
   sigaction(SIGTERM, &action, nullptr);
   sigaction(SIGINT, &action, nullptr);
   try {
-    LocalExecutor executor(std::filesystem::read_symlink("/proc/self/exe"));
-    run_worker(config, executor, g_stop);
+    const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe");
+    if (executor_name == "slurm") {
+      if (!SlurmExecutor::available())
+        throw IoError("--executor slurm: sinfo does not answer (no Slurm cluster configured)");
+      SlurmExecutor executor(self, sbatch_args);
+      run_worker(config, executor, g_stop);
+    } else {
+      LocalExecutor executor(self);
+      run_worker(config, executor, g_stop);
+    }
     return kOk;
   } catch (const IoError& e) {
     std::fprintf(stderr, "millsim worker: %s\n", e.what());

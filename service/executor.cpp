@@ -23,18 +23,21 @@ double wall_clock_s() {
 LocalExecutor::LocalExecutor(std::filesystem::path millsim_binary)
     : binary_(std::move(millsim_binary)) {}
 
+void prepare_run_directory(const RunRecord& run) {
+  const std::filesystem::path dir = run.out_dir;
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw IoError("cannot create " + dir.string() + ": " + ec.message());
+  std::filesystem::remove(dir / "result.json", ec);  // a previous attempt's
+  std::ofstream scene(dir / "scene.json", std::ios::trunc);
+  scene << nlohmann::json::parse(run.scene).dump(1) << "\n";
+  if (!scene) throw IoError("cannot write " + (dir / "scene.json").string());
+}
+
 ExecHandle LocalExecutor::start(const RunRecord& run, double now) {
   ExecHandle h;
   h.out_dir = run.out_dir;
-  std::error_code ec;
-  std::filesystem::create_directories(h.out_dir, ec);
-  if (ec) throw IoError("cannot create " + h.out_dir.string() + ": " + ec.message());
-  std::filesystem::remove(h.out_dir / "result.json", ec);  // a previous attempt's
-  {
-    std::ofstream scene(h.out_dir / "scene.json", std::ios::trunc);
-    scene << nlohmann::json::parse(run.scene).dump(1) << "\n";
-    if (!scene) throw IoError("cannot write " + (h.out_dir / "scene.json").string());
-  }
+  prepare_run_directory(run);
   const std::string log = (h.out_dir / "log.txt").string();
   const std::string binary = binary_.string();
   const std::string dir = h.out_dir.string();

@@ -25,6 +25,8 @@ struct ExecHandle {
   bool timed_out = false;
   bool canceled = false;
   std::filesystem::path out_dir;
+  std::string job_id;            // the batch system's id (Slurm), empty for local children
+  double last_checked_at = 0.0;  // batch executors query the scheduler at most once a second
 };
 
 struct ChildExit {
@@ -58,6 +60,10 @@ class LocalExecutor : public Executor {
  private:
   std::filesystem::path binary_;
 };
+
+// Writes the run's scene.json into its directory (created) and removes a previous attempt's
+// result.json; throws IoError.
+void prepare_run_directory(const RunRecord& run);
 
 // Seconds since the epoch (the store's timestamps).
 double wall_clock_s();

@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <thread>
+#include <vector>
 
 #include "core/errors.h"
 
@@ -54,67 +55,95 @@ json report_json(const FinishReport& r, std::int64_t token) {
 
 }  // namespace
 
+namespace {
+
+struct ActiveRun {
+  RunRecord run;
+  std::int64_t token = 0;
+  double lease_s = 30.0;
+  ExecHandle handle;
+  double last_beat = 0.0;
+  bool stopped_by_worker = false;
+};
+
+}  // namespace
+
 int run_worker(const WorkerConfig& config, Executor& executor, const std::atomic<bool>& stop) {
   ServerLink link(config);
   char host[256] = "host";
   gethostname(host, sizeof host - 1);
   const std::string name =
       config.name.empty() ? std::string(host) + "-" + std::to_string(getpid()) : config.name;
-  int executed = 0;
-  int unreachable = 0;
-  while (!stop) {
-    json claim;
-    const int status = link.post("/v1/worker/claim", {{"worker", name}}, claim);
-    if (status == 0 || status >= 500) {
-      if (++unreachable > 20 || (executed == 0 && unreachable > 10))
-        throw IoError("the server at " + config.server + " does not answer");
-      std::this_thread::sleep_for(std::chrono::duration<double>(config.idle_poll_s));
-      continue;
+  int executed = 0, unreachable = 0;
+  bool queue_empty = false;
+  std::vector<ActiveRun> active;
+  while (true) {
+    // Claim while there is a free slot (and we are not stopping).
+    while (!stop && int(active.size()) < std::max(1, config.slots)) {
+      json claim;
+      const int status = link.post("/v1/worker/claim", {{"worker", name}}, claim);
+      if (status == 0 || status >= 500) {
+        if (++unreachable > 20 || (executed == 0 && active.empty() && unreachable > 10))
+          throw IoError("the server at " + config.server + " does not answer");
+        break;
+      }
+      unreachable = 0;
+      if (status == 401) throw IoError("the server refused the worker's token (401)");
+      if (status == 204) {
+        queue_empty = true;
+        break;
+      }
+      if (status != 200) throw IoError(concat("unexpected answer to a claim: HTTP ", status));
+      queue_empty = false;
+      ActiveRun a;
+      a.run = record_from(claim["run"]);
+      a.token = claim["token"].get<std::int64_t>();
+      a.lease_s = claim["lease_s"].get<double>();
+      const double now = wall_clock_s();
+      a.last_beat = now;
+      try {
+        a.handle = executor.start(a.run, now);
+      } catch (const std::exception& e) {
+        FinishReport failed;
+        failed.state = RunState::SystemError;
+        failed.retryable = true;
+        failed.error = std::string("the worker could not start it: ") + e.what();
+        json ignored;
+        link.post("/v1/worker/runs/" + a.run.id + "/finish", report_json(failed, a.token), ignored);
+        continue;
+      }
+      active.push_back(std::move(a));
     }
-    unreachable = 0;
-    if (status == 401) throw IoError("the server refused the worker's token (401)");
-    if (status == 204) {
-      if (config.until_empty) break;
-      std::this_thread::sleep_for(std::chrono::duration<double>(config.idle_poll_s));
-      continue;
-    }
-    if (status != 200) throw IoError(concat("unexpected answer to a claim: HTTP ", status));
-
-    const RunRecord run = record_from(claim["run"]);
-    const std::int64_t token = claim["token"].get<std::int64_t>();
-    const double lease_s = claim["lease_s"].get<double>();
-    FinishReport report;
-    try {
-      ExecHandle handle = executor.start(run, wall_clock_s());
-      double last_beat = wall_clock_s();
-      std::optional<ChildExit> done;
-      bool stopped_by_worker = false;
-      while (!(done = executor.poll(handle, wall_clock_s()))) {
-        const double now = wall_clock_s();
-        if (now - last_beat > lease_s / 3.0) {
-          last_beat = now;
-          json ignored;
-          const int beat =
-              link.post("/v1/worker/runs/" + run.id + "/heartbeat", {{"token", token}}, ignored);
-          if (beat == 409) executor.cancel(handle, now);  // canceled, or the lease was lost
+    // Watch the running ones.
+    for (std::size_t k = 0; k < active.size();) {
+      ActiveRun& a = active[k];
+      const double now = wall_clock_s();
+      if (std::optional<ChildExit> done = executor.poll(a.handle, now)) {
+        FinishReport report = report_from_exit(*done, a.handle.out_dir);
+        if (a.stopped_by_worker) {  // not the user's cancel: back to the queue
+          report.state = RunState::SystemError;
+          report.retryable = true;
+          report.error = "the worker was stopped during the run";
         }
-        if (stop && !handle.canceled) stopped_by_worker = true, executor.cancel(handle, now);
-        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+        json ignored;
+        link.post("/v1/worker/runs/" + a.run.id + "/finish", report_json(report, a.token), ignored);
+        ++executed;
+        active.erase(active.begin() + std::ptrdiff_t(k));
+        continue;
       }
-      report = report_from_exit(*done, handle.out_dir);
-      if (stopped_by_worker) {  // not the user's cancel: the run goes back to the queue
-        report.state = RunState::SystemError;
-        report.retryable = true;
-        report.error = "the worker was stopped during the run";
+      if (now - a.last_beat > a.lease_s / 3.0) {
+        a.last_beat = now;
+        json ignored;
+        if (link.post("/v1/worker/runs/" + a.run.id + "/heartbeat", {{"token", a.token}},
+                      ignored) == 409)
+          executor.cancel(a.handle, now);  // canceled, or the lease was lost
       }
-    } catch (const std::exception& e) {
-      report.state = RunState::SystemError;
-      report.retryable = true;
-      report.error = std::string("the worker could not run it: ") + e.what();
+      if (stop && !a.handle.canceled) a.stopped_by_worker = true, executor.cancel(a.handle, now);
+      ++k;
     }
-    json ignored;
-    link.post("/v1/worker/runs/" + run.id + "/finish", report_json(report, token), ignored);
-    ++executed;
+    if (active.empty() && (stop || (config.until_empty && queue_empty))) break;
+    std::this_thread::sleep_for(
+        std::chrono::duration<double>(active.empty() ? config.idle_poll_s : 0.05));
   }
   return executed;
 }

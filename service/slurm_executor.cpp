@@ -1,0 +1,116 @@
+#include "slurm_executor.h"
+
+#include <cmath>
+#include <cstdio>
+#include <regex>
+
+#include "core/errors.h"
+
+namespace millsim {
+namespace {
+
+// Runs a shell command; returns its stdout and sets `status` to its exit status.
+std::string capture(const std::string& command, int& status) {
+  std::string out;
+  FILE* pipe = popen((command + " 2>/dev/null").c_str(), "r");
+  if (!pipe) {
+    status = -1;
+    return out;
+  }
+  char buffer[4096];
+  for (std::size_t n; (n = std::fread(buffer, 1, sizeof buffer, pipe)) > 0;) out.append(buffer, n);
+  status = pclose(pipe);
+  return out;
+}
+
+std::string shell_quoted(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+std::string trim(std::string s) {
+  while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
+  return s;
+}
+
+}  // namespace
+
+SlurmExecutor::SlurmExecutor(std::filesystem::path binary, std::string extra)
+    : binary_(std::move(binary)), extra_args_(std::move(extra)) {}
+
+bool SlurmExecutor::available() {
+  int status = 0;
+  capture("sinfo -h -o %P", status);
+  return status == 0;
+}
+
+ExecHandle SlurmExecutor::start(const RunRecord& run, double now) {
+  ExecHandle h;
+  h.out_dir = run.out_dir;
+  prepare_run_directory(run);
+  const long minutes = std::max(1L, long(std::ceil(run.wall_limit_s / 60.0)));
+  const long memory_mb = std::max(16L, long(run.memory_limit_mb));
+  std::string job = "exec " + shell_quoted(binary_.string()) + " run scene.json --out . --quiet";
+#ifndef __SANITIZE_ADDRESS__  // ASan reserves terabytes of address space for its shadow
+  job = "ulimit -v " + std::to_string(memory_mb * 1024) + "; " + job;
+#endif
+  const std::string command =
+      "sbatch --parsable --job-name=" + shell_quoted("millsim-" + run.id) +
+      " --chdir=" + shell_quoted(h.out_dir.string()) +
+      " --output=log.txt --open-mode=append --ntasks=1 --time=" + std::to_string(minutes) +
+      " --mem=" + std::to_string(memory_mb) + " " + extra_args_ + " --wrap=" + shell_quoted(job);
+  int status = 0;
+  const std::string out = trim(capture(command, status));
+  const std::string id = out.substr(0, out.find(';'));  // "jobid[;cluster]"
+  if (status != 0 || id.empty() || id.find_first_not_of("0123456789") != std::string::npos)
+    throw IoError("sbatch failed (status " + std::to_string(status) + "): " + out);
+  h.job_id = id;
+  h.started_at = now;
+  h.deadline = now + run.wall_limit_s;
+  return h;
+}
+
+std::optional<ChildExit> SlurmExecutor::poll(ExecHandle& h, double now) {
+  if (now - h.last_checked_at < 1.0) return std::nullopt;
+  h.last_checked_at = now;
+  int status = 0;
+  const std::string state = trim(capture("squeue -h -t all -j " + h.job_id + " -o %T", status));
+  if (status == 0 && (state == "PENDING" || state == "RUNNING" || state == "CONFIGURING" ||
+                      state == "COMPLETING" || state == "REQUEUED" || state == "SUSPENDED" ||
+                      state == "RESIZING" || state == "SIGNALING" || state == "STAGE_OUT"))
+    return std::nullopt;
+  ChildExit e;
+  e.wall_time_s = now - h.started_at;
+  e.canceled = h.canceled;
+  // ExitCode=code:signal of the batch script.
+  const std::string info = capture("scontrol show job " + h.job_id, status);
+  std::smatch m;
+  int code = -1, signal = 0;
+  if (std::regex_search(info, m, std::regex("ExitCode=([0-9]+):([0-9]+)")))
+    code = std::stoi(m[1]), signal = std::stoi(m[2]);
+  if (state == "COMPLETED" || state == "FAILED") {
+    e.exit_code = signal ? -1 : code;
+    e.signal = signal;
+  } else if (state == "TIMEOUT" || state == "DEADLINE") {
+    e.timed_out = true;
+    e.exit_code = -1;
+    e.signal = 15;
+  } else if (state == "CANCELLED" && h.canceled) {
+    e.exit_code = -1;
+    e.signal = 15;
+  } else {  // OUT_OF_MEMORY, NODE_FAIL, PREEMPTED, BOOT_FAIL, CANCELLED by others, or gone
+    e.exit_code = -1;
+    e.signal = 9;
+  }
+  return e;
+}
+
+void SlurmExecutor::cancel(ExecHandle& h, double) {
+  if (h.canceled) return;
+  h.canceled = true;
+  int status = 0;
+  capture("scancel " + h.job_id, status);
+}
+
+}  // namespace millsim

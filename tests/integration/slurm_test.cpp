@@ -1,0 +1,107 @@
+// The Slurm executor against real Slurm daemons (deploy/slurm/slurm-local.sh starts a one-node
+// cluster; CI does). Skipped, saying so, when no cluster answers. Runs become batch jobs named
+// millsim-<run>; exit codes map to states as for local children; cancel reaches the jobs.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <fstream>
+#include <thread>
+
+#include "slurm_executor.h"
+#include "store.h"
+#include "support/process.h"
+#include "support/scenes.h"
+
+namespace millsim {
+namespace {
+
+using nlohmann::json;
+
+// State of the newest job named millsim-<run_id> (run ids repeat across databases).
+std::string job_state(const std::string& run_id) {
+  const std::string command = "squeue -h -t all -n millsim-" + run_id + " -o '%i %T' 2>/dev/null";
+  FILE* pipe = popen(command.c_str(), "r");
+  long newest = -1;
+  std::string state;
+  char line[256];
+  while (std::fgets(line, sizeof line, pipe)) {
+    long id = 0;
+    char text[64] = {};
+    if (std::sscanf(line, "%ld %63s", &id, text) == 2 && id > newest) newest = id, state = text;
+  }
+  pclose(pipe);
+  return state;
+}
+
+json settling(double end_s, json extra_set = json::object()) {
+  std::ifstream in(MILLSIM_SOURCE_DIR "/cases/settling_column.json");
+  json set = {{"time.end_s", end_s}, {"output.h5", false}};
+  set.update(extra_set);
+  return {{"name", "slurm"}, {"scene", json::parse(in)}, {"set", set}};
+}
+
+TEST(Slurm, StudyRunsAsBatchJobsWithExitCodesMapped) {
+  if (!SlurmExecutor::available())
+    GTEST_SKIP() << "no Slurm cluster answers (start deploy/slurm/slurm-local.sh and export "
+                    "SLURM_CONF)";
+  test::TempDir dir;
+  // Run 0 completes; run 1's fixed step is above the Rayleigh bound: the engine rejects it
+  // (exit 2) inside its job, an EXECUTOR_ERROR that is not retried.
+  json study = settling(0.005);
+  study["parameters"] = {{{"path", "time.step_s"}, {"values", {2e-6, 1e-3}}}};
+  test::write_file(dir.path() / "study.json", study.dump());
+  const test::CommandResult r = test::run_millsim(
+      "study study.json --local --executor slurm --workers 2 --db q.db --out runs --format json",
+      dir.path());
+  EXPECT_EQ(r.exit_code, 3) << r.err;  // one run failed
+  Store store(dir.path() / "q.db");
+  const std::vector<RunRecord> runs = store.runs("s000001");
+  ASSERT_EQ(runs.size(), 2u);
+  EXPECT_EQ(runs[0].state, RunState::Complete);
+  EXPECT_EQ(runs[1].state, RunState::ExecutorError);
+  EXPECT_EQ(runs[1].attempts, 1);
+  EXPECT_EQ(runs[1].exit_code.value_or(-1), 2);
+  EXPECT_NE(runs[1].error.find("time/step_s"), std::string::npos) << runs[1].error;
+  // They ran as Slurm jobs.
+  EXPECT_EQ(job_state(runs[0].id), "COMPLETED");
+  EXPECT_EQ(job_state(runs[1].id), "FAILED");
+}
+
+TEST(Slurm, CancelReachesTheJobs) {
+  if (!SlurmExecutor::available()) GTEST_SKIP() << "no Slurm cluster answers";
+  test::TempDir dir;
+  json study = settling(0.3);
+  study["parameters"] = {{{"path", "materials.0.restitution"}, {"values", {0.4, 0.6}}}};
+  test::write_file(dir.path() / "study.json", study.dump());
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    if (chdir(dir.path().c_str()) != 0) _exit(99);
+    freopen("/dev/null", "w", stdout);
+    execl(MILLSIM_BINARY, "millsim", "study", "study.json", "--local", "--executor", "slurm",
+          "--workers", "2", "--db", "q.db", "--out", "runs", static_cast<char*>(nullptr));
+    _exit(98);
+  }
+  // Both jobs running, then cancel the study in the database (as the server's cancel does).
+  for (int k = 0; k < 200; ++k) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    if (job_state("s000001-r0") == "RUNNING" && job_state("s000001-r1") == "RUNNING") break;
+  }
+  {
+    Store store(dir.path() / "q.db");
+    store.cancel_study("s000001", 0.0);
+  }
+  int status = 0;
+  waitpid(pid, &status, 0);  // the runner stops the jobs at its next heartbeat (≤ 10 s)
+  Store store(dir.path() / "q.db");
+  for (const RunRecord& r : store.runs("s000001")) {
+    EXPECT_EQ(r.state, RunState::Canceled) << r.id;
+    EXPECT_EQ(job_state(r.id), "CANCELLED") << r.id;
+  }
+}
+
+}  // namespace
+}  // namespace millsim
