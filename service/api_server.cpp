@@ -3,7 +3,7 @@
 #include <httplib.h>
 
 #include <fstream>
-#include <regex>
+#include <string_view>
 
 #include "core/errors.h"
 #include "executor.h"
@@ -18,8 +18,20 @@ using httplib::Response;
 using nlohmann::json;
 using nlohmann::ordered_json;
 
-const std::regex kStudyId("^s[0-9]{6}$");
-const std::regex kRunId("^s[0-9]{6}-r[0-9]{1,9}$");
+bool all_digits(std::string_view s) {
+  return !s.empty() && s.find_first_not_of("0123456789") == std::string_view::npos;
+}
+
+// "s" and six digits: the only study ids there are (anything else, e.g. a path trick, is 404).
+bool is_study_id(std::string_view s) {
+  return s.size() == 7 && s[0] == 's' && all_digits(s.substr(1));
+}
+
+// A study id, "-r" and 1–9 digits.
+bool is_run_id(std::string_view s) {
+  return s.size() >= 10 && s.size() <= 18 && is_study_id(s.substr(0, 7)) &&
+         s.substr(7, 2) == "-r" && all_digits(s.substr(9));
+}
 
 void send_json(Response& res, int status, const ordered_json& body) {
   res.status = status;
@@ -281,13 +293,13 @@ void ApiServer::routes() {
   // Resolves {id} of a study route; 404 for an unknown or malformed id.
   auto with_study = [this](const Request& req, Response& res, std::optional<StudyRecord>& out) {
     const std::string id = req.matches[1];
-    if (std::regex_match(id, kStudyId)) out = store_->study(id);
+    if (is_study_id(id)) out = store_->study(id);
     if (!out) send_error(res, 404, "not_found", "no study \"" + id + "\"");
     return out.has_value();
   };
   auto with_run = [this](const Request& req, Response& res, std::optional<RunRecord>& out) {
     const std::string id = req.matches[1];
-    if (std::regex_match(id, kRunId)) out = store_->run(id);
+    if (is_run_id(id)) out = store_->run(id);
     if (!out) send_error(res, 404, "not_found", "no run \"" + id + "\"");
     return out.has_value();
   };

@@ -2,7 +2,6 @@
 
 #include <cmath>
 #include <cstdio>
-#include <regex>
 
 #include "core/errors.h"
 
@@ -85,10 +84,9 @@ std::optional<ChildExit> SlurmExecutor::poll(ExecHandle& h, double now) {
   e.canceled = h.canceled;
   // ExitCode=code:signal of the batch script.
   const std::string info = capture("scontrol show job " + h.job_id, status);
-  std::smatch m;
   int code = -1, signal = 0;
-  if (std::regex_search(info, m, std::regex("ExitCode=([0-9]+):([0-9]+)")))
-    code = std::stoi(m[1]), signal = std::stoi(m[2]);
+  const std::size_t at = info.find("ExitCode=");
+  if (at != std::string::npos) std::sscanf(info.c_str() + at, "ExitCode=%d:%d", &code, &signal);
   if (state == "COMPLETED" || state == "FAILED") {
     e.exit_code = signal ? -1 : code;
     e.signal = signal;

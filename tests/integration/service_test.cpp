@@ -276,7 +276,6 @@ TEST(Service, TwoWorkersRacingOnManyRunsRunEachOnce) {
   json study = {
       {"name", "many"},
       {"scene", MILLSIM_SOURCE_DIR "/cases/impact_two_spheres.json"},
-      {"set", {{"output.h5", false}}},
       {"parameters", {{{"path", "seed"}, {"range", {{"from", 1}, {"to", 60}, {"step", 1}}}}}}};
   // A path under the scenes root (the server runs in dir): inline instead.
   std::ifstream in(MILLSIM_SOURCE_DIR "/cases/impact_two_spheres.json");
@@ -293,6 +292,12 @@ TEST(Service, TwoWorkersRacingOnManyRunsRunEachOnce) {
     EXPECT_EQ(r.attempts, 1) << r.id;
     EXPECT_EQ(r.state, RunState::Complete);
   }
+  // A run's HDF5 file downloads intact (the HDF5 signature, and the size on disk).
+  auto h5 = server.get("/v1/runs/" + id + "-r7/h5");
+  ASSERT_EQ(h5->status, 200);
+  EXPECT_EQ(h5->body.substr(0, 8), std::string("\x89HDF\r\n\x1a\n", 8));
+  EXPECT_EQ(h5->body.size(),
+            std::filesystem::file_size(dir.path() / "runs" / id / (id + "-r7") / "run.h5"));
 }
 
 }  // namespace
