@@ -212,7 +212,12 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
   pair_touching.assign(pairs.size(), kPairApart);
   if (!old_pairs.empty() || !newborn_.empty())
     for (std::size_t k = 0; k < pairs.size(); ++k) {
+      // A pair apart now is apart at the next force pass whatever it was (its history is then
+      // cleared): only overlapping pairs need their state.
       const std::uint32_t i = pairs.first[k], j = pairs.second[k];
+      const double reach = p.radius_m[i] + p.radius_m[j];
+      const Vec3 d = p.position_m[i] - p.position_m[j] - image_shift_[pair_image[k]];
+      if (norm2(d) >= reach * reach) continue;
       const std::uint64_t a = p.id[i], b = p.id[j];
       if (const KeyedHistory* h = lookup(old_pairs, std::min(a, b), std::max(a, b))) {
         pair_history_m[k] = h->history;
@@ -223,9 +228,7 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
       const Newborn* ni = find_newborn(newborn_, a);
       const Newborn* nj = find_newborn(newborn_, b);
       if (!ni && !nj) continue;
-      const double reach = p.radius_m[i] + p.radius_m[j];
-      const double dist = norm(p.position_m[i] - p.position_m[j] - image_shift_[pair_image[k]]);
-      if (dist >= reach) continue;
+      const double dist = norm(d);
       const bool siblings = ni && nj && ni->family != 0 && ni->family == nj->family;
       const bool deep =
           reach - dist > newborn_ghost_ratio_ * 2.0 * std::min(p.radius_m[i], p.radius_m[j]);
