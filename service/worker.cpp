@@ -142,8 +142,9 @@ int run_worker(const WorkerConfig& config, Executor& executor, const std::atomic
       ++k;
     }
     if (active.empty() && (stop || (config.until_empty && queue_empty))) break;
-    std::this_thread::sleep_for(
-        std::chrono::duration<double>(active.empty() ? config.idle_poll_s : 0.05));
+    // Wait long only when there is nothing to do; a free slot with work queued claims again soon.
+    const bool idle = active.empty() && (queue_empty || unreachable > 0);
+    std::this_thread::sleep_for(std::chrono::duration<double>(idle ? config.idle_poll_s : 0.02));
   }
   return executed;
 }

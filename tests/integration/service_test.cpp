@@ -276,7 +276,7 @@ TEST(Service, TwoWorkersRacingOnManyRunsRunEachOnce) {
   json study = {
       {"name", "many"},
       {"scene", MILLSIM_SOURCE_DIR "/cases/impact_two_spheres.json"},
-      {"parameters", {{{"path", "seed"}, {"range", {{"from", 1}, {"to", 60}, {"step", 1}}}}}}};
+      {"parameters", {{{"path", "seed"}, {"range", {{"from", 1}, {"to", 100}, {"step", 1}}}}}}};
   // A path under the scenes root (the server runs in dir): inline instead.
   std::ifstream in(MILLSIM_SOURCE_DIR "/cases/impact_two_spheres.json");
   study["scene"] = json::parse(in);
@@ -285,7 +285,7 @@ TEST(Service, TwoWorkersRacingOnManyRunsRunEachOnce) {
   const std::string id = json::parse(res->body)["study"];
   const json done = server.wait_finished(id);
   ASSERT_FALSE(done.is_null());
-  EXPECT_EQ(done["progress"]["counts"]["COMPLETE"], 60);
+  EXPECT_EQ(done["progress"]["counts"]["COMPLETE"], 100);
   Store store(dir.path() / "q.db");
   std::set<std::string> workers;
   for (const RunRecord& r : store.runs(id)) {
