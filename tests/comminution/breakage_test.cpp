@@ -42,15 +42,6 @@ FragmentConfig equal_fragments(int count) {
   return ::testing::AssertionSuccess();
 }
 
-FragmentConfig power_law_fragments(double exponent, double min_ratio, double max_ratio) {
-  FragmentConfig f;
-  f.model = FragmentModel::PowerLaw;
-  f.exponent = exponent;
-  f.min_ratio = min_ratio;
-  f.max_ratio = max_ratio;
-  return f;
-}
-
 void enable_breakage(SceneConfig& s, double dust_threshold_m) {
   s.breakage = BreakageConfig{};
   s.dust = DustConfig{dust_threshold_m};
@@ -118,7 +109,7 @@ TEST(Breakage, FatigueBreaksASurvivorAfterRepeatedImpacts) {
 
 // One breakage by hand: fragments + dust carry the parent's mass, momentum and centre of mass.
 TEST(Breakage, SpawningConservesMassMomentumAndCentreOfMass) {
-  const FragmentConfig f = power_law_fragments(0.7, 0.02, 0.6);
+  const FragmentConfig f = test::power_law_fragments(0.7, 0.02, 0.6);
   SceneConfig s =
       test::empty_scene({0, 0, 0}, {1e-2, 1e-2, 1e-2}, breakable_material(1e3, 1e-3, f));
   const double parent_d = 1e-3;
@@ -158,7 +149,7 @@ TEST(Breakage, SpawningConservesMassMomentumAndCentreOfMass) {
 // A periodic gas of weak particles shatters through thousands of events: mass (particles + dust)
 // and momentum (particles + dust) stay what they were; no particle is below the dust threshold.
 TEST(Breakage, MassAndMomentumConservedThroughThousandsOfEvents) {
-  const FragmentConfig f = power_law_fragments(1.0, 0.1, 0.7);
+  const FragmentConfig f = test::power_law_fragments(1.0, 0.1, 0.7);
   MaterialConfig m = breakable_material(2e4, 2e-4, f);  // W_min = 1 J/kg at 200 µm
   SizeDistribution sizes;
   sizes.kind = SizeDistributionKind::Uniform;

@@ -8,26 +8,21 @@
 
 #include "comminution/fragment_sizes.h"
 #include "comminution/fragment_spawn.h"
+#include "support/scenes.h"
 
 namespace millsim {
 namespace {
 
-FragmentConfig power_law(double q, double r_min, double r_max) {
-  FragmentConfig c;
-  c.model = FragmentModel::PowerLaw;
-  c.exponent = q;
-  c.min_ratio = r_min;
-  c.max_ratio = r_max;
-  return c;
-}
+using test::power_law_fragments;
 
 TEST(FragmentSizes, EveryBreakageFillsTheParentVolume) {
-  FragmentConfig bc = power_law(1.0, 0.05, 0.7);
+  FragmentConfig bc = power_law_fragments(1.0, 0.05, 0.7);
   bc.model = FragmentModel::BroadbentCallcott;
   FragmentConfig equal;
   equal.model = FragmentModel::Equal;
   equal.count = 27;
-  for (const FragmentConfig& c : {power_law(0.8, 0.05, 0.7), power_law(2.5, 0.2, 0.9), bc, equal}) {
+  for (const FragmentConfig& c :
+       {power_law_fragments(0.8, 0.05, 0.7), power_law_fragments(2.5, 0.2, 0.9), bc, equal}) {
     const FragmentSizeSampler sampler(c);
     Rng rng(3);
     for (int event = 0; event < 2000; ++event) {
@@ -45,9 +40,10 @@ TEST(FragmentSizes, EveryBreakageFillsTheParentVolume) {
 // The mass-weighted distribution of many breakages against B(r). Only the last fragment of each
 // breakage (the remaining volume) departs from the model, so the gap is small, not zero.
 TEST(FragmentSizes, MassDistributionFollowsTheBreakageFunction) {
-  FragmentConfig bc = power_law(1.0, 0.05, 0.7);
+  FragmentConfig bc = power_law_fragments(1.0, 0.05, 0.7);
   bc.model = FragmentModel::BroadbentCallcott;
-  for (const FragmentConfig& c : {power_law(1.0, 0.05, 0.7), power_law(2.0, 0.05, 0.5), bc}) {
+  for (const FragmentConfig& c :
+       {power_law_fragments(1.0, 0.05, 0.7), power_law_fragments(2.0, 0.05, 0.5), bc}) {
     const FragmentSizeSampler sampler(c);
     Rng rng(11);
     std::vector<std::pair<double, double>> fragments;  // ratio, volume

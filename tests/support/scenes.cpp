@@ -7,6 +7,15 @@
 
 namespace millsim::test {
 
+FragmentConfig power_law_fragments(double exponent, double min_ratio, double max_ratio) {
+  FragmentConfig f;
+  f.model = FragmentModel::PowerLaw;
+  f.exponent = exponent;
+  f.min_ratio = min_ratio;
+  f.max_ratio = max_ratio;
+  return f;
+}
+
 InputErrors scene_errors(const nlohmann::json& doc) {
   InputErrors errors;
   parse_scene(doc, ".", errors);

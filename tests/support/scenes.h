@@ -28,6 +28,9 @@ SceneConfig periodic_random_gas(double box_length_m, std::int64_t count,
 void add_particle(SceneConfig& scene, Vec3 position_m, Vec3 velocity_m_per_s, double diameter_m,
                   int material = 0);
 
+// A power-law breakage function B(r) ∝ r^exponent on [min_ratio, max_ratio].
+FragmentConfig power_law_fragments(double exponent, double min_ratio, double max_ratio);
+
 // Every error parse_scene reports for a scene document (base directory ".").
 InputErrors scene_errors(const nlohmann::json& doc);
 
