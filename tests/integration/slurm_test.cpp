@@ -76,6 +76,14 @@ TEST(Slurm, CancelReachesTheJobs) {
   json study = settling(0.3);
   study["parameters"] = {{{"path", "materials.0.restitution"}, {"values", {0.4, 0.6}}}};
   test::write_file(dir.path() / "study.json", study.dump());
+  {
+    // An empty first study, so this one is s000002: its job names differ from the other test's
+    // (s000001), which may run at the same time (ctest -j).
+    Study placeholder;
+    placeholder.name = "placeholder";
+    placeholder.spec = json::object();
+    Store(dir.path() / "q.db").submit(placeholder, std::nullopt, dir.path(), 0.0);
+  }
   const pid_t pid = fork();
   ASSERT_GE(pid, 0);
   if (pid == 0) {
@@ -88,16 +96,18 @@ TEST(Slurm, CancelReachesTheJobs) {
   // Both jobs running, then cancel the study in the database (as the server's cancel does).
   for (int k = 0; k < 200; ++k) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    if (job_state("s000001-r0") == "RUNNING" && job_state("s000001-r1") == "RUNNING") break;
+    if (job_state("s000002-r0") == "RUNNING" && job_state("s000002-r1") == "RUNNING") break;
   }
   {
     Store store(dir.path() / "q.db");
-    store.cancel_study("s000001", 0.0);
+    store.cancel_study("s000002", 0.0);
   }
   int status = 0;
   waitpid(pid, &status, 0);  // the runner stops the jobs at its next heartbeat (≤ 10 s)
   Store store(dir.path() / "q.db");
-  for (const RunRecord& r : store.runs("s000001")) {
+  const std::vector<RunRecord> runs = store.runs("s000002");
+  ASSERT_EQ(runs.size(), 2u);
+  for (const RunRecord& r : runs) {
     EXPECT_EQ(r.state, RunState::Canceled) << r.id;
     EXPECT_EQ(job_state(r.id), "CANCELLED") << r.id;
   }
