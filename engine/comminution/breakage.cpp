@@ -1,22 +1,12 @@
 #include "comminution/breakage.h"
 
 #include <algorithm>
-#include <numbers>
 
 #include "comminution/fragment_spawn.h"
 #include "comminution/strength.h"
 #include "contact/reduced_stiffness.h"
 
 namespace millsim {
-namespace {
-
-// The particle store's mass formula, term for term, so parent = Σ fragments + dust to rounding.
-double sphere_mass_kg(double density, double diameter_m) {
-  const double r = 0.5 * diameter_m;
-  return density * 4.0 / 3.0 * std::numbers::pi * r * r * r;
-}
-
-}  // namespace
 
 Breakage::Breakage(const SceneConfig& scene, const MaterialTable& materials,
                    std::optional<double> reduced_threshold_m, std::uint64_t seed,

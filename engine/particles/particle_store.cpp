@@ -1,7 +1,5 @@
 #include "particles/particle_store.h"
 
-#include <numbers>
-
 namespace millsim {
 
 void ParticleStore::reserve(std::size_t n) {
@@ -14,7 +12,7 @@ std::size_t ParticleStore::add(const MaterialTable& materials, int material_inde
                                double stiffness_scale) {
   const MaterialConstants& m = materials.material(material_index);
   const double r = 0.5 * diameter_m;
-  const double mass = m.density_kg_per_m3 * 4.0 / 3.0 * std::numbers::pi * r * r * r;
+  const double mass = sphere_mass_kg(m.density_kg_per_m3, diameter_m);
   const ParticleSprings springs = particle_springs(m, r, mass, stiffness_scale);
 
   position_m.push_back(position);

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <numbers>
 #include <vector>
 
 #include "core/vec3.h"
@@ -13,6 +14,12 @@
 namespace millsim {
 
 using ParticleId = std::uint64_t;
+
+// Mass of a sphere, the one formula every module uses (so masses add up to rounding).
+inline double sphere_mass_kg(double density_kg_per_m3, double diameter_m) {
+  const double r = 0.5 * diameter_m;
+  return density_kg_per_m3 * 4.0 / 3.0 * std::numbers::pi * r * r * r;
+}
 
 struct ParticleStore {
   // hot: read or written every step

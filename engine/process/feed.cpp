@@ -1,7 +1,6 @@
 #include "process/feed.h"
 
 #include <algorithm>
-#include <numbers>
 
 #include "particles/particle_sources.h"
 
@@ -22,10 +21,6 @@ Feeder::Feeder(const FeedConfig& config, double density, std::uint64_t seed)
   next_diameter_m_ = sample_diameter(config_.sizes, rng_);
 }
 
-double Feeder::mass_of(double d) const {
-  return density_ * std::numbers::pi / 6.0 * d * d * d;
-}
-
 std::vector<ParticleSpec> Feeder::take_due(double t, const ParticleStore& p,
                                            const PeriodicBox& box) {
   std::vector<ParticleSpec> out;
@@ -33,7 +28,7 @@ std::vector<ParticleSpec> Feeder::take_due(double t, const ParticleStore& p,
   const double on_s = std::min(t, config_.end_s) - std::max(accrued_until_s_, config_.start_s);
   if (on_s > 0.0) accrued_kg_ += config_.mass_rate_kg_per_s * on_s;
   accrued_until_s_ = t;
-  if (accrued_kg_ < mass_of(next_diameter_m_)) return out;
+  if (accrued_kg_ < sphere_mass_kg(density_, next_diameter_m_)) return out;
 
   // Occupants that could touch a new particle: centres within the region grown by the largest
   // radius present plus the largest feed radius (bounded by the next diameter and the sizes).
@@ -54,7 +49,7 @@ std::vector<ParticleSpec> Feeder::take_due(double t, const ParticleStore& p,
     if (inside) near.push_back({x, p.radius_m[i]});
   }
 
-  while (accrued_kg_ >= mass_of(next_diameter_m_)) {
+  while (accrued_kg_ >= sphere_mass_kg(density_, next_diameter_m_)) {
     const double r = 0.5 * next_diameter_m_;
     bool placed = false;
     Vec3 x;
@@ -81,9 +76,9 @@ std::vector<ParticleSpec> Feeder::take_due(double t, const ParticleStore& p,
         spec.velocity_m_per_s[a] += gaussian(rng_, 0.0, config_.velocity_spread_m_per_s);
     out.push_back(spec);
     near.push_back({x, r});
-    accrued_kg_ -= mass_of(next_diameter_m_);
+    accrued_kg_ -= sphere_mass_kg(density_, next_diameter_m_);
     ++stats_.inserted;
-    stats_.inserted_mass_kg += mass_of(next_diameter_m_);
+    stats_.inserted_mass_kg += sphere_mass_kg(density_, next_diameter_m_);
     next_diameter_m_ = sample_diameter(config_.sizes, rng_);
   }
   return out;

@@ -34,8 +34,6 @@ class Feeder {
   double accrued_mass_kg() const { return accrued_kg_; }
 
  private:
-  double mass_of(double diameter_m) const;
-
   FeedConfig config_;
   double density_ = 0.0;
   Rng rng_;
