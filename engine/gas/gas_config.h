@@ -1,0 +1,93 @@
+// GasConfig: the scene's `gas` section as plain data (SI units). A scene without it builds no
+// gas solver and no fluid fields. Parsed and validated by scene/gas_json.cpp; every key is
+// documented in docs/gas.md and docs/scene-format.md.
+#pragma once
+
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/vec3.h"
+
+namespace millsim {
+
+// What a boundary face of the gas grid does (periodic axes come from the domain).
+enum class GasBoundaryKind {
+  Wall,    // no slip; the wall may move tangentially (`velocity_m_per_s`, e.g. a lid)
+  Slip,    // zero normal velocity, zero shear
+  Inlet,   // prescribed superficial velocity (nozzles, feed air, a distributor)
+  Outlet,  // fixed pressure; the velocity leaves with zero gradient
+};
+
+// Where on a domain face a boundary condition applies.
+enum class PatchShape { WholeFace, Rectangle, Circle };
+
+struct GasBoundaryPatch {
+  std::string name;
+  int face = 0;  // 0..5 = x-, x+, y-, y+, z-, z+
+  GasBoundaryKind kind = GasBoundaryKind::Wall;
+  PatchShape shape = PatchShape::WholeFace;
+  Vec3 min_m, max_m;  // rectangle (the coordinate along the face normal is ignored)
+  Vec3 center_m;      // circle
+  double radius_m = 0.0;
+  Vec3 velocity_m_per_s;     // inlet: superficial gas velocity; wall: wall velocity
+  double pressure_pa = 0.0;  // outlet
+};
+
+// Solid regions voxelised into the gas grid: a cell whose centre is inside is solid.
+enum class GasSolidShape {
+  Box,       // solid inside [min_m, max_m]
+  Cylinder,  // axis through center_m along `axis`; solid outside the radius (a chamber) or inside
+  HalfSpace  // solid behind the plane through point_m (against the normal)
+};
+
+struct GasSolidConfig {
+  std::string name;
+  GasSolidShape shape = GasSolidShape::Box;
+  Vec3 min_m, max_m;          // box
+  Vec3 center_m, axis;        // cylinder (axis normalised on load)
+  double radius_m = 0.0;      // cylinder
+  bool solid_inside = false;  // cylinder: true = a solid rod, false = a fluid chamber
+  Vec3 point_m, normal;       // half-space (normal normalised on load)
+};
+
+// Drag laws (gas/drag.h gives each formula and its source).
+enum class DragLaw { SchillerNaumann, DiFelice, Gidaspow };
+
+// What a particle keeps between drag evaluations (§3.1, Fig. 5).
+enum class DragCacheStore {
+  Coefficient,  // β = |F| / |u − v|: the force follows the current slip (default)
+  Force,        // the force itself, as in the paper's Fig. 5
+};
+
+enum class AdvectionScheme {
+  Central,  // second order; stable only while the cell Péclet number |u| h / ν < 2
+  Upwind,   // first order, always stable under the CFL limit
+  Hybrid,   // central where the cell Péclet number < 2, upwind elsewhere (default)
+};
+
+struct GasConfig {
+  double density_kg_per_m3 = 1.2;
+  double viscosity_pa_s = 1.8e-5;
+  std::array<int, 3> cells{1, 1, 1};  // grid cells along x, y, z over the domain box
+  Vec3 initial_velocity_m_per_s;
+  std::optional<double> step_s;  // fixed CFD step (rounded to whole DEM steps); absent = CFL
+  double courant = 0.5;          // CFD step <= courant / (Σ|u|/h + 2ν Σ 1/h² + β/(ερ))
+  AdvectionScheme advection = AdvectionScheme::Hybrid;
+  std::vector<GasBoundaryPatch> boundaries;  // applied in order over the default (wall)
+  std::vector<GasSolidConfig> solids;
+  // coupling
+  bool two_way = true;  // particles push on the gas; false = the gas ignores them
+  DragLaw drag = DragLaw::SchillerNaumann;
+  double cache_threshold = 0.05;  // recompute drag when the slip changed more (0 = always)
+  DragCacheStore cache_store = DragCacheStore::Coefficient;
+  bool pressure_gradient_force = true;  // −V_p ∇p (gives buoyancy in a hydrostatic gas)
+  bool saffman_lift = false;
+  double min_volume_fraction = 0.2;  // gas volume fraction floor (a random packing is ≈ 0.36–0.45)
+  // pressure solve
+  double pressure_tolerance = 1e-6;  // relative residual of the conjugate-gradient solve
+  int max_pressure_iterations = 5000;
+};
+
+}  // namespace millsim

@@ -1,0 +1,149 @@
+#include "gas/gas_grid.h"
+
+#include <cmath>
+
+namespace millsim {
+
+bool inside_gas_solid(const GasSolidConfig& s, const Vec3& x) {
+  switch (s.shape) {
+    case GasSolidShape::Box:
+      for (int a = 0; a < 3; ++a)
+        if (x[a] < s.min_m[a] || x[a] > s.max_m[a]) return false;
+      return true;
+    case GasSolidShape::Cylinder: {
+      const Vec3 d = x - s.center_m;
+      const Vec3 radial = d - s.axis * dot(d, s.axis);
+      const bool inside = norm2(radial) < s.radius_m * s.radius_m;
+      return inside == s.solid_inside;
+    }
+    case GasSolidShape::HalfSpace:
+      return dot(x - s.point_m, s.normal) < 0.0;
+  }
+  return false;
+}
+
+bool patch_covers(const GasBoundaryPatch& p, const Vec3& x) {
+  const int normal_axis = p.face / 2;
+  switch (p.shape) {
+    case PatchShape::WholeFace:
+      return true;
+    case PatchShape::Rectangle:
+      for (int a = 0; a < 3; ++a)
+        if (a != normal_axis && (x[a] < p.min_m[a] || x[a] > p.max_m[a])) return false;
+      return true;
+    case PatchShape::Circle: {
+      double r2 = 0.0;
+      for (int a = 0; a < 3; ++a)
+        if (a != normal_axis) r2 += (x[a] - p.center_m[a]) * (x[a] - p.center_m[a]);
+      return r2 <= p.radius_m * p.radius_m;
+    }
+  }
+  return false;
+}
+
+std::size_t GasGrid::wrap_cell(std::size_t c, int axis) const {
+  if (!periodic[axis]) return c;
+  const int i = coords(c)[std::size_t(axis)];
+  if (i == 0) return c + std::size_t(n[axis]) * stride[axis];
+  if (i == n[axis] + 1) return c - std::size_t(n[axis]) * stride[axis];
+  return c;
+}
+
+namespace {
+
+// Marks fluid cells: interior and outside every solid.
+void voxelise(GasGrid& g, const GasConfig& config) {
+  for (int k = 1; k <= g.n[2]; ++k)
+    for (int j = 1; j <= g.n[1]; ++j)
+      for (int i = 1; i <= g.n[0]; ++i) {
+        const Vec3 x = g.cell_center(i, j, k);
+        bool solid = false;
+        for (const GasSolidConfig& s : config.solids) solid = solid || inside_gas_solid(s, x);
+        g.fluid[g.index(i, j, k)] = solid ? 0 : 1;
+        g.fluid_cells += solid ? 0 : 1;
+      }
+}
+
+// Gives each ghost cell of a non-periodic face its boundary condition (last patch wins).
+void assign_boundaries(GasGrid& g, const GasConfig& config) {
+  for (int axis = 0; axis < 3; ++axis) {
+    if (g.periodic[std::size_t(axis)]) continue;
+    const int b = (axis + 1) % 3, c = (axis + 2) % 3;
+    for (int side = 0; side < 2; ++side) {
+      const int face = 2 * axis + side;
+      const int layer = side == 0 ? 0 : g.n[std::size_t(axis)] + 1;
+      for (int jb = 0; jb <= g.n[std::size_t(b)] + 1; ++jb)
+        for (int jc = 0; jc <= g.n[std::size_t(c)] + 1; ++jc) {
+          std::array<int, 3> ijk{};
+          ijk[std::size_t(axis)] = layer;
+          ijk[std::size_t(b)] = jb;
+          ijk[std::size_t(c)] = jc;
+          Vec3 x = g.cell_center(ijk[0], ijk[1], ijk[2]);
+          x[axis] = side == 0 ? g.origin_m[axis]
+                              : g.origin_m[axis] + g.n[std::size_t(axis)] * g.h_m[axis];
+          GhostBoundary bc;
+          for (const GasBoundaryPatch& p : config.boundaries)
+            if (p.face == face && patch_covers(p, x))
+              bc = {p.kind, p.velocity_m_per_s, p.pressure_pa};
+          g.ghost[g.index(ijk[0], ijk[1], ijk[2])] = bc;
+        }
+    }
+  }
+}
+
+// Classifies face f of component a (the + face of cell f).
+void classify_face(GasGrid& g, int a, std::size_t f) {
+  const std::size_t au = std::size_t(a);
+  const std::array<int, 3> ijk = g.coords(f);
+  for (int b = 0; b < 3; ++b)
+    if (b != a && (ijk[std::size_t(b)] < 1 || ijk[std::size_t(b)] > g.n[std::size_t(b)])) return;
+  if (ijk[au] > g.n[au]) return;
+  const bool low_boundary = ijk[au] == 0, high_boundary = ijk[au] == g.n[au];
+  if (g.periodic[au] && low_boundary) {
+    g.face[au][f] = FaceKind::Periodic;
+    return;
+  }
+  const std::size_t c0 = g.wrap_cell(f, a), c1 = g.wrap_cell(f + g.stride[au], a);
+  if (!g.periodic[au] && (low_boundary || high_boundary)) {
+    const std::size_t inner = low_boundary ? c1 : c0, ghost = low_boundary ? f : f + g.stride[au];
+    const GhostBoundary& bc = g.ghost[ghost];
+    if (!g.fluid[inner]) {
+      g.face[au][f] = FaceKind::Solid;
+    } else if (bc.kind == GasBoundaryKind::Outlet) {
+      g.face[au][f] = FaceKind::Outflow;
+      g.has_outflow = true;
+    } else {
+      g.face[au][f] = FaceKind::Fixed;
+      g.fixed_value[au][f] = bc.kind == GasBoundaryKind::Inlet ? bc.velocity_m_per_s[a] : 0.0;
+    }
+    return;
+  }
+  const bool s0 = !g.fluid[c0], s1 = !g.fluid[c1];
+  g.face[au][f] = s0 && s1 ? FaceKind::Solid : (s0 || s1 ? FaceKind::Fixed : FaceKind::Unknown);
+}
+
+}  // namespace
+
+GasGrid build_gas_grid(const GasConfig& config, const Vec3& lo, const Vec3& hi,
+                       const std::array<bool, 3>& periodic) {
+  GasGrid g;
+  g.n = config.cells;
+  g.origin_m = lo;
+  g.periodic = periodic;
+  for (int a = 0; a < 3; ++a) g.h_m[a] = (hi[a] - lo[a]) / g.n[std::size_t(a)];
+  g.stride = {1, std::size_t(g.n[0] + 2), std::size_t(g.n[0] + 2) * std::size_t(g.n[1] + 2)};
+  g.padded_size = g.stride[2] * std::size_t(g.n[2] + 2);
+  g.fluid.assign(g.padded_size, 0);
+  g.ghost.assign(g.padded_size, {});
+  for (int a = 0; a < 3; ++a) {
+    g.face[std::size_t(a)].assign(g.padded_size, FaceKind::None);
+    g.fixed_value[std::size_t(a)].assign(g.padded_size, 0.0);
+  }
+  voxelise(g, config);
+  assign_boundaries(g, config);
+  for (int a = 0; a < 3; ++a)
+    for (std::size_t f = 0; f < g.padded_size; ++f) classify_face(g, a, f);
+  return g;
+}
+
+}  // namespace millsim

@@ -1,0 +1,404 @@
+#include "gas/gas_solver.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/errors.h"
+
+namespace millsim {
+
+GasSolver::GasSolver(const GasConfig& config, GasGrid grid, const Vec3& gravity_m_per_s2)
+    : config_(config), grid_(std::move(grid)), gravity_m_per_s2_(gravity_m_per_s2) {
+  kinematic_viscosity_ = config_.viscosity_pa_s / config_.density_kg_per_m3;
+  const std::size_t n = grid_.padded_size;
+  for (int a = 0; a < 3; ++a) {
+    const std::size_t au = std::size_t(a);
+    velocity_[au].assign(n, 0.0);
+    predicted_[au].assign(n, 0.0);
+    source_[au].assign(n, 0.0);
+    exchange_[au].assign(n, 0.0);
+    gradient_[au].assign(n, 0.0);
+    face_fraction_[au].assign(n, 1.0);
+    for (std::size_t f = 0; f < n; ++f) {
+      const FaceKind kind = grid_.face[au][f];
+      if (kind == FaceKind::Unknown || kind == FaceKind::Outflow || kind == FaceKind::Periodic)
+        velocity_[au][f] = config_.initial_velocity_m_per_s[a];
+      else if (kind == FaceKind::Fixed)
+        velocity_[au][f] = grid_.fixed_value[au][f];
+    }
+  }
+  pressure_.assign(n, 0.0);
+  fraction_.assign(n, 1.0);
+  previous_fraction_.assign(n, 1.0);
+  row_of_cell_.assign(n, -1);
+  for (std::size_t c = 0; c < n; ++c)
+    if (grid_.fluid[c]) {
+      row_of_cell_[c] = std::int32_t(cell_of_row_.size());
+      cell_of_row_.push_back(c);
+    }
+  rhs_ = Eigen::VectorXd::Zero(Eigen::Index(cell_of_row_.size()));
+  solution_ = rhs_;
+  cg_.setTolerance(config_.pressure_tolerance);
+  cg_.setMaxIterations(config_.max_pressure_iterations);
+  fill_velocity_ghosts(velocity_);
+  volume_fraction_changed();
+}
+
+// ε at face f of component a: the mean of the two cells; 1 on fixed boundary faces (an inlet
+// prescribes the superficial velocity); the inner cell's on an outflow face.
+double GasSolver::face_fraction(int a, std::size_t f) const {
+  const std::size_t au = std::size_t(a);
+  switch (grid_.face[au][f]) {
+    case FaceKind::Unknown:
+      return 0.5 * (fraction_[grid_.wrap_cell(f, a)] +
+                    fraction_[grid_.wrap_cell(f + grid_.stride[au], a)]);
+    case FaceKind::Outflow:
+      return grid_.coords(f)[au] == 0 ? fraction_[f + grid_.stride[au]] : fraction_[f];
+    default:
+      return 1.0;
+  }
+}
+
+void GasSolver::volume_fraction_changed() {
+  for (std::size_t c = 0; c < grid_.padded_size; ++c)
+    if (!grid_.fluid[c]) fraction_[c] = 1.0;
+  fill_copy_ghosts(fraction_);
+  for (int a = 0; a < 3; ++a)
+    for (std::size_t f = 0; f < grid_.padded_size; ++f)
+      face_fraction_[std::size_t(a)][f] = face_fraction(a, f);
+  matrix_stale_ = true;
+}
+
+// Ghost cells of a cell-centred field: periodic copies, else the inner cell's value.
+void GasSolver::fill_copy_ghosts(std::vector<double>& v) const {
+  for (int a = 0; a < 3; ++a)
+    grid_.for_each_ghost(a,
+                         [&](std::size_t ghost, std::size_t inner, bool) { v[ghost] = v[inner]; });
+}
+
+void GasSolver::fill_velocity_ghosts(std::array<std::vector<double>, 3>& u) const {
+  const GasGrid& g = grid_;
+  for (int a = 0; a < 3; ++a) {
+    const bool periodic = g.periodic[std::size_t(a)];
+    g.for_each_ghost(a, [&](std::size_t ghost, std::size_t inner, bool high) {
+      if (periodic) {
+        for (int b = 0; b < 3; ++b) u[std::size_t(b)][ghost] = u[std::size_t(b)][inner];
+        return;
+      }
+      const GhostBoundary& bc = g.ghost[ghost];
+      for (int b = 0; b < 3; ++b) {
+        std::vector<double>& ub = u[std::size_t(b)];
+        if (b == a) {
+          if (high) ub[ghost] = ub[inner];  // beyond the high boundary face
+          continue;
+        }
+        switch (bc.kind) {
+          case GasBoundaryKind::Wall:
+          case GasBoundaryKind::Inlet:
+            ub[ghost] = 2.0 * bc.velocity_m_per_s[b] - ub[inner];
+            break;
+          case GasBoundaryKind::Slip:
+          case GasBoundaryKind::Outlet:
+            ub[ghost] = ub[inner];
+            break;
+        }
+      }
+    });
+  }
+}
+
+double GasSolver::stable_step_s() const {
+  const GasGrid& g = grid_;
+  double rate = 0.0, exchange = 0.0;
+  for (int a = 0; a < 3; ++a) {
+    const std::size_t au = std::size_t(a);
+    double umax = 0.0;
+    for (std::size_t f = 0; f < g.padded_size; ++f) {
+      const FaceKind kind = g.face[au][f];
+      if (kind == FaceKind::None || kind == FaceKind::Solid) continue;
+      umax = std::max(umax, std::abs(velocity_[au][f]));
+      if (exchange_[au][f] > 0.0)
+        exchange = std::max(exchange,
+                            exchange_[au][f] / (face_fraction_[au][f] * config_.density_kg_per_m3));
+    }
+    rate += umax / g.h_m[a];
+    if (!(g.periodic[au] && g.n[au] == 1))
+      rate += 2.0 * kinematic_viscosity_ / (g.h_m[a] * g.h_m[a]);
+  }
+  rate += exchange;
+  return rate > 0.0 ? config_.courant / rate : 1e300;
+}
+
+void GasSolver::predictor(double dt) {
+  const GasGrid& g = grid_;
+  const double nu = kinematic_viscosity_, rho = config_.density_kg_per_m3;
+  const AdvectionScheme scheme = config_.advection;
+  for (int a = 0; a < 3; ++a) {
+    const std::size_t au = std::size_t(a);
+    const std::vector<double>& u = velocity_[au];
+    const std::vector<FaceKind>& kind = g.face[au];
+    std::vector<double>& out = predicted_[au];
+    for (std::size_t f = 0; f < g.padded_size; ++f) {
+      if (kind[f] != FaceKind::Unknown) {
+        out[f] = u[f];
+        continue;
+      }
+      const double uf = u[f];
+      double advection = 0.0, diffusion = 0.0;
+      for (int b = 0; b < 3; ++b) {
+        const std::size_t bu = std::size_t(b), s = g.stride[bu];
+        const double h = g.h_m[b];
+        // A neighbour inside a solid mirrors this face (no slip half-way between).
+        const double up = kind[f + s] == FaceKind::Solid ? -uf : u[f + s];
+        const double down = kind[f - s] == FaceKind::Solid ? -uf : u[f - s];
+        diffusion += (up - 2.0 * uf + down) / (h * h);
+        double carrier;  // the b-velocity at this a-face
+        if (b == a) {
+          carrier = uf;
+        } else {
+          const std::size_t sa = g.stride[au];
+          const std::vector<double>& ub = velocity_[bu];
+          carrier = 0.25 * (ub[f] + ub[f + sa] + ub[f - s] + ub[f + sa - s]);
+        }
+        const bool upwind = scheme == AdvectionScheme::Upwind ||
+                            (scheme == AdvectionScheme::Hybrid && std::abs(carrier) * h > 2.0 * nu);
+        double slope;
+        if (upwind)
+          slope = carrier > 0.0 ? (uf - down) / h : (up - uf) / h;
+        else
+          slope = (up - down) / (2.0 * h);
+        advection += carrier * slope;
+      }
+      const double body = gravity_m_per_s2_[a] + source_[au][f] / (face_fraction_[au][f] * rho);
+      out[f] = uf + dt * (-advection + nu * diffusion + body);
+    }
+    // Outflow faces: zero gradient from the inner face.
+    for (std::size_t f = 0; f < g.padded_size; ++f) {
+      if (kind[f] != FaceKind::Outflow) continue;
+      const std::size_t inner = g.coords(f)[au] == 0 ? f + g.stride[au] : f - g.stride[au];
+      out[f] = kind[inner] == FaceKind::Unknown ? out[inner] : u[f];
+    }
+  }
+}
+
+void GasSolver::assemble_pressure_matrix() {
+  const GasGrid& g = grid_;
+  std::vector<Eigen::Triplet<double>> triplets;
+  triplets.reserve(cell_of_row_.size() * 7);
+  for (std::size_t row = 0; row < cell_of_row_.size(); ++row) {
+    const std::size_t c = cell_of_row_[row];
+    double diagonal = 0.0;
+    for (int a = 0; a < 3; ++a) {
+      const std::size_t au = std::size_t(a), s = g.stride[au];
+      const double w = g.face_area_m2(a) / g.h_m[a];
+      for (int side = 0; side < 2; ++side) {
+        const std::size_t f = g.canonical_face(side == 0 ? c - s : c, a);
+        const FaceKind kind = g.face[au][f];
+        if (kind == FaceKind::Outflow) {
+          diagonal += 2.0 * w * face_fraction_[au][f];
+        } else if (kind == FaceKind::Unknown) {
+          const std::size_t nb = g.wrap_cell(side == 0 ? c - s : c + s, a);
+          const double wf = w * face_fraction_[au][f];
+          diagonal += wf;
+          if (nb != c)
+            triplets.emplace_back(Eigen::Index(row), row_of_cell_[nb], -wf);
+          else
+            diagonal -= wf;  // a one-cell periodic axis: the face couples the cell to itself
+        }
+      }
+    }
+    // Without an outflow the pressure is fixed up to a constant: pin the first cell's level
+    // (the right-hand side is made compatible, so this changes nothing else).
+    if (row == 0 && !g.has_outflow) diagonal *= 2.0;
+    triplets.emplace_back(Eigen::Index(row), Eigen::Index(row), diagonal);
+  }
+  const Eigen::Index n = Eigen::Index(cell_of_row_.size());
+  matrix_.resize(n, n);
+  matrix_.setFromTriplets(triplets.begin(), triplets.end());
+  cg_.compute(matrix_);
+  matrix_stale_ = false;
+  ++stats_.matrix_builds;
+}
+
+bool GasSolver::solve_pressure(double dt) {
+  const GasGrid& g = grid_;
+  const double rho = config_.density_kg_per_m3, volume = g.cell_volume_m3();
+  double mean = 0.0;
+  for (std::size_t row = 0; row < cell_of_row_.size(); ++row) {
+    const std::size_t c = cell_of_row_[row];
+    double divergence = volume * (fraction_[c] - previous_fraction_[c]) / dt;
+    double boundary = 0.0;
+    for (int a = 0; a < 3; ++a) {
+      const std::size_t au = std::size_t(a), s = g.stride[au];
+      const std::size_t up = c, down = g.canonical_face(c - s, a);
+      const double area = g.face_area_m2(a);
+      divergence += area * (face_fraction_[au][up] * predicted_[au][up] -
+                            face_fraction_[au][down] * predicted_[au][down]);
+      for (std::size_t f : {up, down})
+        if (g.face[au][f] == FaceKind::Outflow)
+          boundary += 2.0 * area / g.h_m[a] * face_fraction_[au][f] *
+                      g.ghost[f == up ? c + s : f].pressure_pa;
+    }
+    rhs_[Eigen::Index(row)] = -rho / dt * divergence + boundary;
+    mean += rhs_[Eigen::Index(row)];
+  }
+  if (!g.has_outflow) rhs_.array() -= mean / double(cell_of_row_.size());
+  if (matrix_stale_) assemble_pressure_matrix();
+  for (std::size_t row = 0; row < cell_of_row_.size(); ++row)
+    solution_[Eigen::Index(row)] = pressure_[cell_of_row_[row]];
+  solution_ = cg_.solveWithGuess(rhs_, solution_);
+  stats_.last_pressure_iterations = int(cg_.iterations());
+  stats_.last_pressure_residual = cg_.error();
+  stats_.pressure_iterations += std::uint64_t(cg_.iterations());
+  stats_.max_pressure_residual = std::max(stats_.max_pressure_residual, cg_.error());
+  for (std::size_t row = 0; row < cell_of_row_.size(); ++row)
+    pressure_[cell_of_row_[row]] = solution_[Eigen::Index(row)];
+  fill_copy_ghosts(pressure_);
+  return cg_.info() == Eigen::Success || cg_.error() < 100.0 * config_.pressure_tolerance;
+}
+
+void GasSolver::correct(double dt) {
+  const GasGrid& g = grid_;
+  const double rho = config_.density_kg_per_m3;
+  for (int a = 0; a < 3; ++a) {
+    const std::size_t au = std::size_t(a), s = g.stride[au];
+    const double h = g.h_m[a];
+    for (std::size_t f = 0; f < g.padded_size; ++f) {
+      const FaceKind kind = g.face[au][f];
+      double grad = 0.0;
+      if (kind == FaceKind::Unknown) {
+        grad = (pressure_[g.wrap_cell(f + s, a)] - pressure_[g.wrap_cell(f, a)]) / h;
+      } else if (kind == FaceKind::Outflow) {
+        const bool low = g.coords(f)[au] == 0;
+        const double outside = g.ghost[low ? f : f + s].pressure_pa;
+        grad =
+            low ? (pressure_[f + s] - outside) / (0.5 * h) : (outside - pressure_[f]) / (0.5 * h);
+      } else {
+        velocity_[au][f] = kind == FaceKind::Periodic ? velocity_[au][f] : predicted_[au][f];
+        continue;
+      }
+      gradient_[au][f] = grad;
+      velocity_[au][f] = predicted_[au][f] - dt / rho * grad;
+    }
+  }
+  fill_velocity_ghosts(velocity_);
+  fill_gradient_ghosts();
+}
+
+// Pressure gradient on faces that are not solved for: the nearest solved face along the axis
+// (a wall sees the gradient of the gas next to it), periodic copies and ghost copies.
+void GasSolver::fill_gradient_ghosts() {
+  const GasGrid& g = grid_;
+  for (int a = 0; a < 3; ++a) {
+    const std::size_t au = std::size_t(a), s = g.stride[au];
+    std::vector<double>& grad = gradient_[au];
+    const std::vector<FaceKind>& kind = g.face[au];
+    for (std::size_t f = 0; f < g.padded_size; ++f) {
+      if (kind[f] != FaceKind::Fixed && kind[f] != FaceKind::Solid) continue;
+      const bool low_fluid = g.fluid[g.wrap_cell(f, a)] != 0;
+      const std::size_t nb = low_fluid ? f - s : f + s;
+      grad[f] = kind[nb] == FaceKind::Unknown || kind[nb] == FaceKind::Outflow ? grad[nb] : 0.0;
+    }
+    for (std::size_t f = 0; f < g.padded_size; ++f)
+      if (kind[f] == FaceKind::Periodic) grad[f] = grad[g.canonical_face(f, a)];
+  }
+  // Ghost layers: copies of the inner value (the boundary face itself is kept).
+  for (int a = 0; a < 3; ++a)
+    g.for_each_ghost(a, [&](std::size_t ghost, std::size_t inner, bool high) {
+      for (int b = 0; b < 3; ++b)
+        if (b != a || high) gradient_[std::size_t(b)][ghost] = gradient_[std::size_t(b)][inner];
+    });
+}
+
+std::optional<std::string> GasSolver::advance(double dt) {
+  const GasGrid& g = grid_;
+  predictor(dt);
+  if (!solve_pressure(dt))
+    return concat("the gas pressure solve did not converge in ", cg_.iterations(),
+                  " iterations (relative residual ", cg_.error(), ", tolerance ",
+                  config_.pressure_tolerance,
+                  "); raise /gas/max_pressure_iterations or check the boundaries for a closed "
+                  "region without an outlet");
+  correct(dt);
+  // Impulse given by the particle source, and the continuity check.
+  const double volume = g.cell_volume_m3();
+  for (int a = 0; a < 3; ++a)
+    for (std::size_t f = 0; f < g.padded_size; ++f)
+      if (source_[std::size_t(a)][f] != 0.0)
+        received_impulse_[a] += source_[std::size_t(a)][f] * volume * dt;
+  continuity_error_ = 0.0;
+  for (std::size_t c : cell_of_row_) {
+    double div = volume * (fraction_[c] - previous_fraction_[c]) / dt;
+    for (int a = 0; a < 3; ++a) {
+      const std::size_t au = std::size_t(a);
+      const std::size_t down = g.canonical_face(c - g.stride[au], a);
+      div += g.face_area_m2(a) * (face_fraction_[au][c] * velocity_[au][c] -
+                                  face_fraction_[au][down] * velocity_[au][down]);
+    }
+    if (!std::isfinite(div))
+      return concat("the gas velocity became non-finite in cell ", g.coords(c)[0], ",",
+                    g.coords(c)[1], ",", g.coords(c)[2], " at t = ", time_s_,
+                    " s; lower /gas/courant or set a smaller /gas/step_s");
+    continuity_error_ = std::max(continuity_error_, std::abs(div));
+  }
+  previous_fraction_ = fraction_;
+  time_s_ += dt;
+  ++stats_.steps;
+  return std::nullopt;
+}
+
+// Trilinear interpolation of a staggered field: `face_axis` is the component's axis (its nodes
+// sit on faces along it, at cell centres along the others), or −1 for a cell-centred field.
+double GasSolver::interpolate(const std::vector<double>& field, const Vec3& x,
+                              int face_axis) const {
+  const GasGrid& g = grid_;
+  std::array<int, 3> i0{};
+  std::array<double, 3> w{};
+  for (int b = 0; b < 3; ++b) {
+    const std::size_t bu = std::size_t(b);
+    const bool on_faces = b == face_axis;
+    double t = (x[b] - g.origin_m[b]) / g.h_m[b] + (on_faces ? 0.0 : 0.5);
+    const double hi = on_faces ? double(g.n[bu]) : double(g.n[bu] + 1);
+    t = std::clamp(t, 0.0, hi);
+    int i = std::min(int(t), int(hi) - 1);
+    i0[bu] = i;
+    w[bu] = t - i;
+  }
+  double sum = 0.0;
+  for (int dk = 0; dk < 2; ++dk)
+    for (int dj = 0; dj < 2; ++dj)
+      for (int di = 0; di < 2; ++di) {
+        const double weight =
+            (di ? w[0] : 1.0 - w[0]) * (dj ? w[1] : 1.0 - w[1]) * (dk ? w[2] : 1.0 - w[2]);
+        sum += weight * field[g.index(i0[0] + di, i0[1] + dj, i0[2] + dk)];
+      }
+  return sum;
+}
+
+Vec3 GasSolver::velocity_at(const Vec3& x) const {
+  return {interpolate(velocity_[0], x, 0), interpolate(velocity_[1], x, 1),
+          interpolate(velocity_[2], x, 2)};
+}
+
+Vec3 GasSolver::pressure_gradient_at(const Vec3& x) const {
+  return {interpolate(gradient_[0], x, 0), interpolate(gradient_[1], x, 1),
+          interpolate(gradient_[2], x, 2)};
+}
+
+double GasSolver::volume_fraction_at(const Vec3& x) const {
+  return interpolate(fraction_, x, -1);
+}
+
+Vec3 GasSolver::vorticity_at(const Vec3& x) const {
+  std::array<Vec3, 3> d{};  // d[b] = ∂u/∂x_b
+  for (int b = 0; b < 3; ++b) {
+    if (grid_.n[std::size_t(b)] == 1 && grid_.periodic[std::size_t(b)]) continue;
+    Vec3 plus = x, minus = x;
+    plus[b] += 0.5 * grid_.h_m[b];
+    minus[b] -= 0.5 * grid_.h_m[b];
+    d[std::size_t(b)] = (velocity_at(plus) - velocity_at(minus)) * (1.0 / grid_.h_m[b]);
+  }
+  return {d[1].z - d[2].y, d[2].x - d[0].z, d[0].y - d[1].x};
+}
+
+}  // namespace millsim

@@ -1,0 +1,120 @@
+// GasSolver: volume-averaged incompressible Navier–Stokes on the staggered grid of
+// gas/gas_grid.h (unresolved CFD–DEM, "model A": the gas feels −ε∇p and the particles −V_p∇p).
+// One step is a Chorin projection:
+//   predictor   u* = u + Δt (−u·∇u + ν∇²u + g + S / (ε_f ρ))      explicit, per face
+//   pressure    ∇·(ε_f ∇p) = (ρ/Δt) (∇·(ε_f u*) + ∂ε/∂t)         conjugate gradients (Eigen)
+//   correction  u = u* − (Δt/ρ) ∇p
+// so the gas satisfies the volume-averaged continuity ∂ε/∂t + ∇·(ε u) = 0 to the solver's
+// tolerance. S is the momentum the particles give the gas (gas/coupling.h), ε the gas volume
+// fraction. What it leaves out (compressibility, turbulence models, the ε-gradient terms of the
+// viscous stress) is listed in docs/gas.md.
+#pragma once
+
+#include <Eigen/IterativeLinearSolvers>
+#include <Eigen/SparseCore>
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/vec3.h"
+#include "gas/gas_config.h"
+#include "gas/gas_grid.h"
+
+namespace millsim {
+
+struct GasStepStats {
+  std::uint64_t steps = 0;
+  std::uint64_t pressure_iterations = 0;  // summed over the steps
+  int last_pressure_iterations = 0;
+  double last_pressure_residual = 0.0;
+  double max_pressure_residual = 0.0;
+  std::uint64_t matrix_builds = 0;  // the pressure matrix changes only when ε does
+};
+
+class GasSolver {
+ public:
+  GasSolver(const GasConfig& config, GasGrid grid, const Vec3& gravity_m_per_s2);
+
+  const GasGrid& grid() const { return grid_; }
+  const GasConfig& config() const { return config_; }
+  double density_kg_per_m3() const { return config_.density_kg_per_m3; }
+  double viscosity_pa_s() const { return config_.viscosity_pa_s; }
+
+  // Advances the gas by dt. Returns a message when the step fails (non-finite field, pressure
+  // solve not converged); the fields are then not to be trusted.
+  std::optional<std::string> advance(double dt);
+
+  // The largest stable step for the current state: courant / (Σ max|u_a|/h_a + 2ν Σ 1/h_a²
+  // + max β/(ε ρ)), the last term from the particle exchange coefficient (explicit drag).
+  double stable_step_s() const;
+
+  // Particle coupling inputs (gas/coupling.h fills them before advance()).
+  std::vector<double>& volume_fraction() { return fraction_; }  // ε per padded cell
+  const std::vector<double>& volume_fraction() const { return fraction_; }
+  std::array<std::vector<double>, 3>& momentum_source() { return source_; }  // N/m³ per face
+  std::array<std::vector<double>, 3>& exchange_coefficient() { return exchange_; }  // kg/(m³ s)
+  // Call after editing volume_fraction(): refreshes face fractions and marks the matrix stale.
+  void volume_fraction_changed();
+
+  // Fields.
+  const std::array<std::vector<double>, 3>& velocity() const { return velocity_; }
+  std::array<std::vector<double>, 3>& velocity() { return velocity_; }
+  const std::vector<double>& pressure() const { return pressure_; }
+  const std::array<std::vector<double>, 3>& pressure_gradient() const { return gradient_; }
+
+  // Trilinear samples at a point inside the domain (periodic axes wrapped by the caller).
+  Vec3 velocity_at(const Vec3& x) const;
+  Vec3 pressure_gradient_at(const Vec3& x) const;
+  double volume_fraction_at(const Vec3& x) const;
+  Vec3 vorticity_at(const Vec3& x) const;  // ∇×u by central differences of velocity_at
+
+  // The largest divergence residual |∇·(ε u) + ∂ε/∂t| · V over fluid cells after the last
+  // step, m³/s (tests).
+  double max_continuity_error_m3_per_s() const { return continuity_error_; }
+  // Total momentum the gas received from the particle source, N·s.
+  const Vec3& received_impulse_n_s() const { return received_impulse_; }
+  const GasStepStats& stats() const { return stats_; }
+  double time_s() const { return time_s_; }
+
+  // Fills the ghost layers of the velocity (boundary conditions, periodic copies).
+  void fill_velocity_ghosts(std::array<std::vector<double>, 3>& u) const;
+
+ private:
+  void predictor(double dt);
+  void assemble_pressure_matrix();
+  bool solve_pressure(double dt);
+  void correct(double dt);
+  double face_fraction(int axis, std::size_t f) const;
+  void fill_copy_ghosts(std::vector<double>& cell_field) const;
+  void fill_gradient_ghosts();
+  double interpolate(const std::vector<double>& field, const Vec3& x, int face_axis) const;
+
+  GasConfig config_;
+  GasGrid grid_;
+  Vec3 gravity_m_per_s2_;
+  double kinematic_viscosity_ = 0.0;
+
+  std::array<std::vector<double>, 3> velocity_, predicted_, source_, exchange_, gradient_;
+  std::array<std::vector<double>, 3> face_fraction_;
+  std::vector<double> pressure_, fraction_, previous_fraction_;
+
+  // Pressure system over the fluid cells.
+  std::vector<std::int32_t> row_of_cell_;  // -1 outside the fluid
+  std::vector<std::size_t> cell_of_row_;
+  Eigen::SparseMatrix<double> matrix_;
+  Eigen::VectorXd rhs_, solution_;
+  Eigen::ConjugateGradient<
+      Eigen::SparseMatrix<double>, Eigen::Lower | Eigen::Upper,
+      Eigen::IncompleteCholesky<double, Eigen::Lower, Eigen::NaturalOrdering<int>>>
+      cg_;
+  bool matrix_stale_ = true;
+
+  GasStepStats stats_;
+  double continuity_error_ = 0.0;
+  Vec3 received_impulse_;
+  double time_s_ = 0.0;
+};
+
+}  // namespace millsim
