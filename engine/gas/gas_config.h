@@ -72,6 +72,9 @@ struct GasConfig {
   double viscosity_pa_s = 1.8e-5;
   std::array<int, 3> cells{1, 1, 1};  // grid cells along x, y, z over the domain box
   Vec3 initial_velocity_m_per_s;
+  // An imposed mean pressure gradient along periodic axes (drives a periodic channel or pipe).
+  // Along a periodic axis gravity is balanced by its hydrostatic gradient on top of this.
+  Vec3 mean_pressure_gradient_pa_per_m;
   std::optional<double> step_s;  // fixed CFD step (rounded to whole DEM steps); absent = CFL
   double courant = 0.5;          // CFD step <= courant / (Σ|u|/h + 2ν Σ 1/h² + β/(ερ))
   AdvectionScheme advection = AdvectionScheme::Hybrid;

@@ -8,8 +8,17 @@
 namespace millsim {
 
 GasSolver::GasSolver(const GasConfig& config, GasGrid grid, const Vec3& gravity_m_per_s2)
-    : config_(config), grid_(std::move(grid)), gravity_m_per_s2_(gravity_m_per_s2) {
+    : config_(config),
+      grid_(std::move(grid)),
+      gravity_m_per_s2_(gravity_m_per_s2),
+      pressure_solver_(config.pressure_tolerance, config.max_pressure_iterations) {
   kinematic_viscosity_ = config_.viscosity_pa_s / config_.density_kg_per_m3;
+  for (int a = 0; a < 3; ++a)
+    if (grid_.periodic[std::size_t(a)]) {
+      const double imposed = config_.mean_pressure_gradient_pa_per_m[a];
+      background_gradient_pa_per_m_[a] = config_.density_kg_per_m3 * gravity_m_per_s2_[a] + imposed;
+      gravity_m_per_s2_[a] = -imposed / config_.density_kg_per_m3;  // the net body force
+    }
   const std::size_t n = grid_.padded_size;
   for (int a = 0; a < 3; ++a) {
     const std::size_t au = std::size_t(a);
@@ -36,10 +45,8 @@ GasSolver::GasSolver(const GasConfig& config, GasGrid grid, const Vec3& gravity_
       row_of_cell_[c] = std::int32_t(cell_of_row_.size());
       cell_of_row_.push_back(c);
     }
-  rhs_ = Eigen::VectorXd::Zero(Eigen::Index(cell_of_row_.size()));
+  rhs_.assign(cell_of_row_.size(), 0.0);
   solution_ = rhs_;
-  cg_.setTolerance(config_.pressure_tolerance);
-  cg_.setMaxIterations(config_.max_pressure_iterations);
   fill_velocity_ghosts(velocity_);
   volume_fraction_changed();
 }
@@ -183,7 +190,7 @@ void GasSolver::predictor(double dt) {
 
 void GasSolver::assemble_pressure_matrix() {
   const GasGrid& g = grid_;
-  std::vector<Eigen::Triplet<double>> triplets;
+  std::vector<MatrixEntry> triplets;
   triplets.reserve(cell_of_row_.size() * 7);
   for (std::size_t row = 0; row < cell_of_row_.size(); ++row) {
     const std::size_t c = cell_of_row_[row];
@@ -201,7 +208,7 @@ void GasSolver::assemble_pressure_matrix() {
           const double wf = w * face_fraction_[au][f];
           diagonal += wf;
           if (nb != c)
-            triplets.emplace_back(Eigen::Index(row), row_of_cell_[nb], -wf);
+            triplets.push_back({std::int32_t(row), row_of_cell_[nb], -wf});
           else
             diagonal -= wf;  // a one-cell periodic axis: the face couples the cell to itself
         }
@@ -210,12 +217,9 @@ void GasSolver::assemble_pressure_matrix() {
     // Without an outflow the pressure is fixed up to a constant: pin the first cell's level
     // (the right-hand side is made compatible, so this changes nothing else).
     if (row == 0 && !g.has_outflow) diagonal *= 2.0;
-    triplets.emplace_back(Eigen::Index(row), Eigen::Index(row), diagonal);
+    triplets.push_back({std::int32_t(row), std::int32_t(row), diagonal});
   }
-  const Eigen::Index n = Eigen::Index(cell_of_row_.size());
-  matrix_.resize(n, n);
-  matrix_.setFromTriplets(triplets.begin(), triplets.end());
-  cg_.compute(matrix_);
+  pressure_solver_.set_matrix(std::int32_t(cell_of_row_.size()), triplets);
   matrix_stale_ = false;
   ++stats_.matrix_builds;
 }
@@ -239,22 +243,24 @@ bool GasSolver::solve_pressure(double dt) {
           boundary += 2.0 * area / g.h_m[a] * face_fraction_[au][f] *
                       g.ghost[f == up ? c + s : f].pressure_pa;
     }
-    rhs_[Eigen::Index(row)] = -rho / dt * divergence + boundary;
-    mean += rhs_[Eigen::Index(row)];
+    rhs_[row] = -rho / dt * divergence + boundary;
+    mean += rhs_[row];
   }
-  if (!g.has_outflow) rhs_.array() -= mean / double(cell_of_row_.size());
+  if (!g.has_outflow)
+    for (double& b : rhs_) b -= mean / double(cell_of_row_.size());
   if (matrix_stale_) assemble_pressure_matrix();
   for (std::size_t row = 0; row < cell_of_row_.size(); ++row)
-    solution_[Eigen::Index(row)] = pressure_[cell_of_row_[row]];
-  solution_ = cg_.solveWithGuess(rhs_, solution_);
-  stats_.last_pressure_iterations = int(cg_.iterations());
-  stats_.last_pressure_residual = cg_.error();
-  stats_.pressure_iterations += std::uint64_t(cg_.iterations());
-  stats_.max_pressure_residual = std::max(stats_.max_pressure_residual, cg_.error());
+    solution_[row] = pressure_[cell_of_row_[row]];
+  const bool converged = pressure_solver_.solve(rhs_, solution_);
+  const double residual = pressure_solver_.residual();
+  stats_.last_pressure_iterations = pressure_solver_.iterations();
+  stats_.last_pressure_residual = residual;
+  stats_.pressure_iterations += std::uint64_t(pressure_solver_.iterations());
+  stats_.max_pressure_residual = std::max(stats_.max_pressure_residual, residual);
   for (std::size_t row = 0; row < cell_of_row_.size(); ++row)
-    pressure_[cell_of_row_[row]] = solution_[Eigen::Index(row)];
+    pressure_[cell_of_row_[row]] = solution_[row];
   fill_copy_ghosts(pressure_);
-  return cg_.info() == Eigen::Success || cg_.error() < 100.0 * config_.pressure_tolerance;
+  return converged || residual < 100.0 * config_.pressure_tolerance;
 }
 
 void GasSolver::correct(double dt) {
@@ -314,8 +320,8 @@ std::optional<std::string> GasSolver::advance(double dt) {
   const GasGrid& g = grid_;
   predictor(dt);
   if (!solve_pressure(dt))
-    return concat("the gas pressure solve did not converge in ", cg_.iterations(),
-                  " iterations (relative residual ", cg_.error(), ", tolerance ",
+    return concat("the gas pressure solve did not converge in ", pressure_solver_.iterations(),
+                  " iterations (relative residual ", pressure_solver_.residual(), ", tolerance ",
                   config_.pressure_tolerance,
                   "); raise /gas/max_pressure_iterations or check the boundaries for a closed "
                   "region without an outlet");
@@ -381,8 +387,9 @@ Vec3 GasSolver::velocity_at(const Vec3& x) const {
 }
 
 Vec3 GasSolver::pressure_gradient_at(const Vec3& x) const {
-  return {interpolate(gradient_[0], x, 0), interpolate(gradient_[1], x, 1),
-          interpolate(gradient_[2], x, 2)};
+  return Vec3{interpolate(gradient_[0], x, 0), interpolate(gradient_[1], x, 1),
+              interpolate(gradient_[2], x, 2)} +
+         background_gradient_pa_per_m_;
 }
 
 double GasSolver::volume_fraction_at(const Vec3& x) const {

@@ -2,16 +2,14 @@
 // gas/gas_grid.h (unresolved CFD–DEM, "model A": the gas feels −ε∇p and the particles −V_p∇p).
 // One step is a Chorin projection:
 //   predictor   u* = u + Δt (−u·∇u + ν∇²u + g + S / (ε_f ρ))      explicit, per face
-//   pressure    ∇·(ε_f ∇p) = (ρ/Δt) (∇·(ε_f u*) + ∂ε/∂t)         conjugate gradients (Eigen)
-//   correction  u = u* − (Δt/ρ) ∇p
+//   pressure    ∇·(ε_f ∇p) = (ρ/Δt) (∇·(ε_f u*) + ∂ε/∂t)         conjugate gradients
+//   (gas/pressure_solver.h) correction  u = u* − (Δt/ρ) ∇p
 // so the gas satisfies the volume-averaged continuity ∂ε/∂t + ∇·(ε u) = 0 to the solver's
 // tolerance. S is the momentum the particles give the gas (gas/coupling.h), ε the gas volume
 // fraction. What it leaves out (compressibility, turbulence models, the ε-gradient terms of the
 // viscous stress) is listed in docs/gas.md.
 #pragma once
 
-#include <Eigen/IterativeLinearSolvers>
-#include <Eigen/SparseCore>
 #include <array>
 #include <cstdint>
 #include <optional>
@@ -21,6 +19,7 @@
 #include "core/vec3.h"
 #include "gas/gas_config.h"
 #include "gas/gas_grid.h"
+#include "gas/pressure_solver.h"
 
 namespace millsim {
 
@@ -64,7 +63,8 @@ class GasSolver {
   const std::vector<double>& pressure() const { return pressure_; }
   const std::array<std::vector<double>, 3>& pressure_gradient() const { return gradient_; }
 
-  // Trilinear samples at a point inside the domain (periodic axes wrapped by the caller).
+  // Trilinear samples at a point inside the domain (periodic axes wrapped by the caller). The
+  // pressure gradient includes the imposed hydrostatic gradient of periodic axes.
   Vec3 velocity_at(const Vec3& x) const;
   Vec3 pressure_gradient_at(const Vec3& x) const;
   double volume_fraction_at(const Vec3& x) const;
@@ -93,7 +93,10 @@ class GasSolver {
 
   GasConfig config_;
   GasGrid grid_;
-  Vec3 gravity_m_per_s2_;
+  Vec3 gravity_m_per_s2_;  // the gas's body force per mass: g, or −(imposed ∇p)/ρ if periodic
+  // Along a periodic axis gravity cannot build a hydrostatic pressure: its weight is carried by
+  // an imposed mean gradient ρ g instead (the gas does not accelerate, particles feel buoyancy).
+  Vec3 background_gradient_pa_per_m_;
   double kinematic_viscosity_ = 0.0;
 
   std::array<std::vector<double>, 3> velocity_, predicted_, source_, exchange_, gradient_;
@@ -103,12 +106,8 @@ class GasSolver {
   // Pressure system over the fluid cells.
   std::vector<std::int32_t> row_of_cell_;  // -1 outside the fluid
   std::vector<std::size_t> cell_of_row_;
-  Eigen::SparseMatrix<double> matrix_;
-  Eigen::VectorXd rhs_, solution_;
-  Eigen::ConjugateGradient<
-      Eigen::SparseMatrix<double>, Eigen::Lower | Eigen::Upper,
-      Eigen::IncompleteCholesky<double, Eigen::Lower, Eigen::NaturalOrdering<int>>>
-      cg_;
+  std::vector<double> rhs_, solution_;
+  PressureSolver pressure_solver_;
   bool matrix_stale_ = true;
 
   GasStepStats stats_;

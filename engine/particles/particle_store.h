@@ -47,6 +47,14 @@ struct ParticleStore {
   // still absorb before it breaks. Empty, and not a column, unless enable_breakage_state().
   std::vector<double> remaining_capacity_j_per_kg;
   bool has_breakage_state = false;
+  // gas coupling only (gas/coupling.h): the drag cache of §3.1 (Fig. 5) and the impulse the
+  // particle took from the gas since the last CFD step (given back to the gas then). Empty, and
+  // not columns, unless enable_fluid_state().
+  std::vector<double> fluid_coefficient_kg_per_s;  // cached β: drag = β (u − v)
+  std::vector<Vec3> fluid_cached_slip_m_per_s;     // u − v when β (and the lift) were computed
+  std::vector<Vec3> fluid_cached_force_n;          // cached drag + lift (force store) or lift
+  std::vector<Vec3> fluid_impulse_n_s;             // ∫ (drag + lift) dt since the last CFD step
+  bool has_fluid_state = false;
 
   // Bumped by every add and removal, so caches (the neighbour list) see a changed population.
   std::uint64_t population_version = 0;
@@ -65,12 +73,25 @@ struct ParticleStore {
     f(normal_compliance), f(shear_compliance);
     f(material), f(mass_kg), f(id);
     if (has_breakage_state) f(remaining_capacity_j_per_kg);
+    if (has_fluid_state) {
+      f(fluid_coefficient_kg_per_s), f(fluid_cached_slip_m_per_s), f(fluid_cached_force_n);
+      f(fluid_impulse_n_s);
+    }
   }
 
   // Adds the breakage column (infinite capacity until the breakage module draws one).
   void enable_breakage_state() {
     has_breakage_state = true;
     remaining_capacity_j_per_kg.assign(size(), 1e300);
+  }
+
+  // Adds the gas-coupling columns; every particle starts with no cached drag.
+  void enable_fluid_state() {
+    has_fluid_state = true;
+    fluid_coefficient_kg_per_s.assign(size(), -1.0);  // < 0: nothing cached
+    fluid_cached_slip_m_per_s.assign(size(), {});
+    fluid_cached_force_n.assign(size(), {});
+    fluid_impulse_n_s.assign(size(), {});
   }
 
   // Appends a particle and computes its contact constants; `stiffness_scale` multiplies its

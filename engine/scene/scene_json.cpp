@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "core/json_reader.h"
+#include "scene/gas_json.h"
 
 namespace millsim {
 namespace {
@@ -521,6 +522,7 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
   if (const json* v = top.child("psd")) scene.psd = parse_psd(*v, errors);
   scene.outlets = parse_outlets(top, errors);
   scene.feeds = parse_feeds(top, scene.materials, errors);
+  if (const json* v = top.child("gas")) scene.gas = parse_gas(*v, scene.domain, errors);
   if (const json* v = top.child("output")) {
     JsonObjectReader r(*v, "/output", errors);
     scene.output.snapshot_interval_s =

@@ -185,6 +185,7 @@ Simulation::Simulation(const SceneConfig& scene)
   }
   const std::vector<double> psd_edges =
       scene.psd.edges_m.empty() ? default_psd_edges(scene, d_min, d_max) : scene.psd.edges_m;
+  if (scene.gas) particles_.enable_fluid_state();
   if (scene.breakage) {
     particles_.enable_breakage_state();
     breakage_.emplace(
@@ -218,7 +219,29 @@ Simulation::Simulation(const SceneConfig& scene)
   for (const SizeBound& b : future)
     later.add(materials_, b.material, 0, {}, {}, {}, b.diameter_m,
               reduced_ ? stiffness_scale(b.diameter_m, reduced_->threshold_diameter_m) : 1.0);
+  if (scene.gas) {
+    // Explicit drag needs the step well inside the Stokes relaxation time of the smallest
+    // particle, τ = ρ_p d² / (18 μ).
+    const double rho_p = materials_.material(smallest_material).density_kg_per_m3;
+    drag_relaxation_s_ = rho_p * d_min * d_min / (18.0 * scene.gas->viscosity_pa_s);
+  }
   choose_time_step(scene, later, errors);
+  if (scene.gas) {
+    const GasConfig& gas = *scene.gas;
+    for (int a = 0; a < 3; ++a) {
+      const double h = box_.length(a) / gas.cells[std::size_t(a)];
+      if (h < d_max && !(box_.periodic[a] && gas.cells[std::size_t(a)] == 1))
+        errors.push_back({concat("/gas/cells/", a), concat(gas.cells[std::size_t(a)]),
+                          concat("a gas cell (", h, " m along axis ", a,
+                                 ") must be larger than the largest particle (", d_max,
+                                 " m): the volume-averaged equations need several particles per "
+                                 "cell; use at most ",
+                                 std::max(1, int(box_.length(a) / d_max)), " cells")});
+    }
+    if (errors.empty())
+      gas_.emplace(gas, box_, gravity_m_per_s2_,
+                   std::max(d_max, scene.search.cell_size_m.value_or(0.0)));
+  }
 
   // Skin: ¼ √(d_min d_max) re-derived at each rebuild unless set (search/neighbor_list.cpp). The
   // periodic minimum image needs each periodic length to exceed 2 (d_max + skin).
@@ -237,7 +260,10 @@ Simulation::Simulation(const SceneConfig& scene)
       NeighborList({std::clamp(scene.search.skin_m.value_or(0.0), 0.0, max_skin), automatic_skin,
                     max_skin, scene.search.cell_size_m, scene.search.subcells_per_axis});
   neighbors_.update(particles_, box_, walls_, true);
-  compute_forces();
+  if (gas_)
+    if (auto failure = gas_->advance(particles_, time_.step_s, 0))
+      throw InputErrorList({{"/gas", "", "the first gas step failed: " + *failure}});
+  compute_all_forces();
   if (contact_stats_.max_overlap_ratio > contact_.penetration_limit)
     throw InputErrorList({{"/sources", "",
                            concat(describe_worst_overlap(), " at the start; at most ",
@@ -293,7 +319,8 @@ void Simulation::choose_time_step(const SceneConfig& scene, const ParticleStore&
   const TimeStepBounds& b = time_.bounds;
   time_.stable_bound_s = std::min(b.rayleigh_s, b.contact_s / kMinStepsPerContact);
   const double automatic =
-      std::min(scene.time.safety_factor * b.rayleigh_s, b.contact_s / scene.time.steps_per_contact);
+      std::min({scene.time.safety_factor * b.rayleigh_s, b.contact_s / scene.time.steps_per_contact,
+                0.2 * drag_relaxation_s_});
   if (reduced_) {
     const TimeStepBounds real =
         tighter(time_step_bounds(particles_, materials_, walls_, v, /*at_real_stiffness=*/true),
@@ -318,6 +345,13 @@ void Simulation::choose_time_step(const SceneConfig& scene, const ParticleStore&
                   b.contact_with_wall ? "the stiffest wall" : "an equal particle", " at ", v,
                   " m/s, /contact/max_impact_speed_m_per_s); lower it or "
                   "use \"auto\"")});
+    else if (time_.step_s > 0.5 * drag_relaxation_s_)
+      errors.push_back({"/time/step_s", concat(time_.step_s),
+                        concat("expected at most half the drag relaxation time of the smallest "
+                               "particle, ",
+                               0.5 * drag_relaxation_s_,
+                               " s (explicit drag is unstable past it); lower it or use "
+                               "\"auto\"")});
   } else {
     time_.step_s = automatic;
   }
@@ -346,9 +380,14 @@ void Simulation::compute_forces() {
                       neighbors_, contact_stats_);
 }
 
+void Simulation::compute_all_forces() {
+  compute_forces();
+  if (gas_) gas_->add_fluid_forces(particles_, time_.step_s, false);
+}
+
 void Simulation::refresh_forces() {
   neighbors_.update(particles_, box_, walls_, true);
-  compute_forces();
+  compute_all_forces();
   set_energy_baseline();
 }
 
@@ -361,6 +400,7 @@ std::optional<StepFailure> Simulation::step() {
     neighbors_.update(particles_, box_, walls_, false);
   });
   profile_.time(Phase::Forces, [&] { compute_forces(); });
+  if (gas_) profile_.time(Phase::Fluid, [&] { gas_->add_fluid_forces(particles_, dt, true); });
   profile_.time(Phase::Kick, [&] {
     kick(particles_, dt);
     if (contact_.penetration_limiter &&
@@ -372,6 +412,11 @@ std::optional<StepFailure> Simulation::step() {
   ++step_index_;
   if (breakage_ || !outlets_.empty() || !feeders_.empty()) process_population();
   std::optional<StepFailure> failure;
+  if (gas_ && gas_->due(step_index_)) {
+    std::optional<std::string> message;
+    profile_.time(Phase::Gas, [&] { message = gas_->advance(particles_, dt, step_index_); });
+    if (message) return StepFailure{step_index_, time_s(), 0, "gas_solver", *message};
+  }
   if (step_index_ % 16 == 0 || step_index_ == total_steps_ ||
       contact_stats_.max_overlap_ratio > 2.0 * contact_.penetration_limit)
     profile_.time(Phase::Health, [&] { failure = check_health(); });
@@ -388,8 +433,9 @@ double Simulation::particle_energy_j(std::size_t i) const {
 void Simulation::process_population() {
   const std::uint64_t version = particles_.population_version;
   std::vector<Newborn> newborn;
-  const auto removed = [this](const ParticleStore&, std::size_t i) {
+  const auto removed = [this](const ParticleStore& store, std::size_t i) {
     energy_added_j_ -= particle_energy_j(i);
+    if (gas_) gas_->release(store, i);
   };
   const auto added = [this](const ParticleStore&, std::size_t i) {
     energy_added_j_ += particle_energy_j(i);

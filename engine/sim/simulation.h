@@ -14,6 +14,7 @@
 #include "core/errors.h"
 #include "dem/box.h"
 #include "dem/time_step.h"
+#include "gas/coupling.h"
 #include "particles/materials.h"
 #include "particles/particle_store.h"
 #include "process/feed.h"
@@ -95,6 +96,9 @@ class Simulation {
 
   // Breakage, outlets and feeds (each absent unless the scene has it).
   const Breakage* breakage() const { return breakage_ ? &*breakage_ : nullptr; }
+  // The gas solver and its coupling (absent unless the scene has a gas section).
+  const GasCoupling* gas() const { return gas_ ? &*gas_ : nullptr; }
+  GasCoupling* gas() { return gas_ ? &*gas_ : nullptr; }
   const std::vector<Feeder>& feeders() const { return feeders_; }
   const PsdTally& outlet_tally() const { return outlet_; }  // particles that left by an outlet
   const std::vector<double>& outlet_mass_by_outlet_kg() const { return outlet_mass_kg_; }
@@ -114,6 +118,8 @@ class Simulation {
   // `later`: particles the run may create (feeds, the smallest fragment), for the bounds.
   void choose_time_step(const SceneConfig& scene, const ParticleStore& later, InputErrors& errors);
   void compute_forces();
+  // Contact forces, then the fluid forces of a force pass that is not a step's (no impulse).
+  void compute_all_forces();
   // Breakage, outlets and feeds at the end of a step; rebuilds the neighbour list when the
   // population changed.
   void process_population();
@@ -144,6 +150,7 @@ class Simulation {
   double particle_steps_ = 0.0;
   double energy_added_j_ = 0.0;  // energy of particles added minus removed since the start
   std::optional<Breakage> breakage_;
+  std::optional<GasCoupling> gas_;
   std::vector<OutletConfig> outlets_;
   std::vector<Feeder> feeders_;
   PsdTally outlet_;
@@ -154,6 +161,7 @@ class Simulation {
   std::int64_t last_population_step_ = 0;  // when outlets and feeds were last applied
   double feed_mass_bound_kg_ = 0.0;        // what the feeds can bring in over the run
   double feed_kinetic_bound_j_ = 0.0;
+  double drag_relaxation_s_ = 1e300;  // Stokes τ of the smallest particle (gas scenes only)
 };
 
 }  // namespace millsim

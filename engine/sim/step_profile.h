@@ -15,13 +15,16 @@ enum class Phase {
   Kick,
   Breakage,
   Population,  // outlets, feeds and the rebuild after any population change
+  Fluid,       // drag, lift and pressure-gradient forces from the DEM-cell fluid table
+  Gas,         // one CFD step: particle → gas deposit and the gas solve
   Health,
   Output,
   Count
 };
 
 inline constexpr std::array<std::string_view, std::size_t(Phase::Count)> kPhaseNames = {
-    "kick_drift", "neighbors", "forces", "kick", "breakage", "population", "health", "output"};
+    "kick_drift", "neighbors", "forces", "kick",   "breakage",
+    "population", "fluid",     "gas",    "health", "output"};
 
 struct StepProfile {
   std::array<double, std::size_t(Phase::Count)> seconds{};

@@ -1,0 +1,321 @@
+#include "gas/coupling.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+
+#include "gas/drag.h"
+
+namespace millsim {
+namespace {
+
+constexpr long kCellBias = 1L << 20;  // packed cell coordinates are offset to stay positive
+
+std::uint64_t pack_cell(long i, long j, long k) {
+  return (std::uint64_t(i + kCellBias) << 42) | (std::uint64_t(j + kCellBias) << 21) |
+         std::uint64_t(k + kCellBias);
+}
+
+std::uint64_t mix(std::uint64_t x) {  // splitmix64 finaliser
+  x ^= x >> 30;
+  x *= 0xbf58476d1ce4e5b9ULL;
+  x ^= x >> 27;
+  x *= 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+
+// The eight grid nodes around x with trilinear weights, for a cell-centred field
+// (face_axis = −1) or the faces of component face_axis; periodic nodes are mapped to the
+// node that holds the value. Nodes refused by `accept` lose their weight to the others.
+struct Stencil {
+  std::size_t node[8];
+  double weight[8];
+  int count = 0;
+};
+
+template <class Accept>
+Stencil make_stencil(const GasGrid& g, const Vec3& x, int face_axis, Accept&& accept) {
+  std::array<int, 3> i0{};
+  std::array<double, 3> w{};
+  for (int b = 0; b < 3; ++b) {
+    const std::size_t bu = std::size_t(b);
+    const bool on_faces = b == face_axis;
+    double t = (x[b] - g.origin_m[b]) / g.h_m[b] + (on_faces ? 0.0 : 0.5);
+    const double hi = on_faces ? double(g.n[bu]) : double(g.n[bu] + 1);
+    t = std::clamp(t, 0.0, hi);
+    const int i = std::min(int(t), int(hi) - 1);
+    i0[bu] = i;
+    w[bu] = t - i;
+  }
+  Stencil s;
+  double total = 0.0;
+  for (int corner = 0; corner < 8; ++corner) {
+    std::array<int, 3> ijk{};
+    double weight = 1.0;
+    for (int b = 0; b < 3; ++b) {
+      const std::size_t bu = std::size_t(b);
+      const int d = (corner >> b) & 1;
+      int i = i0[bu] + d;
+      weight *= d ? w[bu] : 1.0 - w[bu];
+      if (g.periodic[bu]) {
+        if (b == face_axis) {
+          if (i == 0) i = g.n[bu];
+        } else if (i == 0) {
+          i = g.n[bu];
+        } else if (i == g.n[bu] + 1) {
+          i = 1;
+        }
+      }
+      ijk[bu] = i;
+    }
+    if (weight <= 0.0) continue;
+    const std::size_t node = g.index(ijk[0], ijk[1], ijk[2]);
+    if (!accept(node)) continue;
+    s.node[s.count] = node;
+    s.weight[s.count] = weight;
+    ++s.count;
+    total += weight;
+  }
+  for (int k = 0; k < s.count; ++k) s.weight[k] /= total;
+  return s;
+}
+
+}  // namespace
+
+DemCellFluidTable::DemCellFluidTable(double cell_m, const Vec3& origin_m)
+    : cell_m_(cell_m), origin_m_(origin_m) {
+  keys_.assign(1024, 0);
+  slot_state_.assign(1024, 0);
+}
+
+void DemCellFluidTable::clear() {
+  if (states_.empty()) return;
+  std::fill(keys_.begin(), keys_.end(), 0);
+  states_.clear();
+}
+
+void DemCellFluidTable::grow() {
+  std::vector<std::uint64_t> old_keys = std::move(keys_);
+  std::vector<std::uint32_t> old_slots = std::move(slot_state_);
+  keys_.assign(old_keys.size() * 2, 0);
+  slot_state_.assign(old_keys.size() * 2, 0);
+  const std::size_t mask = keys_.size() - 1;
+  for (std::size_t s = 0; s < old_keys.size(); ++s) {
+    if (!old_keys[s]) continue;
+    std::size_t h = mix(old_keys[s]) & mask;
+    while (keys_[h]) h = (h + 1) & mask;
+    keys_[h] = old_keys[s];
+    slot_state_[h] = old_slots[s];
+  }
+}
+
+// The mean over the DEM cell: the average of the gas fields at s³ points, s chosen so the
+// points are no further apart than half a CFD cell (one point, the centre, when the DEM cell
+// is smaller than the CFD cell: the trilinear field is then averaged exactly to second order).
+FluidCellState DemCellFluidTable::average(long i, long j, long k, const GasSolver& gas,
+                                          bool with_vorticity) const {
+  const GasGrid& g = gas.grid();
+  const double h_min = std::min({g.h_m.x, g.h_m.y, g.h_m.z});
+  const int s = std::max(1, int(std::ceil(2.0 * cell_m_ / h_min - 1e-9)) / 2);
+  FluidCellState st;
+  const Vec3 corner = origin_m_ + Vec3{double(i), double(j), double(k)} * cell_m_;
+  const double inv = 1.0 / double(s * s * s);
+  st.volume_fraction = 0.0;
+  for (int c = 0; c < s; ++c)
+    for (int b = 0; b < s; ++b)
+      for (int a = 0; a < s; ++a) {
+        const Vec3 x = corner + Vec3{a + 0.5, b + 0.5, c + 0.5} * (cell_m_ / s);
+        st.velocity_m_per_s += gas.velocity_at(x) * inv;
+        st.pressure_gradient_pa_per_m += gas.pressure_gradient_at(x) * inv;
+        st.volume_fraction += gas.volume_fraction_at(x) * inv;
+        if (with_vorticity) st.vorticity_per_s += gas.vorticity_at(x) * inv;
+      }
+  st.density_kg_per_m3 = gas.density_kg_per_m3();
+  st.viscosity_pa_s = gas.viscosity_pa_s();
+  return st;
+}
+
+const FluidCellState& DemCellFluidTable::at(const Vec3& x, const GasSolver& gas,
+                                            bool with_vorticity) {
+  const long i = long(std::floor((x.x - origin_m_.x) / cell_m_));
+  const long j = long(std::floor((x.y - origin_m_.y) / cell_m_));
+  const long k = long(std::floor((x.z - origin_m_.z) / cell_m_));
+  const std::uint64_t key = pack_cell(i, j, k) + 1;
+  const std::size_t mask = keys_.size() - 1;
+  std::size_t h = mix(key) & mask;
+  while (keys_[h]) {
+    if (keys_[h] == key) return states_[slot_state_[h]];
+    h = (h + 1) & mask;
+  }
+  keys_[h] = key;
+  slot_state_[h] = std::uint32_t(states_.size());
+  states_.push_back(average(i, j, k, gas, with_vorticity));
+  ++fills_;
+  const std::size_t slot = states_.size() - 1;
+  if (2 * states_.size() > keys_.size()) grow();
+  return states_[slot];
+}
+
+GasCoupling::GasCoupling(const GasConfig& config, const PeriodicBox& box,
+                         const Vec3& gravity_m_per_s2, double dem_cell_m)
+    : config_(config),
+      box_(box),
+      gas_(config, build_gas_grid(config, box.min_m, box.max_m, box.periodic), gravity_m_per_s2),
+      table_(dem_cell_m, box.min_m) {
+  solid_volume_.assign(gas_.grid().padded_size, 0.0);
+}
+
+const FluidCellState& GasCoupling::fluid_at(const Vec3& x) {
+  Vec3 w = x;
+  box_.wrap(w);
+  return table_.at(w, gas_, config_.saffman_lift);
+}
+
+void GasCoupling::release(const ParticleStore& p, std::size_t slot) {
+  if (!config_.two_way || !p.has_fluid_state) return;
+  const Vec3& j = p.fluid_impulse_n_s[slot];
+  if (j.x != 0.0 || j.y != 0.0 || j.z != 0.0) released_.push_back({p.position_m[slot], j});
+}
+
+int GasCoupling::choose_steps(double dem_step_s) const {
+  if (config_.step_s) return std::max(1, int(std::lround(*config_.step_s / dem_step_s)));
+  const double stable = gas_.stable_step_s();
+  return int(std::clamp(std::floor(stable / dem_step_s), 1.0, 1e6));
+}
+
+// Solids volume → ε per cell; exchange coefficient per face (for the step limit); the impulse
+// the particles took since the last CFD step → the gas's momentum source over the next one.
+void GasCoupling::deposit(const ParticleStore& p, double cfd_step_s) {
+  GasGrid const& g = gas_.grid();
+  std::vector<double>& fraction = gas_.volume_fraction();
+  std::array<std::vector<double>, 3>& source = gas_.momentum_source();
+  std::array<std::vector<double>, 3>& exchange = gas_.exchange_coefficient();
+  std::fill(solid_volume_.begin(), solid_volume_.end(), 0.0);
+  for (int a = 0; a < 3; ++a) {
+    std::fill(source[std::size_t(a)].begin(), source[std::size_t(a)].end(), 0.0);
+    std::fill(exchange[std::size_t(a)].begin(), exchange[std::size_t(a)].end(), 0.0);
+  }
+  const double volume = g.cell_volume_m3();
+  const auto fluid_cell = [&](std::size_t c) { return g.fluid[c] != 0; };
+  const auto push = [&](const Vec3& x_raw, const Vec3& impulse, double solid_m3, double beta) {
+    Vec3 x = x_raw;
+    box_.wrap(x);
+    if (solid_m3 > 0.0) {
+      const Stencil s = make_stencil(g, x, -1, fluid_cell);
+      if (s.count == 0) ++stats_.unplaced_deposits;
+      for (int k = 0; k < s.count; ++k) solid_volume_[s.node[k]] += solid_m3 * s.weight[k];
+    }
+    for (int a = 0; a < 3; ++a) {
+      const std::size_t au = std::size_t(a);
+      const auto unknown = [&](std::size_t f) { return g.face[au][f] == FaceKind::Unknown; };
+      const Stencil s = make_stencil(g, x, a, unknown);
+      if (s.count == 0) continue;  // the impulse of a particle inside a wall has nowhere to go
+      for (int k = 0; k < s.count; ++k) {
+        source[au][s.node[k]] -= impulse[a] * s.weight[k] / (volume * cfd_step_s);
+        stats_.deposited_impulse_n_s[a] -= impulse[a] * s.weight[k];
+        exchange[au][s.node[k]] += beta * s.weight[k] / volume;
+      }
+    }
+  };
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const double r = p.radius_m[i];
+    push(p.position_m[i], p.fluid_impulse_n_s[i], 4.0 / 3.0 * std::numbers::pi * r * r * r,
+         std::max(0.0, p.fluid_coefficient_kg_per_s[i]));
+  }
+  for (const Released& r : released_) push(r.position_m, r.impulse_n_s, 0.0, 0.0);
+  released_.clear();
+  double min_fraction = 1.0;
+  for (std::size_t c = 0; c < g.padded_size; ++c) {
+    if (!g.fluid[c]) continue;
+    double eps = 1.0 - solid_volume_[c] / volume;
+    if (eps < config_.min_volume_fraction)
+      eps = config_.min_volume_fraction, ++stats_.clamped_cells;
+    fraction[c] = eps;
+    min_fraction = std::min(min_fraction, eps);
+  }
+  stats_.min_volume_fraction = std::min(stats_.min_volume_fraction, min_fraction);
+  gas_.volume_fraction_changed();
+}
+
+std::optional<std::string> GasCoupling::advance(ParticleStore& p, double dem_step_s,
+                                                std::int64_t step_index) {
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  // The exchange coefficient enters the stable step, so deposit β first with a provisional
+  // step, then scale the source to the chosen one (the impulse handed over stays exact).
+  int steps = 1;
+  if (config_.two_way) {
+    deposit(p, 1.0);
+    steps = choose_steps(dem_step_s);
+    const double scale = 1.0 / (double(steps) * dem_step_s);
+    for (std::vector<double>& s : gas_.momentum_source())
+      for (double& v : s) v *= scale;
+    for (std::size_t i = 0; i < p.size(); ++i) p.fluid_impulse_n_s[i] = {};
+  } else {
+    steps = choose_steps(dem_step_s);
+  }
+  const auto t1 = Clock::now();
+  const double cfd_step_s = double(steps) * dem_step_s;
+  // The gas itself may need a smaller step than one DEM step: sub-cycle it then.
+  const double stable = config_.step_s ? cfd_step_s : gas_.stable_step_s();
+  const int substeps = std::max(1, int(std::ceil(cfd_step_s / stable - 1e-9)));
+  for (int k = 0; k < substeps; ++k)
+    if (auto failure = gas_.advance(cfd_step_s / substeps)) return failure;
+  table_.clear();
+  next_cfd_step_ = step_index + steps;
+  stats_.cfd_steps += 1;
+  stats_.gas_substeps += std::uint64_t(substeps);
+  stats_.steps_per_cfd = steps;
+  stats_.min_steps_per_cfd = std::min(stats_.min_steps_per_cfd, steps);
+  stats_.max_steps_per_cfd = std::max(stats_.max_steps_per_cfd, steps);
+  const auto t2 = Clock::now();
+  stats_.deposit_seconds += std::chrono::duration<double>(t1 - t0).count();
+  stats_.gas_seconds += std::chrono::duration<double>(t2 - t1).count();
+  return std::nullopt;
+}
+
+void GasCoupling::add_fluid_forces(ParticleStore& p, double dt, bool accumulate) {
+  const bool lift = config_.saffman_lift, pressure = config_.pressure_gradient_force;
+  const bool store_force = config_.cache_store == DragCacheStore::Force;
+  const double threshold = config_.cache_threshold;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const FluidCellState& st = fluid_at(p.position_m[i]);
+    const Vec3 slip = st.velocity_m_per_s - p.velocity_m_per_s[i];
+    const double d = 2.0 * p.radius_m[i];
+    bool recompute = p.fluid_coefficient_kg_per_s[i] < 0.0 || threshold <= 0.0;
+    if (!recompute) {
+      const Vec3& stored = p.fluid_cached_slip_m_per_s[i];
+      const double limit = threshold * norm(stored);
+      const Vec3 change = slip - stored;
+      recompute = std::abs(change.x) > limit || std::abs(change.y) > limit ||
+                  std::abs(change.z) > limit || (limit == 0.0 && norm2(change) > 0.0);
+    }
+    if (recompute) {
+      const DragInput in{d, norm(slip), st.volume_fraction, st.density_kg_per_m3,
+                         st.viscosity_pa_s};
+      const double beta = drag_coefficient_kg_per_s(config_.drag, in);
+      const Vec3 lift_force = lift ? saffman_lift_n(d, slip, st.vorticity_per_s,
+                                                    st.density_kg_per_m3, st.viscosity_pa_s)
+                                   : Vec3{};
+      p.fluid_coefficient_kg_per_s[i] = beta;
+      p.fluid_cached_slip_m_per_s[i] = slip;
+      p.fluid_cached_force_n[i] = store_force ? slip * beta + lift_force : lift_force;
+      ++stats_.drag_evaluations;
+    } else {
+      ++stats_.drag_reuses;
+    }
+    const Vec3 exchange = store_force
+                              ? p.fluid_cached_force_n[i]
+                              : slip * p.fluid_coefficient_kg_per_s[i] + p.fluid_cached_force_n[i];
+    Vec3 force = exchange;
+    if (pressure) force -= st.pressure_gradient_pa_per_m * (std::numbers::pi / 6.0 * d * d * d);
+    p.force_n[i] += force;
+    if (accumulate) {
+      p.fluid_impulse_n_s[i] += exchange * dt;
+      stats_.particle_impulse_n_s += exchange * dt;
+    }
+  }
+}
+
+}  // namespace millsim

@@ -1,0 +1,123 @@
+// GasCoupling: everything between the particles and the gas solver (§3.1).
+//  - Particle → gas, once per CFD step: the solids volume of each particle and the impulse it
+//    took from the gas since the last CFD step are spread over the eight nearest cells (or
+//    faces) with trilinear weights, renormalised over the cells that are fluid, so a particle
+//    near a face is shared and nothing is deposited into walls: the gas receives exactly
+//    minus what the particles received (Newton's third law, to rounding).
+//  - Gas → particle: each occupied DEM cell holds the mean fluid state (velocity, volume
+//    fraction, density, viscosity, pressure gradient, vorticity) in a hashed table refreshed
+//    once per CFD step; a particle reads its DEM cell's state, never the CFD grid.
+//  - Drag caching (Fig. 5): a particle keeps its drag coefficient (or force) and the slip it
+//    was computed at, and recomputes only when the slip has changed by more than the threshold
+//    in some axis (relative to the stored slip speed).
+// The CFD step is a whole number of DEM steps, from the gas solver's stability limit unless the
+// scene fixes it.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/vec3.h"
+#include "dem/box.h"
+#include "gas/gas_config.h"
+#include "gas/gas_solver.h"
+#include "particles/particle_store.h"
+
+namespace millsim {
+
+struct FluidCellState {
+  Vec3 velocity_m_per_s;            // interstitial gas velocity
+  Vec3 pressure_gradient_pa_per_m;  // ∇p
+  Vec3 vorticity_per_s;             // ∇×u (only with Saffman lift)
+  double volume_fraction = 1.0;     // ε
+  double density_kg_per_m3 = 0.0;
+  double viscosity_pa_s = 0.0;
+};
+
+// The hashed DEM-cell table: only cells that hold a particle are filled, on first use after
+// clear().
+class DemCellFluidTable {
+ public:
+  DemCellFluidTable() = default;
+  DemCellFluidTable(double cell_m, const Vec3& origin_m);
+
+  double cell_m() const { return cell_m_; }
+  void clear();
+  // The state of the DEM cell that holds x (wrapped into the domain by the caller).
+  const FluidCellState& at(const Vec3& x, const GasSolver& gas, bool with_vorticity);
+  std::size_t size() const { return states_.size(); }
+  std::uint64_t fills() const { return fills_; }
+
+ private:
+  FluidCellState average(long i, long j, long k, const GasSolver& gas, bool with_vorticity) const;
+  void grow();
+
+  double cell_m_ = 1.0;
+  Vec3 origin_m_;
+  std::vector<std::uint64_t> keys_;  // 0 = empty slot, else packed cell + 1
+  std::vector<std::uint32_t> slot_state_;
+  std::vector<FluidCellState> states_;
+  std::uint64_t fills_ = 0;
+};
+
+struct CouplingStats {
+  std::uint64_t cfd_steps = 0;
+  std::uint64_t gas_substeps = 0;  // > cfd_steps only when the gas needs a step below the DEM's
+  int steps_per_cfd = 1;           // DEM steps per CFD step (the latest)
+  int min_steps_per_cfd = 1 << 30, max_steps_per_cfd = 0;
+  std::uint64_t drag_evaluations = 0;   // drag (and lift) computed
+  std::uint64_t drag_reuses = 0;        // cached drag used
+  std::uint64_t clamped_cells = 0;      // cell-steps whose ε hit the floor
+  std::uint64_t unplaced_deposits = 0;  // particles whose whole stencil was outside the fluid
+  double min_volume_fraction = 1.0;
+  Vec3 particle_impulse_n_s;     // Σ (drag + lift) dt over all particles and steps
+  Vec3 deposited_impulse_n_s;    // handed to the gas as its momentum source
+  double gas_seconds = 0.0;      // gas solve
+  double deposit_seconds = 0.0;  // particle → gas
+};
+
+class GasCoupling {
+ public:
+  // `dem_cell_m`: the DEM-cell edge of the fluid table (no smaller than the largest particle).
+  GasCoupling(const GasConfig& config, const PeriodicBox& box, const Vec3& gravity_m_per_s2,
+              double dem_cell_m);
+
+  // True when the CFD step is due at this DEM step.
+  bool due(std::int64_t step_index) const { return step_index >= next_cfd_step_; }
+  // One CFD step at DEM step `step_index`: deposits the particles' volume and impulse, chooses
+  // the CFD step, advances the gas and clears the DEM-cell table. Returns a message on failure.
+  std::optional<std::string> advance(ParticleStore& p, double dem_step_s, std::int64_t step_index);
+  // Adds drag, lift and the pressure-gradient force to p.force_n. With `accumulate` the drag
+  // and lift impulse (F dt) is kept for the gas; off for a force pass that is not a step's.
+  void add_fluid_forces(ParticleStore& p, double dem_step_s, bool accumulate);
+  // A particle leaves the run (outlet, breakage): its pending impulse still goes to the gas.
+  void release(const ParticleStore& p, std::size_t slot);
+
+  const GasSolver& gas() const { return gas_; }
+  GasSolver& gas() { return gas_; }
+  const GasConfig& config() const { return config_; }
+  const CouplingStats& stats() const { return stats_; }
+  const DemCellFluidTable& table() const { return table_; }
+  // The mean fluid state a particle at x reads (tests, output).
+  const FluidCellState& fluid_at(const Vec3& x);
+
+ private:
+  void deposit(const ParticleStore& p, double cfd_step_s);
+  int choose_steps(double dem_step_s) const;
+
+  GasConfig config_;
+  PeriodicBox box_;
+  GasSolver gas_;
+  DemCellFluidTable table_;
+  std::int64_t next_cfd_step_ = 0;
+  struct Released {
+    Vec3 position_m, impulse_n_s;
+  };
+  std::vector<Released> released_;
+  std::vector<double> solid_volume_;  // per padded cell, scratch
+  CouplingStats stats_;
+};
+
+}  // namespace millsim

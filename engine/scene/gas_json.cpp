@@ -1,0 +1,191 @@
+#include "scene/gas_json.h"
+
+#include <cmath>
+
+#include "core/json_reader.h"
+
+namespace millsim {
+namespace {
+
+using nlohmann::json;
+
+const std::vector<std::string> kFaceNames = {"x-", "x+", "y-", "y+", "z-", "z+"};
+
+int face_index(const std::string& name) {
+  for (std::size_t k = 0; k < kFaceNames.size(); ++k)
+    if (kFaceNames[k] == name) return int(k);
+  return 0;
+}
+
+Vec3 unit_vector(JsonObjectReader& r, std::string_view key, InputErrors& errors) {
+  const Vec3 v = r.vec3(key, {});
+  if (r.is_object() && norm(v) < 1e-12) {
+    errors.push_back({r.path_of(key), "[0,0,0]", "missing or zero; expected a non-zero vector"});
+    return {0, 0, 1};
+  }
+  return v * (1.0 / norm(v));
+}
+
+GasBoundaryPatch parse_patch(const json& v, const std::string& path, const DomainConfig& domain,
+                             InputErrors& errors) {
+  JsonObjectReader r(v, path, errors);
+  GasBoundaryPatch p;
+  p.face = face_index(r.required_string("face", kFaceNames));
+  p.name = r.string("name", kFaceNames[std::size_t(p.face)]);
+  const std::string type = r.required_string("type", {"wall", "slip", "inlet", "outlet"});
+  p.kind = type == "slip"     ? GasBoundaryKind::Slip
+           : type == "inlet"  ? GasBoundaryKind::Inlet
+           : type == "outlet" ? GasBoundaryKind::Outlet
+                              : GasBoundaryKind::Wall;
+  const std::string shape = r.string("shape", "face", {"face", "rectangle", "circle"});
+  if (shape == "rectangle") {
+    p.shape = PatchShape::Rectangle;
+    p.min_m = r.vec3("min_m", {});
+    p.max_m = r.vec3("max_m", {});
+    if (r.is_object() && !(r.has("min_m") && r.has("max_m")))
+      errors.push_back({path, "", "a rectangle patch needs min_m and max_m"});
+  } else if (shape == "circle") {
+    p.shape = PatchShape::Circle;
+    p.center_m = r.vec3("center_m", {});
+    p.radius_m = r.required_number("radius_m", NumberRange::positive());
+    if (r.is_object() && !r.has("center_m"))
+      errors.push_back({r.path_of("center_m"), "", "missing; a circle patch needs its centre"});
+  }
+  p.velocity_m_per_s = r.vec3("velocity_m_per_s", {}, NumberRange::closed(-1e4, 1e4));
+  p.pressure_pa = r.number("pressure_pa", 0.0, NumberRange::closed(-1e9, 1e9));
+  if (p.kind == GasBoundaryKind::Wall || p.kind == GasBoundaryKind::Slip) {
+    const int axis = p.face / 2;
+    if (p.velocity_m_per_s[axis] != 0.0)
+      errors.push_back({r.path_of("velocity_m_per_s"), concat(p.velocity_m_per_s[axis]),
+                        "a wall moves only along itself: the component normal to the face must "
+                        "be 0 (use an inlet to blow gas in)"});
+  }
+  if (domain.periodic[std::size_t(p.face / 2)])
+    errors.push_back({r.path_of("face"), kFaceNames[std::size_t(p.face)],
+                      "this axis is periodic (/domain/periodic): its faces have no boundary"});
+  r.finish();
+  return p;
+}
+
+GasSolidConfig parse_solid(const json& v, const std::string& path, InputErrors& errors) {
+  JsonObjectReader r(v, path, errors);
+  GasSolidConfig s;
+  const std::string type = r.required_string("type", {"box", "cylinder", "half_space"});
+  s.name = r.string("name", type);
+  if (type == "box") {
+    s.shape = GasSolidShape::Box;
+    s.min_m = r.vec3("min_m", {});
+    s.max_m = r.vec3("max_m", {});
+    for (int a = 0; a < 3; ++a)
+      if (r.is_object() && !(s.max_m[a] > s.min_m[a])) {
+        errors.push_back({r.path_of("max_m"), concat(s.max_m[a]),
+                          concat("expected each component > min_m (axis ", a, ")")});
+        break;
+      }
+  } else if (type == "cylinder") {
+    s.shape = GasSolidShape::Cylinder;
+    s.center_m = r.vec3("center_m", {});
+    s.axis = unit_vector(r, "axis", errors);
+    s.radius_m = r.required_number("radius_m", NumberRange::positive());
+    s.solid_inside = r.string("solid", "outside", {"inside", "outside"}) == "inside";
+  } else {
+    s.shape = GasSolidShape::HalfSpace;
+    s.point_m = r.vec3("point_m", {});
+    s.normal = unit_vector(r, "normal", errors);
+  }
+  r.finish();
+  return s;
+}
+
+}  // namespace
+
+GasConfig parse_gas(const json& v, const DomainConfig& domain, InputErrors& errors) {
+  GasConfig g;
+  JsonObjectReader r(v, "/gas", errors);
+  if (!r.is_object()) return g;
+  g.density_kg_per_m3 = r.number("density_kg_per_m3", 1.2, NumberRange::open_closed(0.0, 1e5));
+  g.viscosity_pa_s = r.number("viscosity_pa_s", 1.8e-5, NumberRange::open_closed(0.0, 1e3));
+  const Vec3 extent = domain.max_m - domain.min_m;
+  if (const json* cells = r.child("cells")) {
+    bool ok = cells->is_array() && cells->size() == 3;
+    for (std::size_t a = 0; ok && a < 3; ++a) {
+      ok = (*cells)[a].is_number_integer() && (*cells)[a].get<long long>() >= 1 &&
+           (*cells)[a].get<long long>() <= 4096;
+      if (ok) g.cells[a] = int((*cells)[a].get<long long>());
+    }
+    if (!ok)
+      errors.push_back(
+          {"/gas/cells", json_value_text(*cells), "expected [nx, ny, nz], integers in [1, 4096]"});
+    if (r.has("cell_size_m"))
+      errors.push_back({"/gas", "", "give either cells or cell_size_m, not both"});
+  } else if (auto h = r.optional_number("cell_size_m", NumberRange::positive())) {
+    for (int a = 0; a < 3; ++a)
+      g.cells[std::size_t(a)] = std::max(1, int(std::lround(extent[a] / *h)));
+  } else {
+    errors.push_back({"/gas/cells", "", "missing; expected [nx, ny, nz] or cell_size_m"});
+  }
+  const double total = double(g.cells[0]) * g.cells[1] * g.cells[2];
+  if (total > 2e7)
+    errors.push_back({"/gas/cells", concat(total, " cells"), "expected at most 2e7 cells"});
+  g.initial_velocity_m_per_s =
+      r.vec3("initial_velocity_m_per_s", {}, NumberRange::closed(-1e4, 1e4));
+  g.mean_pressure_gradient_pa_per_m =
+      r.vec3("mean_pressure_gradient_pa_per_m", {}, NumberRange::closed(-1e9, 1e9));
+  for (int a = 0; a < 3; ++a)
+    if (g.mean_pressure_gradient_pa_per_m[a] != 0.0 && !domain.periodic[std::size_t(a)])
+      errors.push_back({concat("/gas/mean_pressure_gradient_pa_per_m/", a),
+                        concat(g.mean_pressure_gradient_pa_per_m[a]),
+                        "only a periodic axis can carry an imposed mean gradient; use an inlet "
+                        "and an outlet on a bounded axis"});
+  if (const json* step = r.child("step_s")) {
+    if (!(step->is_string() && step->get<std::string>() == "auto")) {
+      if (auto s = read_number(*step, "/gas/step_s", NumberRange::positive(), errors)) g.step_s = s;
+    }
+  }
+  g.courant = r.number("courant", 0.5, NumberRange::open_closed(0.0, 1.0));
+  const std::string scheme = r.string("advection", "hybrid", {"hybrid", "central", "upwind"});
+  g.advection = scheme == "central"  ? AdvectionScheme::Central
+                : scheme == "upwind" ? AdvectionScheme::Upwind
+                                     : AdvectionScheme::Hybrid;
+  if (const json* list = r.array("boundaries"))
+    for (std::size_t i = 0; i < list->size(); ++i)
+      g.boundaries.push_back(
+          parse_patch((*list)[i], json_pointer_join("/gas/boundaries", i), domain, errors));
+  if (const json* list = r.array("solids"))
+    for (std::size_t i = 0; i < list->size(); ++i)
+      g.solids.push_back(parse_solid((*list)[i], json_pointer_join("/gas/solids", i), errors));
+  g.two_way = r.string("coupling", "two_way", {"two_way", "one_way"}) == "two_way";
+  const std::string drag =
+      r.string("drag", "schiller_naumann", {"schiller_naumann", "di_felice", "gidaspow"});
+  g.drag = drag == "di_felice"  ? DragLaw::DiFelice
+           : drag == "gidaspow" ? DragLaw::Gidaspow
+                                : DragLaw::SchillerNaumann;
+  if (const json* cache = r.child("drag_cache")) {
+    JsonObjectReader c(*cache, "/gas/drag_cache", errors);
+    g.cache_threshold = c.number("threshold", 0.05, NumberRange::closed(0.0, 1.0));
+    g.cache_store = c.string("store", "coefficient", {"coefficient", "force"}) == "force"
+                        ? DragCacheStore::Force
+                        : DragCacheStore::Coefficient;
+    c.finish();
+  }
+  g.pressure_gradient_force = r.boolean("pressure_gradient_force", true);
+  g.saffman_lift = r.boolean("saffman_lift", false);
+  g.min_volume_fraction = r.number("min_volume_fraction", 0.2, NumberRange::closed(0.01, 1.0));
+  g.pressure_tolerance = r.number("pressure_tolerance", 1e-6, NumberRange::closed(1e-14, 1e-2));
+  g.max_pressure_iterations = int(r.integer("max_pressure_iterations", 5000, 1, 1000000));
+  r.finish();
+
+  // Gas blown in must have a way out.
+  bool inflow = false, outlet = false;
+  for (const GasBoundaryPatch& p : g.boundaries) {
+    inflow = inflow || (p.kind == GasBoundaryKind::Inlet && norm(p.velocity_m_per_s) > 0.0);
+    outlet = outlet || p.kind == GasBoundaryKind::Outlet;
+  }
+  if (inflow && !outlet)
+    errors.push_back({"/gas/boundaries", "",
+                      "an inlet blows gas in but no boundary is an outlet: "
+                      "add {\"face\": ..., \"type\": \"outlet\"}"});
+  return g;
+}
+
+}  // namespace millsim

@@ -1,0 +1,209 @@
+// Gas–particle coupling against independent expectations: drag laws in their analytic limits,
+// the Schiller–Naumann terminal velocity of single salt particles settling in still air (§3.1
+// of the paper: 0.1–10 mm, with and without the drag cache), and Newton's third law for the
+// momentum exchanged between particles and gas.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "gas/drag.h"
+#include "sim/simulation.h"
+#include "support/scenes.h"
+
+namespace millsim {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+constexpr double kAirDensity = 1.2, kAirViscosity = 1.8e-5, kSaltDensity = 2165.0;
+
+TEST(DragLaws, StokesLimitAndDiluteAgreement) {
+  const DragInput slow{1e-4, 1e-9, 1.0, kAirDensity, kAirViscosity};
+  const double stokes = 3.0 * kPi * kAirViscosity * 1e-4;
+  EXPECT_NEAR(drag_coefficient_kg_per_s(DragLaw::SchillerNaumann, slow), stokes, 1e-6 * stokes);
+  EXPECT_NEAR(drag_coefficient_kg_per_s(DragLaw::Gidaspow, slow), stokes, 1e-6 * stokes);
+  // Di Felice's C_d = (0.63 + 4.8/√Re)² tends to 23.04/Re: 0.96 of Stokes.
+  EXPECT_NEAR(drag_coefficient_kg_per_s(DragLaw::DiFelice, slow), 0.96 * stokes, 1e-4 * stokes);
+  // At Re = 50 and ε = 1, Wen–Yu is Schiller–Naumann: ½ ρ C_d A |s| with C_d from the formula.
+  const double d = 1e-3, re = 50.0, slip = re * kAirViscosity / (kAirDensity * d);
+  const DragInput mid{d, slip, 1.0, kAirDensity, kAirViscosity};
+  const double cd = 24.0 / re * (1.0 + 0.15 * std::pow(re, 0.687));
+  const double expected = 0.5 * kAirDensity * cd * kPi * d * d / 4.0 * slip;
+  EXPECT_NEAR(drag_coefficient_kg_per_s(DragLaw::SchillerNaumann, mid), expected, 1e-12);
+  EXPECT_NEAR(drag_coefficient_kg_per_s(DragLaw::Gidaspow, mid), expected, 1e-12);
+  // Past Re = 1000 the Newton regime, C_d = 0.44.
+  const double fast_slip = 3000.0 * kAirViscosity / (kAirDensity * d);
+  EXPECT_NEAR(drag_coefficient_kg_per_s(DragLaw::SchillerNaumann,
+                                        {d, fast_slip, 1.0, kAirDensity, kAirViscosity}),
+              0.5 * kAirDensity * 0.44 * kPi * d * d / 4.0 * fast_slip, 1e-12);
+}
+
+TEST(DragLaws, GidaspowDenseBranchIsErgunPerUnitBedVolume) {
+  // n particles per unit volume with interstitial slip U/ε exert β n (U/ε) = ε ∇p, so ∇p must
+  // be Ergun's 150 (1−ε)² μ U / (ε³ d²) + 1.75 (1−ε) ρ U² / (ε³ d).
+  const double d = 5e-4, eps = 0.42, U = 0.2;
+  const double n = (1.0 - eps) / (kPi * d * d * d / 6.0);
+  const double beta =
+      drag_coefficient_kg_per_s(DragLaw::Gidaspow, {d, U / eps, eps, kAirDensity, kAirViscosity});
+  const double gradient = beta * n * (U / eps) / eps;
+  const double ergun =
+      150.0 * (1 - eps) * (1 - eps) * kAirViscosity * U / (eps * eps * eps * d * d) +
+      1.75 * (1 - eps) * kAirDensity * U * U / (eps * eps * eps * d);
+  EXPECT_NEAR(gradient, ergun, 1e-9 * ergun);
+}
+
+// Terminal velocity from (ρ_p − ρ_g) g V = ½ ρ_g C_d(Re) A v², solved by bisection.
+double schiller_naumann_terminal(double d) {
+  const double weight = (kSaltDensity - kAirDensity) * 9.81 * kPi * d * d * d / 6.0;
+  double lo = 0.0, hi = 100.0;
+  for (int k = 0; k < 200; ++k) {
+    const double v = 0.5 * (lo + hi), re = kAirDensity * d * v / kAirViscosity;
+    const double cd = re < 1000.0 ? 24.0 / re * (1.0 + 0.15 * std::pow(re, 0.687)) : 0.44;
+    (0.5 * kAirDensity * cd * kPi * d * d / 4.0 * v * v < weight ? lo : hi) = v;
+  }
+  return 0.5 * (lo + hi);
+}
+
+// One salt particle released from rest in still air, in a periodic box (a column without end).
+struct Settling {
+  double final_speed, largest_speed, evaluations_per_step;
+};
+
+Settling settle(double d, double cache_threshold, DragCacheStore store) {
+  MaterialConfig salt = test::table1_material();
+  salt.density_kg_per_m3 = kSaltDensity;
+  salt.youngs_modulus_pa = 1e5;  // alone in the air: only the Rayleigh bound of the step cares
+  const double box = std::max(0.01, 3.0 * d);
+  SceneConfig scene = test::empty_scene({0, 0, 0}, {box, box, box}, salt, {true, true, true});
+  test::add_particle(scene, {0.5 * box, 0.5 * box, 0.5 * box}, {}, d);
+  scene.gravity_m_per_s2 = {0, 0, -9.81};
+  const double v_t = schiller_naumann_terminal(d);
+  scene.time.end_s = 8.0 * v_t / 9.81 + 0.05;  // several relaxation times
+  GasConfig gas;
+  gas.cells = {1, 1, 1};
+  gas.two_way = false;  // still air far from the particle, as the analytic result assumes
+  gas.cache_threshold = cache_threshold;
+  gas.cache_store = store;
+  scene.gas = gas;
+  Simulation sim(scene);
+  Settling out{0, 0, 0};
+  while (sim.step_index() < sim.total_steps()) {
+    EXPECT_FALSE(sim.step());
+    const double speed = norm(sim.particles().velocity_m_per_s[0]);
+    out.largest_speed = std::max(out.largest_speed, speed);
+  }
+  out.final_speed = norm(sim.particles().velocity_m_per_s[0]);
+  const CouplingStats& s = sim.gas()->stats();
+  out.evaluations_per_step =
+      double(s.drag_evaluations) / double(s.drag_evaluations + s.drag_reuses);
+  return out;
+}
+
+TEST(Settling, SaltParticlesReachTheSchillerNaumannTerminalVelocity) {
+  for (double d : {1e-4, 1e-3, 1e-2}) {
+    const double v_t = schiller_naumann_terminal(d);
+    const Settling exact = settle(d, 0.0, DragCacheStore::Coefficient);
+    EXPECT_NEAR(exact.final_speed, v_t, 0.01 * v_t) << "d = " << d;
+    EXPECT_DOUBLE_EQ(exact.evaluations_per_step, 1.0);
+    const Settling cached = settle(d, 0.05, DragCacheStore::Coefficient);
+    EXPECT_NEAR(cached.final_speed, v_t, 0.03 * v_t) << "d = " << d << ", cache 5 %";
+    EXPECT_LT(cached.largest_speed, 1.03 * v_t);
+    EXPECT_LT(cached.evaluations_per_step, 0.2);
+    const Settling force = settle(d, 0.05, DragCacheStore::Force);
+    std::printf(
+        "d = %g m: v_t = %.5f m/s; no cache %.5f (%.3f %%); cached coefficient %.5f (%.3f %%, "
+        "%.4f evaluations/step); cached force %.5f (%.3f %%, peak %.3f %%, %.4f "
+        "evaluations/step)\n",
+        d, v_t, exact.final_speed, 100 * (exact.final_speed / v_t - 1), cached.final_speed,
+        100 * (cached.final_speed / v_t - 1), cached.evaluations_per_step, force.final_speed,
+        100 * (force.final_speed / v_t - 1), 100 * (force.largest_speed / v_t - 1),
+        force.evaluations_per_step);
+  }
+}
+
+TEST(Coupling, MomentumExchangeBalancesToRounding) {
+  // Particles moving through gas at rest in a periodic box, no gravity, no pressure-gradient
+  // force: what the particles gain from drag the gas loses, to rounding, and the particles'
+  // momentum (with the force in flight) changes by exactly the drag impulse.
+  const MaterialConfig glass = test::table1_material(0.9, 0.3);
+  SizeDistribution sizes;
+  sizes.kind = SizeDistributionKind::Uniform;
+  sizes.min_m = 2e-4;
+  sizes.max_m = 5e-4;
+  SceneConfig scene = test::periodic_random_gas(0.006, 400, sizes, 2.0, glass, 7);
+  scene.sources[0].velocity_m_per_s = {3.0, -1.0, 0.5};  // a drift the gas has to take up
+  scene.time.end_s = 4e-4;
+  GasConfig gas;
+  gas.cells = {6, 6, 6};
+  gas.pressure_gradient_force = false;
+  gas.pressure_tolerance = 1e-10;
+  gas.step_s = 2e-5;  // several CFD steps in the run
+  scene.gas = gas;
+  Simulation sim(scene);
+  const auto momentum = [&] {
+    Vec3 p = test::total_momentum(sim.particles());
+    for (std::size_t i = 0; i < sim.particles().size(); ++i)
+      p += sim.particles().force_n[i] * (0.5 * sim.time_step().step_s);
+    return p;
+  };
+  const Vec3 before = momentum();
+  double scale = 0.0;
+  for (std::size_t i = 0; i < sim.particles().size(); ++i)
+    scale += sim.particles().mass_kg[i] * norm(sim.particles().velocity_m_per_s[i]);
+  while (sim.step_index() < sim.total_steps()) ASSERT_FALSE(sim.step());
+  const CouplingStats& s = sim.gas()->stats();
+  ASSERT_GT(s.cfd_steps, 3u);
+  ASSERT_GT(norm(s.particle_impulse_n_s), 1e-4 * scale);  // drag did real work
+  // Gas side: everything handed over by the last CFD step was received.
+  const Vec3 gas_received = sim.gas()->gas().received_impulse_n_s();
+  EXPECT_LT(norm(s.deposited_impulse_n_s - gas_received), 1e-12 * scale);
+  // What the particles took since the last CFD step is still pending with them.
+  Vec3 pending;
+  for (const Vec3& j : sim.particles().fluid_impulse_n_s) pending += j;
+  EXPECT_LT(norm(s.particle_impulse_n_s + s.deposited_impulse_n_s - pending), 1e-12 * scale);
+  // Particle side: momentum change = drag impulse (contacts cancel in pairs).
+  EXPECT_LT(norm(momentum() - before - s.particle_impulse_n_s), 1e-12 * scale);
+}
+
+TEST(Coupling, SceneErrorsNameTheGasField) {
+  nlohmann::json doc = {
+      {"materials",
+       {{{"name", "m"},
+         {"youngs_modulus_pa", 1e7},
+         {"poisson_ratio", 0.3},
+         {"density_kg_per_m3", 2500}}}},
+      {"domain",
+       {{"min_m", {0, 0, 0}}, {"max_m", {0.01, 0.01, 0.01}}, {"periodic", {true, false, false}}}},
+      {"time", {{"end_s", 0.01}}},
+      {"gas",
+       {{"cells", {4, 4, 4}},
+        {"boundaries", {{{"face", "x-"}, {"type", "inlet"}, {"velocity_m_per_s", {1, 0, 0}}}}},
+        {"drag", "stokes"}}}};
+  const InputErrors errors = test::scene_errors(doc);
+  std::string all;
+  for (const InputError& e : errors) all += e.path + " | " + e.value + " | " + e.allowed + "\n";
+  EXPECT_NE(all.find("/gas/boundaries/0/face | x- | this axis is periodic"), std::string::npos)
+      << all;
+  EXPECT_NE(all.find("/gas/boundaries | "), std::string::npos) << all;  // inlet, no outlet
+  EXPECT_NE(all.find("/gas/drag | \"stokes\""), std::string::npos) << all;
+}
+
+TEST(Coupling, GasCellsMustBeLargerThanTheLargestParticle) {
+  SceneConfig scene = test::empty_scene({0, 0, 0}, {0.01, 0.01, 0.01}, test::table1_material());
+  test::add_particle(scene, {0.005, 0.005, 0.005}, {}, 2e-3);
+  scene.time.end_s = 1e-3;
+  GasConfig gas;
+  gas.cells = {10, 4, 4};
+  scene.gas = gas;
+  try {
+    Simulation sim(scene);
+    FAIL() << "expected an input error";
+  } catch (const InputErrorList& e) {
+    EXPECT_EQ(e.errors().at(0).path, "/gas/cells/0");
+    EXPECT_NE(e.errors().at(0).allowed.find("at most 5 cells"), std::string::npos)
+        << e.errors().at(0).allowed;
+  }
+}
+
+}  // namespace
+}  // namespace millsim
