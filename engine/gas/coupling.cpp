@@ -28,11 +28,6 @@ std::uint64_t mix(std::uint64_t x) {  // splitmix64 finaliser
 // The eight grid nodes around x with trilinear weights, for a cell-centred field
 // (face_axis = −1) or the faces of component face_axis; periodic nodes are mapped to the
 // node that holds the value. Nodes refused by `accept` lose their weight to the others.
-struct Stencil {
-  std::size_t node[8];
-  double weight[8];
-  int count = 0;
-};
 
 template <class Accept>
 Stencil make_stencil(const GasGrid& g, const Vec3& x, int face_axis, Accept&& accept) {
@@ -178,27 +173,43 @@ void GasCoupling::release(const ParticleStore& p, std::size_t slot) {
   if (j.x != 0.0 || j.y != 0.0 || j.z != 0.0) released_.push_back({p.position_m[slot], j});
 }
 
+// From the gas's CFL limit and the drag limit drag_courant · ε ρ / B (the implicit exchange is
+// stable to about 3–5 there in the dense-bed tests, not unconditionally: docs/gas.md); growing
+// at most twofold per CFD step.
 int GasCoupling::choose_steps(double dem_step_s) const {
   if (config_.step_s) return std::max(1, int(std::lround(*config_.step_s / dem_step_s)));
-  const double stable = gas_.stable_step_s();
-  return int(std::clamp(std::floor(stable / dem_step_s), 1.0, 1e6));
+  const double stable =
+      std::min(gas_.stable_step_s(),
+               config_.drag_courant / std::max(1e-300, gas_.max_exchange_rate_per_s()));
+  int steps = int(std::clamp(std::floor(stable / dem_step_s), 1.0, 1e6));
+  if (last_steps_ > 0) steps = std::min(steps, 2 * last_steps_);
+  return steps;
 }
 
-// Solids volume → ε per cell; exchange coefficient per face (for the step limit); the impulse
-// the particles took since the last CFD step → the gas's momentum source over the next one.
-void GasCoupling::deposit(const ParticleStore& p, double cfd_step_s) {
+// The implicit drag coefficient a particle lends the gas: its β, but never more than m / Δt, so
+// the impulse handed back after the step cannot overshoot the gas's velocity change.
+static double effective_beta(const ParticleStore& p, std::size_t i, double cfd_step_s) {
+  return std::min(std::max(0.0, p.fluid_coefficient_kg_per_s[i]), p.mass_kg[i] / cfd_step_s);
+}
+
+// Solids volume → ε per cell; implicit drag coefficient B per face; the impulse the particles
+// took since the last CFD step → the gas's momentum source over the next one.
+void GasCoupling::deposit(const ParticleStore& p, double interval_s) {
   GasGrid const& g = gas_.grid();
   std::vector<double>& fraction = gas_.volume_fraction();
   std::array<std::vector<double>, 3>& source = gas_.momentum_source();
   std::array<std::vector<double>, 3>& exchange = gas_.exchange_coefficient();
+  std::array<std::vector<double>, 3>& seen = gas_.exchange_momentum();
   std::fill(solid_volume_.begin(), solid_volume_.end(), 0.0);
   for (int a = 0; a < 3; ++a) {
     std::fill(source[std::size_t(a)].begin(), source[std::size_t(a)].end(), 0.0);
     std::fill(exchange[std::size_t(a)].begin(), exchange[std::size_t(a)].end(), 0.0);
+    std::fill(seen[std::size_t(a)].begin(), seen[std::size_t(a)].end(), 0.0);
   }
   const double volume = g.cell_volume_m3();
   const auto fluid_cell = [&](std::size_t c) { return g.fluid[c] != 0; };
-  const auto push = [&](const Vec3& x_raw, const Vec3& impulse, double solid_m3, double beta) {
+  const auto push = [&](const Vec3& x_raw, const Vec3& impulse, double solid_m3, double beta,
+                        const Vec3& gas_seen) {
     Vec3 x = x_raw;
     box_.wrap(x);
     if (solid_m3 > 0.0) {
@@ -207,23 +218,24 @@ void GasCoupling::deposit(const ParticleStore& p, double cfd_step_s) {
       for (int k = 0; k < s.count; ++k) solid_volume_[s.node[k]] += solid_m3 * s.weight[k];
     }
     for (int a = 0; a < 3; ++a) {
+      const Stencil s = face_stencil(x, a);
       const std::size_t au = std::size_t(a);
-      const auto unknown = [&](std::size_t f) { return g.face[au][f] == FaceKind::Unknown; };
-      const Stencil s = make_stencil(g, x, a, unknown);
-      if (s.count == 0) continue;  // the impulse of a particle inside a wall has nowhere to go
       for (int k = 0; k < s.count; ++k) {
-        source[au][s.node[k]] -= impulse[a] * s.weight[k] / (volume * cfd_step_s);
+        source[au][s.node[k]] -= impulse[a] * s.weight[k] / (volume * interval_s);
         stats_.deposited_impulse_n_s[a] -= impulse[a] * s.weight[k];
         exchange[au][s.node[k]] += beta * s.weight[k] / volume;
+        seen[au][s.node[k]] += beta * s.weight[k] * gas_seen[a] / volume;
       }
     }
   };
   for (std::size_t i = 0; i < p.size(); ++i) {
     const double r = p.radius_m[i];
-    push(p.position_m[i], p.fluid_impulse_n_s[i], 4.0 / 3.0 * std::numbers::pi * r * r * r,
-         std::max(0.0, p.fluid_coefficient_kg_per_s[i]));
+    const double beta = effective_beta(p, i, interval_s);
+    const Vec3 gas_seen = beta > 0.0 ? fluid_at(p.position_m[i]).velocity_m_per_s : Vec3{};
+    push(p.position_m[i], p.fluid_impulse_n_s[i], 4.0 / 3.0 * std::numbers::pi * r * r * r, beta,
+         gas_seen);
   }
-  for (const Released& r : released_) push(r.position_m, r.impulse_n_s, 0.0, 0.0);
+  for (const Released& r : released_) push(r.position_m, r.impulse_n_s, 0.0, 0.0, {});
   released_.clear();
   double min_fraction = 1.0;
   for (std::size_t c = 0; c < g.padded_size; ++c) {
@@ -238,39 +250,68 @@ void GasCoupling::deposit(const ParticleStore& p, double cfd_step_s) {
   gas_.volume_fraction_changed();
 }
 
+// The trilinear stencil of component a's solved faces around x (wrapped). A particle whose
+// stencil holds no solved face (inside a wall) exchanges nothing along a.
+Stencil GasCoupling::face_stencil(const Vec3& x, int a) const {
+  const GasGrid& g = gas_.grid();
+  const std::size_t au = std::size_t(a);
+  return make_stencil(g, x, a, [&](std::size_t f) { return g.face[au][f] == FaceKind::Unknown; });
+}
+
+// Gives each particle its share of the gas's implicit drag response: β_eff Σ w Δ, Δ the
+// summed dt (u_new − u_seen) of the faces it deposited on; the gas took exactly the opposite.
+void GasCoupling::return_drag_response(ParticleStore& p, double cfd_step_s) {
+  const std::array<std::vector<double>, 3>& response = gas_.drag_response_m();
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const double beta = effective_beta(p, i, cfd_step_s);
+    if (beta <= 0.0) continue;
+    Vec3 x = p.position_m[i];
+    box_.wrap(x);
+    Vec3 impulse;
+    for (int a = 0; a < 3; ++a) {
+      const Stencil s = face_stencil(x, a);
+      for (int k = 0; k < s.count; ++k)
+        impulse[a] += beta * s.weight[k] * response[std::size_t(a)][s.node[k]];
+    }
+    p.velocity_m_per_s[i] += impulse * p.inv_mass_per_kg[i];
+    stats_.particle_impulse_n_s += impulse;
+    stats_.deposited_impulse_n_s -= impulse;
+  }
+}
+
 std::optional<std::string> GasCoupling::advance(ParticleStore& p, double dem_step_s,
                                                 std::int64_t step_index) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
-  // The exchange coefficient enters the stable step, so deposit β first with a provisional
-  // step, then scale the source to the chosen one (the impulse handed over stays exact).
-  int steps = 1;
-  if (config_.two_way) {
-    deposit(p, 1.0);
-    steps = choose_steps(dem_step_s);
-    const double scale = 1.0 / (double(steps) * dem_step_s);
-    for (std::vector<double>& s : gas_.momentum_source())
-      for (double& v : s) v *= scale;
-    for (std::size_t i = 0; i < p.size(); ++i) p.fluid_impulse_n_s[i] = {};
-  } else {
-    steps = choose_steps(dem_step_s);
-  }
+  // The gas catches up over the interval the particles just lived through, with the impulse
+  // they took in it (the first call, before any interval, settles the initial pressure over
+  // one DEM step).
+  const bool first = stats_.cfd_steps == 0;
+  const double interval_s = double(first ? 1 : step_index - last_cfd_step_) * dem_step_s;
+  if (config_.two_way) deposit(p, interval_s);
+  if (first) gas_.accept_volume_fraction();  // no ∂ε/∂t from the start state
+  for (Vec3& j : p.fluid_impulse_n_s) j = {};
+  for (std::vector<double>& r : gas_.drag_response_m()) std::fill(r.begin(), r.end(), 0.0);
   const auto t1 = Clock::now();
-  const double cfd_step_s = double(steps) * dem_step_s;
-  // The gas itself may need a smaller step than one DEM step: sub-cycle it then.
-  const double stable = config_.step_s ? cfd_step_s : gas_.stable_step_s();
-  const int substeps = std::max(1, int(std::ceil(cfd_step_s / stable - 1e-9)));
+  // The gas may need a smaller step than the interval (a CFL limit tightened by the interval's
+  // particle exchange): sub-cycle it then.
+  const double stable = config_.step_s ? interval_s : gas_.stable_step_s();
+  const int substeps = std::max(1, int(std::ceil(interval_s / stable - 1e-9)));
   for (int k = 0; k < substeps; ++k)
-    if (auto failure = gas_.advance(cfd_step_s / substeps)) return failure;
+    if (auto failure = gas_.advance(interval_s / substeps)) return failure;
+  const auto t2 = Clock::now();
+  if (config_.two_way) return_drag_response(p, interval_s);
   table_.clear();
+  const int steps = choose_steps(dem_step_s);
+  last_steps_ = steps;
+  last_cfd_step_ = step_index;
   next_cfd_step_ = step_index + steps;
   stats_.cfd_steps += 1;
   stats_.gas_substeps += std::uint64_t(substeps);
   stats_.steps_per_cfd = steps;
   stats_.min_steps_per_cfd = std::min(stats_.min_steps_per_cfd, steps);
   stats_.max_steps_per_cfd = std::max(stats_.max_steps_per_cfd, steps);
-  const auto t2 = Clock::now();
-  stats_.deposit_seconds += std::chrono::duration<double>(t1 - t0).count();
+  stats_.deposit_seconds += std::chrono::duration<double>(t1 - t0 + (Clock::now() - t2)).count();
   stats_.gas_seconds += std::chrono::duration<double>(t2 - t1).count();
   return std::nullopt;
 }

@@ -7,11 +7,17 @@
 //  - Gas → particle: each occupied DEM cell holds the mean fluid state (velocity, volume
 //    fraction, density, viscosity, pressure gradient, vorticity) in a hashed table refreshed
 //    once per CFD step; a particle reads its DEM cell's state, never the CFD grid.
+//  - The drag the particles exert on the gas is split: the impulse they took over the last
+//    interval (explicit), plus an implicit response B (u_n − u*) to the gas's own change in
+//    the predictor, which the particles get back as β_eff Σ w (u* − u_n) dt right after the
+//    gas step. The gas stays stable in dense beds at any CFD step, and the balance stays exact.
 //  - Drag caching (Fig. 5): a particle keeps its drag coefficient (or force) and the slip it
 //    was computed at, and recomputes only when the slip has changed by more than the threshold
 //    in some axis (relative to the stored slip speed).
 // The CFD step is a whole number of DEM steps, from the gas solver's stability limit unless the
-// scene fixes it.
+// scene fixes it. The gas lags the particles by one CFD step: at the end of an interval it
+// advances over that interval with the impulse the particles took in it, and the particles
+// read the result during the next one.
 #pragma once
 
 #include <cstdint>
@@ -62,6 +68,13 @@ class DemCellFluidTable {
   std::uint64_t fills_ = 0;
 };
 
+// The grid nodes (cells or faces) a particle exchanges with, and their trilinear weights.
+struct Stencil {
+  std::size_t node[8];
+  double weight[8];
+  int count = 0;
+};
+
 struct CouplingStats {
   std::uint64_t cfd_steps = 0;
   std::uint64_t gas_substeps = 0;  // > cfd_steps only when the gas needs a step below the DEM's
@@ -86,8 +99,10 @@ class GasCoupling {
 
   // True when the CFD step is due at this DEM step.
   bool due(std::int64_t step_index) const { return step_index >= next_cfd_step_; }
-  // One CFD step at DEM step `step_index`: deposits the particles' volume and impulse, chooses
-  // the CFD step, advances the gas and clears the DEM-cell table. Returns a message on failure.
+  // One CFD step at DEM step `step_index`: deposits the particles' volume and the impulse they
+  // took since the last CFD step, advances the gas over that same interval, hands the implicit
+  // drag response back, clears the DEM-cell table and chooses the next interval from the gas's
+  // stability limit. Returns a message on failure.
   std::optional<std::string> advance(ParticleStore& p, double dem_step_s, std::int64_t step_index);
   // Adds drag, lift and the pressure-gradient force to p.force_n. With `accumulate` the drag
   // and lift impulse (F dt) is kept for the gas; off for a force pass that is not a step's.
@@ -104,7 +119,9 @@ class GasCoupling {
   const FluidCellState& fluid_at(const Vec3& x);
 
  private:
-  void deposit(const ParticleStore& p, double cfd_step_s);
+  void deposit(const ParticleStore& p, double interval_s);
+  Stencil face_stencil(const Vec3& wrapped_x, int axis) const;
+  void return_drag_response(ParticleStore& p, double cfd_step_s);
   int choose_steps(double dem_step_s) const;
 
   GasConfig config_;
@@ -117,6 +134,8 @@ class GasCoupling {
   };
   std::vector<Released> released_;
   std::vector<double> solid_volume_;  // per padded cell, scratch
+  std::int64_t last_cfd_step_ = 0;
+  int last_steps_ = 0;
   CouplingStats stats_;
 };
 

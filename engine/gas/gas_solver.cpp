@@ -26,6 +26,9 @@ GasSolver::GasSolver(const GasConfig& config, GasGrid grid, const Vec3& gravity_
     predicted_[au].assign(n, 0.0);
     source_[au].assign(n, 0.0);
     exchange_[au].assign(n, 0.0);
+    drag_response_[au].assign(n, 0.0);
+    seen_[au].assign(n, 0.0);
+    relief_[au].assign(n, 1.0);
     gradient_[au].assign(n, 0.0);
     face_fraction_[au].assign(n, 1.0);
     for (std::size_t f = 0; f < n; ++f) {
@@ -116,24 +119,30 @@ void GasSolver::fill_velocity_ghosts(std::array<std::vector<double>, 3>& u) cons
 
 double GasSolver::stable_step_s() const {
   const GasGrid& g = grid_;
-  double rate = 0.0, exchange = 0.0;
+  double rate = 0.0;
   for (int a = 0; a < 3; ++a) {
     const std::size_t au = std::size_t(a);
     double umax = 0.0;
     for (std::size_t f = 0; f < g.padded_size; ++f) {
       const FaceKind kind = g.face[au][f];
-      if (kind == FaceKind::None || kind == FaceKind::Solid) continue;
-      umax = std::max(umax, std::abs(velocity_[au][f]));
-      if (exchange_[au][f] > 0.0)
-        exchange = std::max(exchange,
-                            exchange_[au][f] / (face_fraction_[au][f] * config_.density_kg_per_m3));
+      if (kind != FaceKind::None && kind != FaceKind::Solid)
+        umax = std::max(umax, std::abs(velocity_[au][f]));
     }
     rate += umax / g.h_m[a];
     if (!(g.periodic[au] && g.n[au] == 1))
       rate += 2.0 * kinematic_viscosity_ / (g.h_m[a] * g.h_m[a]);
   }
-  rate += exchange;
   return rate > 0.0 ? config_.courant / rate : 1e300;
+}
+
+double GasSolver::max_exchange_rate_per_s() const {
+  double rate = 0.0;
+  for (int a = 0; a < 3; ++a)
+    for (std::size_t f = 0; f < grid_.padded_size; ++f)
+      if (exchange_[std::size_t(a)][f] > 0.0)
+        rate = std::max(rate, exchange_[std::size_t(a)][f] /
+                                  (face_fraction_[std::size_t(a)][f] * config_.density_kg_per_m3));
+  return rate;
 }
 
 void GasSolver::predictor(double dt) {
@@ -202,10 +211,10 @@ void GasSolver::assemble_pressure_matrix() {
         const std::size_t f = g.canonical_face(side == 0 ? c - s : c, a);
         const FaceKind kind = g.face[au][f];
         if (kind == FaceKind::Outflow) {
-          diagonal += 2.0 * w * face_fraction_[au][f];
+          diagonal += 2.0 * w * face_fraction_[au][f] * relief_[au][f];
         } else if (kind == FaceKind::Unknown) {
           const std::size_t nb = g.wrap_cell(side == 0 ? c - s : c + s, a);
-          const double wf = w * face_fraction_[au][f];
+          const double wf = w * face_fraction_[au][f] * relief_[au][f];
           diagonal += wf;
           if (nb != c)
             triplets.push_back({std::int32_t(row), row_of_cell_[nb], -wf});
@@ -240,7 +249,7 @@ bool GasSolver::solve_pressure(double dt) {
                             face_fraction_[au][down] * predicted_[au][down]);
       for (std::size_t f : {up, down})
         if (g.face[au][f] == FaceKind::Outflow)
-          boundary += 2.0 * area / g.h_m[a] * face_fraction_[au][f] *
+          boundary += 2.0 * area / g.h_m[a] * face_fraction_[au][f] * relief_[au][f] *
                       g.ghost[f == up ? c + s : f].pressure_pa;
     }
     rhs_[row] = -rho / dt * divergence + boundary;
@@ -284,7 +293,13 @@ void GasSolver::correct(double dt) {
         continue;
       }
       gradient_[au][f] = grad;
-      velocity_[au][f] = predicted_[au][f] - dt / rho * grad;
+      velocity_[au][f] = predicted_[au][f] - relief_[au][f] * dt / rho * grad;
+      const double b = exchange_[au][f];
+      if (b > 0.0) {  // the implicit drag acted on the whole change, pressure included
+        const double seen = seen_[au][f] / b;  // the velocity the particles here were dragged by
+        received_impulse_[a] += b * g.cell_volume_m3() * dt * (seen - velocity_[au][f]);
+        drag_response_[au][f] += dt * (velocity_[au][f] - seen);
+      }
     }
   }
   fill_velocity_ghosts(velocity_);

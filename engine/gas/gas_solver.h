@@ -45,17 +45,29 @@ class GasSolver {
   // solve not converged); the fields are then not to be trusted.
   std::optional<std::string> advance(double dt);
 
-  // The largest stable step for the current state: courant / (Σ max|u_a|/h_a + 2ν Σ 1/h_a²
-  // + max β/(ε ρ)), the last term from the particle exchange coefficient (explicit drag).
+  // The largest stable step for the current state: courant / (Σ max|u_a|/h_a + 2ν Σ 1/h_a²).
+  // The particle drag needs no limit: its response to the gas's change is implicit.
   double stable_step_s() const;
+  // The largest drag relaxation rate of the gas, max B / (ε ρ) over faces, 1/s.
+  double max_exchange_rate_per_s() const;
 
   // Particle coupling inputs (gas/coupling.h fills them before advance()).
   std::vector<double>& volume_fraction() { return fraction_; }  // ε per padded cell
   const std::vector<double>& volume_fraction() const { return fraction_; }
   std::array<std::vector<double>, 3>& momentum_source() { return source_; }  // N/m³ per face
-  std::array<std::vector<double>, 3>& exchange_coefficient() { return exchange_; }  // kg/(m³ s)
+  // B = Σ β_eff w / V per face, kg/(m³ s): the implicit part of the drag on the gas, and
+  // Σ β_eff w u_seen / V, the same sum weighted by the gas velocity each particle was dragged
+  // by. The gas gets B (u_seen − u_new) on top of the explicit source: implicit in its own
+  // velocity (stable at any step), and exactly what the particles are given back.
+  std::array<std::vector<double>, 3>& exchange_coefficient() { return exchange_; }
+  std::array<std::vector<double>, 3>& exchange_momentum() { return seen_; }
+  // Σ dt (u_new − u_seen) per face where B > 0, summed over the steps since the coupling zeroed it:
+  // the particles get the matching impulse β_eff Σ w (this) back (gas/coupling.cpp).
+  std::array<std::vector<double>, 3>& drag_response_m() { return drag_response_; }
   // Call after editing volume_fraction(): refreshes face fractions and marks the matrix stale.
   void volume_fraction_changed();
+  // Makes the current ε the previous one too (no ∂ε/∂t at the start of a run).
+  void accept_volume_fraction() { previous_fraction_ = fraction_; }
 
   // Fields.
   const std::array<std::vector<double>, 3>& velocity() const { return velocity_; }
@@ -73,7 +85,7 @@ class GasSolver {
   // The largest divergence residual |∇·(ε u) + ∂ε/∂t| · V over fluid cells after the last
   // step, m³/s (tests).
   double max_continuity_error_m3_per_s() const { return continuity_error_; }
-  // Total momentum the gas received from the particle source, N·s.
+  // Total momentum the gas received from the particles (explicit source + implicit drag), N·s.
   const Vec3& received_impulse_n_s() const { return received_impulse_; }
   const GasStepStats& stats() const { return stats_; }
   double time_s() const { return time_s_; }
@@ -99,7 +111,11 @@ class GasSolver {
   Vec3 background_gradient_pa_per_m_;
   double kinematic_viscosity_ = 0.0;
 
-  std::array<std::vector<double>, 3> velocity_, predicted_, source_, exchange_, gradient_;
+  std::array<std::vector<double>, 3> velocity_, predicted_, source_, exchange_, gradient_,
+      drag_response_, seen_;
+  // 1 / (1 + Δt B / (ε ρ)) per face: how much the implicit drag lets the pressure move the gas
+  // (it scales the pressure equation's coefficients and the correction, as in SIMPLE's 1/a_P).
+  std::array<std::vector<double>, 3> relief_;
   std::array<std::vector<double>, 3> face_fraction_;
   std::vector<double> pressure_, fraction_, previous_fraction_;
 

@@ -230,7 +230,7 @@ struct SceneConfig {
   PsdConfig psd;
   std::vector<OutletConfig> outlets;
   std::vector<FeedConfig> feeds;
-  std::optional<GasConfig> gas;  // absent = no gas solver, no fluid fields
+  std::optional<GasConfig> gas;    // absent = no gas solver, no fluid fields
   std::filesystem::path base_dir;  // directory of the scene file, for relative paths
 };
 

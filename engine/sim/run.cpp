@@ -107,6 +107,64 @@ void write_psd_h5(const Simulation& sim, H5Writer& h5) {
                     product.cumulative_mass});
 }
 
+// The gas solver and the coupling, for result.json: where the coupled run's time went and how
+// often the drag cache saved an evaluation.
+void add_gas_summary(const Simulation& sim, nlohmann::ordered_json& s) {
+  const GasCoupling& g = *sim.gas();
+  const CouplingStats& c = g.stats();
+  const GasStepStats& gs = g.gas().stats();
+  const auto vec = [](const Vec3& v) { return std::vector<double>{v.x, v.y, v.z}; };
+  const std::uint64_t lookups = c.drag_evaluations + c.drag_reuses;
+  const std::array<double, std::size_t(Phase::Count)>& t = sim.profile().seconds;
+  const double gas_s = t[std::size_t(Phase::Gas)], fluid_s = t[std::size_t(Phase::Fluid)];
+  s["gas"] = {
+      {"cells", g.config().cells},
+      {"fluid_cells", g.gas().grid().fluid_cells},
+      {"cfd_steps", c.cfd_steps},
+      {"gas_substeps", c.gas_substeps},
+      {"dem_steps_per_cfd_step",
+       {{"last", c.steps_per_cfd}, {"min", c.min_steps_per_cfd}, {"max", c.max_steps_per_cfd}}},
+      {"pressure_iterations_mean",
+       gs.steps ? double(gs.pressure_iterations) / double(gs.steps) : 0.0},
+      {"max_pressure_residual", gs.max_pressure_residual},
+      {"max_continuity_error_m3_per_s", g.gas().max_continuity_error_m3_per_s()},
+      {"min_volume_fraction", c.min_volume_fraction},
+      {"clamped_cell_steps", c.clamped_cells},
+      {"drag_cache_threshold", g.config().cache_threshold},
+      {"drag_evaluations", c.drag_evaluations},
+      {"drag_reuses", c.drag_reuses},
+      {"drag_evaluation_fraction", lookups ? double(c.drag_evaluations) / double(lookups) : 0.0},
+      {"dem_cell_states_filled", g.table().fills()},
+      {"particle_impulse_n_s", vec(c.particle_impulse_n_s)},
+      {"gas_received_impulse_n_s", vec(g.gas().received_impulse_n_s())},
+      {"seconds",
+       {{"gas_solve", c.gas_seconds},
+        {"deposit", c.deposit_seconds},
+        {"fluid_forces", fluid_s},
+        {"dem", sim.profile().total() - gas_s - fluid_s}}}};
+}
+
+// The final gas field at the fluid cell centres, as columns under /gas in run.h5.
+void write_gas_h5(const Simulation& sim, H5Writer& h5) {
+  const GasSolver& gas = sim.gas()->gas();
+  const GasGrid& g = gas.grid();
+  std::vector<std::vector<double>> cols(8);
+  for (int k = 1; k <= g.n[2]; ++k)
+    for (int j = 1; j <= g.n[1]; ++j)
+      for (int i = 1; i <= g.n[0]; ++i) {
+        const std::size_t c = g.index(i, j, k);
+        if (!g.fluid[c]) continue;
+        const Vec3 x = g.cell_center(i, j, k), u = gas.velocity_at(x);
+        const double row[8] = {x.x, x.y, x.z, gas.pressure()[c], gas.volume_fraction()[c],
+                               u.x, u.y, u.z};
+        for (std::size_t col = 0; col < 8; ++col) cols[col].push_back(row[col]);
+      }
+  h5.write_columns("/gas",
+                   {"x_m", "y_m", "z_m", "pressure_pa", "volume_fraction", "velocity_x_m_per_s",
+                    "velocity_y_m_per_s", "velocity_z_m_per_s"},
+                   cols);
+}
+
 void write_text_atomically(const std::filesystem::path& path, const std::string& text) {
   const std::filesystem::path partial = path.string() + ".partial";
   {
@@ -240,12 +298,14 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
                  {"final", energy_json(final_energy)},
                  {"dissipated_j", initial_energy.total_j() - final_energy.total_j()}};
   if (has_product(sim)) add_product_summary(sim, s);
+  if (sim.gas()) add_gas_summary(sim, s);
 
   if (write_files) {
     nlohmann::ordered_json outputs = nlohmann::ordered_json::object();
     if (h5) {
       h5->write_timeseries(series.names, series.columns);
       if (has_product(sim)) write_psd_h5(sim, *h5);
+      if (sim.gas()) write_gas_h5(sim, *h5);
       h5->close();
       std::filesystem::rename(h5_partial, options.out_dir / "run.h5");
       write_xdmf(options.out_dir / "run.xdmf", "run.h5", h5->snapshots());

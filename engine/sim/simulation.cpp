@@ -283,6 +283,7 @@ Simulation::Simulation(const SceneConfig& scene)
   const double g = norm(gravity_m_per_s2_);
   for (int a = 0; a < 3 && g > 0.0; ++a)
     if (box_.periodic[a] && gravity_m_per_s2_[a] != 0.0) check_energy_ = false;  // no potential
+  if (gas_) check_energy_ = false;  // the gas is an energy source the ledger does not track
   set_energy_baseline();
 }
 
