@@ -326,11 +326,15 @@ void GasCoupling::add_fluid_forces(ParticleStore& p, double dt, bool accumulate)
     const double d = 2.0 * p.radius_m[i];
     bool recompute = p.fluid_coefficient_kg_per_s[i] < 0.0 || threshold <= 0.0;
     if (!recompute) {
+      // Fig. 5's test, per axis against the stored slip speed; and, since the dense-flow laws
+      // depend on it as strongly, the same test on the gas volume fraction.
       const Vec3& stored = p.fluid_cached_slip_m_per_s[i];
       const double limit = threshold * norm(stored);
       const Vec3 change = slip - stored;
       recompute = std::abs(change.x) > limit || std::abs(change.y) > limit ||
-                  std::abs(change.z) > limit || (limit == 0.0 && norm2(change) > 0.0);
+                  std::abs(change.z) > limit || (limit == 0.0 && norm2(change) > 0.0) ||
+                  std::abs(st.volume_fraction - p.fluid_cached_fraction[i]) >
+                      threshold * p.fluid_cached_fraction[i];
     }
     if (recompute) {
       const DragInput in{d, norm(slip), st.volume_fraction, st.density_kg_per_m3,
@@ -341,6 +345,7 @@ void GasCoupling::add_fluid_forces(ParticleStore& p, double dt, bool accumulate)
                                    : Vec3{};
       p.fluid_coefficient_kg_per_s[i] = beta;
       p.fluid_cached_slip_m_per_s[i] = slip;
+      p.fluid_cached_fraction[i] = st.volume_fraction;
       p.fluid_cached_force_n[i] = store_force ? slip * beta + lift_force : lift_force;
       ++stats_.drag_evaluations;
     } else {

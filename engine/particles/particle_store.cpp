@@ -38,6 +38,7 @@ std::size_t ParticleStore::add(const MaterialTable& materials, int material_inde
   if (has_fluid_state) {
     fluid_coefficient_kg_per_s.push_back(-1.0);
     fluid_cached_slip_m_per_s.push_back({});
+    fluid_cached_fraction.push_back(1.0);
     fluid_cached_force_n.push_back({});
     fluid_impulse_n_s.push_back({});
   }

@@ -52,6 +52,7 @@ struct ParticleStore {
   // not columns, unless enable_fluid_state().
   std::vector<double> fluid_coefficient_kg_per_s;  // cached β: drag = β (u − v)
   std::vector<Vec3> fluid_cached_slip_m_per_s;     // u − v when β (and the lift) were computed
+  std::vector<double> fluid_cached_fraction;       // the gas volume fraction ε then
   std::vector<Vec3> fluid_cached_force_n;          // cached drag + lift (force store) or lift
   std::vector<Vec3> fluid_impulse_n_s;             // ∫ (drag + lift) dt since the last CFD step
   bool has_fluid_state = false;
@@ -74,7 +75,8 @@ struct ParticleStore {
     f(material), f(mass_kg), f(id);
     if (has_breakage_state) f(remaining_capacity_j_per_kg);
     if (has_fluid_state) {
-      f(fluid_coefficient_kg_per_s), f(fluid_cached_slip_m_per_s), f(fluid_cached_force_n);
+      f(fluid_coefficient_kg_per_s), f(fluid_cached_slip_m_per_s), f(fluid_cached_fraction);
+      f(fluid_cached_force_n);
       f(fluid_impulse_n_s);
     }
   }
@@ -90,6 +92,7 @@ struct ParticleStore {
     has_fluid_state = true;
     fluid_coefficient_kg_per_s.assign(size(), -1.0);  // < 0: nothing cached
     fluid_cached_slip_m_per_s.assign(size(), {});
+    fluid_cached_fraction.assign(size(), 1.0);
     fluid_cached_force_n.assign(size(), {});
     fluid_impulse_n_s.assign(size(), {});
   }
