@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/vec3.h"
+#include "gas/pressure_solver.h"
 
 namespace millsim {
 
@@ -92,6 +93,7 @@ struct GasConfig {
   // pressure solve
   double pressure_tolerance = 1e-6;  // relative residual of the conjugate-gradient solve
   int max_pressure_iterations = 5000;
+  PressurePreconditioner pressure_preconditioner = PressurePreconditioner::Multigrid;
 };
 
 }  // namespace millsim

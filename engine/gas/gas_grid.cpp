@@ -82,10 +82,19 @@ void assign_boundaries(GasGrid& g, const GasConfig& config) {
           x[axis] = side == 0 ? g.origin_m[axis]
                               : g.origin_m[axis] + g.n[std::size_t(axis)] * g.h_m[axis];
           GhostBoundary bc;
-          for (const GasBoundaryPatch& p : config.boundaries)
+          int owner = -1;
+          for (std::size_t k = 0; k < config.boundaries.size(); ++k) {
+            const GasBoundaryPatch& p = config.boundaries[k];
             if (p.face == face && patch_covers(p, x))
-              bc = {p.kind, p.velocity_m_per_s, p.pressure_pa};
+              bc = {p.kind, p.velocity_m_per_s, p.pressure_pa}, owner = int(k);
+          }
           g.ghost[g.index(ijk[0], ijk[1], ijk[2])] = bc;
+          const bool on_face =
+              jb >= 1 && jb <= g.n[std::size_t(b)] && jc >= 1 && jc <= g.n[std::size_t(c)];
+          if (owner >= 0 && on_face) {
+            ++g.patch_faces[std::size_t(owner)];
+            g.patch_area_m2[std::size_t(owner)] += g.face_area_m2(axis);
+          }
         }
     }
   }
@@ -139,6 +148,8 @@ GasGrid build_gas_grid(const GasConfig& config, const Vec3& lo, const Vec3& hi,
     g.face[std::size_t(a)].assign(g.padded_size, FaceKind::None);
     g.fixed_value[std::size_t(a)].assign(g.padded_size, 0.0);
   }
+  g.patch_faces.assign(config.boundaries.size(), 0);
+  g.patch_area_m2.assign(config.boundaries.size(), 0.0);
   voxelise(g, config);
   assign_boundaries(g, config);
   for (int a = 0; a < 3; ++a)

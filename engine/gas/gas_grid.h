@@ -49,6 +49,10 @@ struct GasGrid {
   std::vector<GhostBoundary> ghost;  // indexed like the fields; meaningful in ghost cells only
   std::size_t fluid_cells = 0;
   bool has_outflow = false;
+  // Per boundary patch of the config: how many boundary faces it ended up owning (a patch
+  // smaller than a cell may own none) and their area.
+  std::vector<std::size_t> patch_faces;
+  std::vector<double> patch_area_m2;
 
   std::size_t index(int i, int j, int k) const {
     return std::size_t(i) + stride[1] * std::size_t(j) + stride[2] * std::size_t(k);

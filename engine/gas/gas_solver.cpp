@@ -11,7 +11,8 @@ GasSolver::GasSolver(const GasConfig& config, GasGrid grid, const Vec3& gravity_
     : config_(config),
       grid_(std::move(grid)),
       gravity_m_per_s2_(gravity_m_per_s2),
-      pressure_solver_(config.pressure_tolerance, config.max_pressure_iterations) {
+      pressure_solver_(config.pressure_tolerance, config.max_pressure_iterations,
+                       config.pressure_preconditioner) {
   kinematic_viscosity_ = config_.viscosity_pa_s / config_.density_kg_per_m3;
   for (int a = 0; a < 3; ++a)
     if (grid_.periodic[std::size_t(a)]) {
@@ -228,7 +229,10 @@ void GasSolver::assemble_pressure_matrix() {
     if (row == 0 && !g.has_outflow) diagonal *= 2.0;
     triplets.push_back({std::int32_t(row), std::int32_t(row), diagonal});
   }
-  pressure_solver_.set_matrix(std::int32_t(cell_of_row_.size()), triplets);
+  std::vector<std::array<int, 3>> cells(cell_of_row_.size());
+  for (std::size_t row = 0; row < cell_of_row_.size(); ++row)
+    cells[row] = g.coords(cell_of_row_[row]);
+  pressure_solver_.set_matrix(std::int32_t(cell_of_row_.size()), triplets, cells);
   matrix_stale_ = false;
   ++stats_.matrix_builds;
 }

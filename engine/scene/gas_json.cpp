@@ -174,6 +174,11 @@ GasConfig parse_gas(const json& v, const DomainConfig& domain, InputErrors& erro
   g.min_volume_fraction = r.number("min_volume_fraction", 0.2, NumberRange::closed(0.01, 1.0));
   g.pressure_tolerance = r.number("pressure_tolerance", 1e-6, NumberRange::closed(1e-14, 1e-2));
   g.max_pressure_iterations = int(r.integer("max_pressure_iterations", 5000, 1, 1000000));
+  g.pressure_preconditioner =
+      r.string("pressure_preconditioner", "multigrid", {"multigrid", "incomplete_cholesky"}) ==
+              "incomplete_cholesky"
+          ? PressurePreconditioner::IncompleteCholesky
+          : PressurePreconditioner::Multigrid;
   r.finish();
 
   // Gas blown in must have a way out.

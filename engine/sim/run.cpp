@@ -117,8 +117,21 @@ void add_gas_summary(const Simulation& sim, nlohmann::ordered_json& s) {
   const std::uint64_t lookups = c.drag_evaluations + c.drag_reuses;
   const std::array<double, std::size_t(Phase::Count)>& t = sim.profile().seconds;
   const double gas_s = t[std::size_t(Phase::Gas)], fluid_s = t[std::size_t(Phase::Fluid)];
+  nlohmann::ordered_json patches = nlohmann::ordered_json::array();
+  const GasGrid& grid = g.gas().grid();
+  for (std::size_t k = 0; k < g.config().boundaries.size(); ++k) {
+    const GasBoundaryPatch& b = g.config().boundaries[k];
+    const double normal_speed = b.velocity_m_per_s[b.face / 2] * (b.face % 2 == 0 ? 1.0 : -1.0);
+    patches.push_back(
+        {{"name", b.name},
+         {"faces", grid.patch_faces[k]},
+         {"area_m2", grid.patch_area_m2[k]},
+         {"inflow_m3_per_s",
+          b.kind == GasBoundaryKind::Inlet ? normal_speed * grid.patch_area_m2[k] : 0.0}});
+  }
   s["gas"] = {
       {"cells", g.config().cells},
+      {"boundaries", patches},
       {"fluid_cells", g.gas().grid().fluid_cells},
       {"cfd_steps", c.cfd_steps},
       {"gas_substeps", c.gas_substeps},

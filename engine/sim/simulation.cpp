@@ -238,9 +238,18 @@ Simulation::Simulation(const SceneConfig& scene)
                                  "cell; use at most ",
                                  std::max(1, int(box_.length(a) / d_max)), " cells")});
     }
-    if (errors.empty())
+    if (errors.empty()) {
       gas_.emplace(gas, box_, gravity_m_per_s2_,
                    std::max(d_max, scene.search.cell_size_m.value_or(0.0)));
+      const GasGrid& grid = gas_->gas().grid();
+      for (std::size_t k = 0; k < gas.boundaries.size(); ++k)
+        if (grid.patch_faces[k] == 0)
+          errors.push_back({concat("/gas/boundaries/", k), gas.boundaries[k].name,
+                            concat("the patch covers no boundary face centre of the gas grid "
+                                   "(cells are ",
+                                   grid.h_m.x, " x ", grid.h_m.y, " x ", grid.h_m.z,
+                                   " m): enlarge it or refine /gas/cells")});
+    }
   }
 
   // Skin: ¼ √(d_min d_max) re-derived at each rebuild unless set (search/neighbor_list.cpp). The
