@@ -38,6 +38,16 @@ TEST(DragLaws, StokesLimitAndDiluteAgreement) {
               0.5 * kAirDensity * 0.44 * kPi * d * d / 4.0 * fast_slip, 1e-12);
 }
 
+TEST(DragLaws, SaffmanLiftPushesALaggingParticleTowardTheFasterGas) {
+  // Shear flow u = (γ y, 0, 0): ω = ∇×u = (0, 0, −γ). A particle slower than the gas (slip +x)
+  // is lifted toward +y with 1.615 d² √(ρ μ γ) |s| (Saffman 1965, Crowe et al.'s form).
+  const double gamma = 200.0, d = 1e-4, s = 0.5;
+  const Vec3 lift = saffman_lift_n(d, {s, 0, 0}, {0, 0, -gamma}, kAirDensity, kAirViscosity);
+  EXPECT_NEAR(lift.y, 1.615 * d * d * std::sqrt(kAirDensity * kAirViscosity * gamma) * s, 1e-18);
+  EXPECT_DOUBLE_EQ(lift.x, 0.0);
+  EXPECT_DOUBLE_EQ(lift.z, 0.0);
+}
+
 TEST(DragLaws, GidaspowDenseBranchIsErgunPerUnitBedVolume) {
   // n particles per unit volume with interstitial slip U/ε exert β n (U/ε) = ε ∇p, so ∇p must
   // be Ergun's 150 (1−ε)² μ U / (ε³ d²) + 1.75 (1−ε) ρ U² / (ε³ d).
@@ -186,6 +196,38 @@ TEST(Coupling, SceneErrorsNameTheGasField) {
       << all;
   EXPECT_NE(all.find("/gas/boundaries | "), std::string::npos) << all;  // inlet, no outlet
   EXPECT_NE(all.find("/gas/drag | \"stokes\""), std::string::npos) << all;
+}
+
+TEST(Coupling, AnInletThatCoversNoFaceIsRefused) {
+  SceneConfig scene = test::empty_scene({0, 0, 0}, {0.01, 0.01, 0.01}, test::table1_material());
+  test::add_particle(scene, {0.005, 0.005, 0.005}, {}, 5e-4);
+  scene.time.end_s = 1e-3;
+  GasConfig gas;
+  gas.cells = {4, 4, 4};  // 2.5 mm cells: face centres at 1.25, 3.75, ... mm
+  GasBoundaryPatch nozzle;
+  nozzle.name = "nozzle";
+  nozzle.face = 0;
+  nozzle.kind = GasBoundaryKind::Inlet;
+  nozzle.shape = PatchShape::Circle;
+  nozzle.center_m = {0, 0.005, 0.005};
+  nozzle.radius_m = 0.001;  // covers no face centre (the nearest are 1.77 mm away)
+  nozzle.velocity_m_per_s = {10, 0, 0};
+  GasBoundaryPatch exhaust;
+  exhaust.face = 1;
+  exhaust.kind = GasBoundaryKind::Outlet;
+  gas.boundaries = {nozzle, exhaust};
+  scene.gas = gas;
+  try {
+    Simulation sim(scene);
+    FAIL() << "expected an input error";
+  } catch (const InputErrorList& e) {
+    EXPECT_EQ(e.errors().at(0).path, "/gas/boundaries/0");
+    EXPECT_NE(e.errors().at(0).allowed.find("covers no boundary face"), std::string::npos);
+  }
+  scene.gas->boundaries[0].radius_m = 0.002;  // now it covers the four nearest faces
+  Simulation sim(scene);
+  EXPECT_EQ(sim.gas()->gas().grid().patch_faces[0], 4u);
+  EXPECT_NEAR(sim.gas()->gas().grid().patch_area_m2[0], 4 * 0.0025 * 0.0025, 1e-15);
 }
 
 TEST(Coupling, GasCellsMustBeLargerThanTheLargestParticle) {

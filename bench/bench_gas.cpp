@@ -1,0 +1,167 @@
+// Gas-solver and coupling benchmark (figures in bench/RESULTS.md).
+//   bench_gas grid [steps]          time per CFD step against grid size, multigrid and
+//                                   incomplete-Cholesky preconditioners side by side: a 3-D
+//                                   box with a nozzle inlet and an outlet, from rest
+//   bench_gas cache SOURCE_DIR      drag caching (§3.1, Fig. 5) at thresholds 0, 1, 5, 10 %:
+//                                   salt particles settling in air (terminal velocity against
+//                                   Schiller–Naumann) and the fluidized bed case at 1.5 u_mf
+//                                   (fluid-force time, whole-run time, Δp / W, bed height)
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <numbers>
+#include <string>
+
+#include "gas/gas_solver.h"
+#include "scene/scene_json.h"
+#include "sim/simulation.h"
+
+using namespace millsim;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+void grid_scan(int steps) {
+  std::printf("| cells | preconditioner | ms per CFD step | CG iterations per step |\n");
+  std::printf("| --- | --- | --- | --- |\n");
+  for (int n : {16, 32, 48, 64}) {
+    for (PressurePreconditioner kind :
+         {PressurePreconditioner::Multigrid, PressurePreconditioner::IncompleteCholesky}) {
+      GasConfig config;
+      config.cells = {n, n, n};
+      config.pressure_preconditioner = kind;
+      GasBoundaryPatch inlet;
+      inlet.face = 0;
+      inlet.kind = GasBoundaryKind::Inlet;
+      inlet.shape = PatchShape::Circle;
+      inlet.center_m = {0, 0.05, 0.05};
+      inlet.radius_m = 0.01;
+      inlet.velocity_m_per_s = {20, 0, 0};
+      GasBoundaryPatch outlet;
+      outlet.face = 5;
+      outlet.kind = GasBoundaryKind::Outlet;
+      config.boundaries = {inlet, outlet};
+      GasSolver gas(config, build_gas_grid(config, {0, 0, 0}, {0.1, 0.1, 0.1}, {}), {0, 0, -9.81});
+      for (int k = 0; k < 5; ++k) gas.advance(gas.stable_step_s());  // warm up
+      const std::uint64_t iterations0 = gas.stats().pressure_iterations;
+      const auto t0 = Clock::now();
+      for (int k = 0; k < steps; ++k)
+        if (auto failure = gas.advance(gas.stable_step_s())) {
+          std::printf("failed: %s\n", failure->c_str());
+          return;
+        }
+      const double ms = 1e3 * seconds_since(t0) / steps;
+      std::printf("| %d³ = %d | %s | %.3f | %.1f |\n", n, n * n * n,
+                  kind == PressurePreconditioner::Multigrid ? "multigrid" : "incomplete Cholesky",
+                  ms, double(gas.stats().pressure_iterations - iterations0) / steps);
+    }
+  }
+}
+
+double terminal_velocity(double d) {
+  const double rho = 1.2, mu = 1.8e-5, rho_p = 2165.0;
+  const double weight = (rho_p - rho) * 9.81 * std::numbers::pi * d * d * d / 6.0;
+  double lo = 0.0, hi = 100.0;
+  for (int k = 0; k < 200; ++k) {
+    const double v = 0.5 * (lo + hi), re = rho * d * v / mu;
+    const double cd = re < 1000.0 ? 24.0 / re * (1.0 + 0.15 * std::pow(re, 0.687)) : 0.44;
+    (0.5 * rho * cd * std::numbers::pi * d * d / 4.0 * v * v < weight ? lo : hi) = v;
+  }
+  return 0.5 * (lo + hi);
+}
+
+void settling(double threshold, DragCacheStore store) {
+  for (double d : {1e-4, 1e-3, 1e-2}) {
+    SceneConfig scene;
+    const double box = std::max(0.01, 3.0 * d);
+    scene.domain.min_m = {0, 0, 0};
+    scene.domain.max_m = {box, box, box};
+    scene.domain.periodic = {true, true, true};
+    MaterialConfig salt;
+    salt.name = "salt";
+    salt.youngs_modulus_pa = 1e5;
+    salt.poisson_ratio = 0.25;
+    salt.density_kg_per_m3 = 2165.0;
+    scene.materials = {salt};
+    SourceConfig source;
+    source.particles.push_back({{box / 2, box / 2, box / 2}, {}, {}, d});
+    scene.sources = {source};
+    scene.gravity_m_per_s2 = {0, 0, -9.81};
+    const double v_t = terminal_velocity(d);
+    scene.time.end_s = 8.0 * v_t / 9.81 + 0.05;
+    GasConfig gas;
+    gas.two_way = false;
+    gas.cache_threshold = threshold;
+    gas.cache_store = store;
+    scene.gas = gas;
+    Simulation sim(scene);
+    double peak = 0.0;
+    while (sim.step_index() < sim.total_steps()) {
+      sim.step();
+      peak = std::max(peak, norm(sim.particles().velocity_m_per_s[0]));
+    }
+    const double v = norm(sim.particles().velocity_m_per_s[0]);
+    const CouplingStats& s = sim.gas()->stats();
+    std::printf("| %g %% | %s | %g mm | %.3f %% | %.3f %% | %.4f |\n", 100 * threshold,
+                store == DragCacheStore::Force ? "force" : "coefficient", 1e3 * d,
+                100 * (v / v_t - 1), 100 * (peak / v_t - 1),
+                double(s.drag_evaluations) / double(s.drag_evaluations + s.drag_reuses));
+  }
+}
+
+void fluidized(const std::string& source_dir, double threshold) {
+  SceneConfig scene = load_scene(source_dir + "/cases/fluidized_bed.json");
+  scene.gas->boundaries.at(0).velocity_m_per_s.z = 0.28;  // ≈ 1.5 u_mf
+  scene.gas->cache_threshold = threshold;
+  scene.time.end_s = 0.3;
+  Simulation sim(scene);
+  const auto t0 = Clock::now();
+  double top_sum = 0.0;
+  int samples = 0;
+  while (sim.step_index() < sim.total_steps()) {
+    sim.step();
+    if (sim.time_s() > 0.15 && sim.step_index() % 500 == 0) {
+      std::vector<double> z;
+      for (std::size_t i = 0; i < sim.particles().size(); ++i)
+        z.push_back(sim.particles().position_m[i].z);
+      std::nth_element(z.begin(), z.begin() + std::ptrdiff_t(0.9 * z.size()), z.end());
+      top_sum += z[std::size_t(0.9 * z.size())];
+      ++samples;
+    }
+  }
+  const double wall = seconds_since(t0);
+  const CouplingStats& s = sim.gas()->stats();
+  const double fluid = sim.profile().seconds[std::size_t(Phase::Fluid)];
+  std::printf("| %g %% | %.2f | %.2f | %.4f | %.4f |\n", 100 * threshold, wall, fluid,
+              double(s.drag_evaluations) / double(s.drag_evaluations + s.drag_reuses),
+              1e3 * top_sum / samples);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const std::string mode = argc > 1 ? argv[1] : "";
+  if (mode == "grid") {
+    grid_scan(argc > 2 ? std::atoi(argv[2]) : 20);
+  } else if (mode == "cache" && argc > 2) {
+    std::printf(
+        "| threshold | cache stores | d | final v / v_t − 1 | peak v / v_t − 1 | "
+        "evaluations per particle-step |\n| --- | --- | --- | --- | --- | --- |\n");
+    for (double t : {0.0, 0.01, 0.05, 0.10}) settling(t, DragCacheStore::Coefficient);
+    for (double t : {0.05, 0.10}) settling(t, DragCacheStore::Force);
+    std::printf(
+        "\n| threshold | wall s | fluid-force s | evaluations per particle-step | "
+        "mean 90th-percentile height, mm |\n| --- | --- | --- | --- | --- |\n");
+    for (double t : {0.0, 0.01, 0.05, 0.10}) fluidized(argv[2], t);
+  } else {
+    std::fprintf(stderr, "usage: bench_gas grid [steps] | bench_gas cache SOURCE_DIR\n");
+    return 2;
+  }
+  return 0;
+}
