@@ -319,20 +319,23 @@ std::optional<std::string> GasCoupling::advance(ParticleStore& p, double dem_ste
 void GasCoupling::add_fluid_forces(ParticleStore& p, double dt, bool accumulate) {
   const bool lift = config_.saffman_lift, pressure = config_.pressure_gradient_force;
   const bool store_force = config_.cache_store == DragCacheStore::Force;
-  const double threshold = config_.cache_threshold;
-  for (std::size_t i = 0; i < p.size(); ++i) {
+  const double threshold = config_.cache_threshold, threshold2 = threshold * threshold;
+  std::uint64_t evaluations = 0;
+  Vec3 impulse_sum;
+  const std::size_t n = p.size();
+  for (std::size_t i = 0; i < n; ++i) {
     const FluidCellState& st = fluid_at(p.position_m[i]);
     const Vec3 slip = st.velocity_m_per_s - p.velocity_m_per_s[i];
     const double d = 2.0 * p.radius_m[i];
     bool recompute = p.fluid_coefficient_kg_per_s[i] < 0.0 || threshold <= 0.0;
     if (!recompute) {
-      // Fig. 5's test, per axis against the stored slip speed; and, since the dense-flow laws
-      // depend on it as strongly, the same test on the gas volume fraction.
+      // Fig. 5's test, per axis against the stored slip speed (squared: no root per step);
+      // and, since the dense-flow laws depend on it as strongly, the same test on ε.
       const Vec3& stored = p.fluid_cached_slip_m_per_s[i];
-      const double limit = threshold * norm(stored);
+      const double limit2 = threshold2 * norm2(stored);
       const Vec3 change = slip - stored;
-      recompute = std::abs(change.x) > limit || std::abs(change.y) > limit ||
-                  std::abs(change.z) > limit || (limit == 0.0 && norm2(change) > 0.0) ||
+      recompute = change.x * change.x > limit2 || change.y * change.y > limit2 ||
+                  change.z * change.z > limit2 || (limit2 == 0.0 && norm2(change) > 0.0) ||
                   std::abs(st.volume_fraction - p.fluid_cached_fraction[i]) >
                       threshold * p.fluid_cached_fraction[i];
     }
@@ -347,9 +350,7 @@ void GasCoupling::add_fluid_forces(ParticleStore& p, double dt, bool accumulate)
       p.fluid_cached_slip_m_per_s[i] = slip;
       p.fluid_cached_fraction[i] = st.volume_fraction;
       p.fluid_cached_force_n[i] = store_force ? slip * beta + lift_force : lift_force;
-      ++stats_.drag_evaluations;
-    } else {
-      ++stats_.drag_reuses;
+      ++evaluations;
     }
     const Vec3 exchange = store_force
                               ? p.fluid_cached_force_n[i]
@@ -359,9 +360,12 @@ void GasCoupling::add_fluid_forces(ParticleStore& p, double dt, bool accumulate)
     p.force_n[i] += force;
     if (accumulate) {
       p.fluid_impulse_n_s[i] += exchange * dt;
-      stats_.particle_impulse_n_s += exchange * dt;
+      impulse_sum += exchange * dt;
     }
   }
+  stats_.drag_evaluations += evaluations;
+  stats_.drag_reuses += n - evaluations;
+  stats_.particle_impulse_n_s += impulse_sum;
 }
 
 }  // namespace millsim
