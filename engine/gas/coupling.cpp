@@ -31,18 +31,9 @@ std::uint64_t mix(std::uint64_t x) {  // splitmix64 finaliser
 
 template <class Accept>
 Stencil make_stencil(const GasGrid& g, const Vec3& x, int face_axis, Accept&& accept) {
-  std::array<int, 3> i0{};
-  std::array<double, 3> w{};
-  for (int b = 0; b < 3; ++b) {
-    const std::size_t bu = std::size_t(b);
-    const bool on_faces = b == face_axis;
-    double t = (x[b] - g.origin_m[b]) / g.h_m[b] + (on_faces ? 0.0 : 0.5);
-    const double hi = on_faces ? double(g.n[bu]) : double(g.n[bu] + 1);
-    t = std::clamp(t, 0.0, hi);
-    const int i = std::min(int(t), int(hi) - 1);
-    i0[bu] = i;
-    w[bu] = t - i;
-  }
+  const GridCorner corner = lower_corner(g, x, face_axis);
+  const std::array<int, 3>& i0 = corner.index;
+  const std::array<double, 3>& w = corner.weight;
   Stencil s;
   double total = 0.0;
   for (int corner = 0; corner < 8; ++corner) {

@@ -1,5 +1,6 @@
 #include "gas/gas_grid.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace millsim {
@@ -39,6 +40,21 @@ bool patch_covers(const GasBoundaryPatch& p, const Vec3& x) {
     }
   }
   return false;
+}
+
+GridCorner lower_corner(const GasGrid& g, const Vec3& x, int face_axis) {
+  GridCorner c;
+  for (int b = 0; b < 3; ++b) {
+    const std::size_t bu = std::size_t(b);
+    const bool on_faces = b == face_axis;
+    double t = (x[b] - g.origin_m[b]) / g.h_m[b] + (on_faces ? 0.0 : 0.5);
+    const double hi = on_faces ? double(g.n[bu]) : double(g.n[bu] + 1);
+    t = std::clamp(t, 0.0, hi);
+    const int i = std::min(int(t), int(hi) - 1);
+    c.index[bu] = i;
+    c.weight[bu] = t - i;
+  }
+  return c;
 }
 
 std::size_t GasGrid::wrap_cell(std::size_t c, int axis) const {

@@ -92,6 +92,16 @@ struct GasGrid {
   }
 };
 
+// The grid node below x along each axis and x's fractional distance from it, for a
+// cell-centred field (face_axis = −1) or component face_axis (nodes on its faces along that
+// axis, at cell centres along the others); clamped so the node and the next one exist.
+// Trilinear interpolation and deposition both start here.
+struct GridCorner {
+  std::array<int, 3> index{};
+  std::array<double, 3> weight{};  // of the upper node, in [0, 1]
+};
+GridCorner lower_corner(const GasGrid& g, const Vec3& x, int face_axis);
+
 // Builds the grid over the domain box: voxelises the solids, applies the boundary patches in
 // order over the default wall, and classifies every face.
 GasGrid build_gas_grid(const GasConfig& config, const Vec3& domain_min_m, const Vec3& domain_max_m,
