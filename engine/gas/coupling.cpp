@@ -164,9 +164,9 @@ void GasCoupling::release(const ParticleStore& p, std::size_t slot) {
   if (j.x != 0.0 || j.y != 0.0 || j.z != 0.0) released_.push_back({p.position_m[slot], j});
 }
 
-// From the gas's CFL limit and the drag limit drag_courant · ε ρ / B (the implicit exchange is
-// stable to about 3–5 there in the dense-bed tests, not unconditionally: docs/gas.md); growing
-// at most twofold per CFD step.
+// From the gas's CFL limit and drag_courant · ε ρ / B (a margin: the drag itself is implicit,
+// the volume fraction and the pressure-gradient force are not; docs/gas.md); growing at most
+// twofold per CFD step.
 int GasCoupling::choose_steps(double dem_step_s) const {
   if (config_.step_s) return std::max(1, int(std::lround(*config_.step_s / dem_step_s)));
   const double stable =

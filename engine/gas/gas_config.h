@@ -78,7 +78,7 @@ struct GasConfig {
   Vec3 mean_pressure_gradient_pa_per_m;
   std::optional<double> step_s;  // fixed CFD step (rounded to whole DEM steps); absent = CFL
   double courant = 0.5;          // CFD step <= courant / (Σ|u|/h + 2ν Σ 1/h²)
-  double drag_courant = 2.0;  // CFD step <= drag_courant · ε ρ / B (B: particle drag per volume)
+  double drag_courant = 20.0;  // CFD step <= drag_courant · ε ρ / B (B: particle drag per volume)
   AdvectionScheme advection = AdvectionScheme::Hybrid;
   std::vector<GasBoundaryPatch> boundaries;  // applied in order over the default (wall)
   std::vector<GasSolidConfig> solids;

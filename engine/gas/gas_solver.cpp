@@ -186,8 +186,15 @@ void GasSolver::predictor(double dt) {
           slope = (up - down) / (2.0 * h);
         advection += carrier * slope;
       }
-      const double body = gravity_m_per_s2_[a] + source_[au][f] / (face_fraction_[au][f] * rho);
-      out[f] = uf + dt * (-advection + nu * diffusion + body);
+      // The particles' drag on the gas: the impulse they took (explicit source S) plus the
+      // implicit response B (ū − u*) to the gas's own change, which keeps dense beds stable at
+      // CFD steps beyond ε ρ / B (gas/coupling.h hands the same response back to the particles).
+      const double inertia = face_fraction_[au][f] * rho;
+      const double b = exchange_[au][f];
+      const double relief = 1.0 / (1.0 + dt * b / inertia);
+      const double body = gravity_m_per_s2_[a] + (source_[au][f] + seen_[au][f]) / inertia;
+      out[f] = (uf + dt * (-advection + nu * diffusion + body)) * relief;
+      if (relief != relief_[au][f]) relief_[au][f] = relief, matrix_stale_ = true;
     }
     // Outflow faces: zero gradient from the inner face.
     for (std::size_t f = 0; f < g.padded_size; ++f) {
