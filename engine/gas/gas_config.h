@@ -80,6 +80,8 @@ struct GasConfig {
   double courant = 0.5;          // CFD step <= courant / (Σ|u|/h + 2ν Σ 1/h²)
   double drag_courant = 20.0;  // CFD step <= drag_courant · ε ρ / B (B: particle drag per volume)
   AdvectionScheme advection = AdvectionScheme::Hybrid;
+  // Smagorinsky eddy viscosity ν_t = (C_s Δ)² |S| added to ν; 0 = off (typical C_s 0.1–0.2).
+  double smagorinsky_constant = 0.0;
   std::vector<GasBoundaryPatch> boundaries;  // applied in order over the default (wall)
   std::vector<GasSolidConfig> solids;
   // coupling

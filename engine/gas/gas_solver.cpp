@@ -14,6 +14,16 @@ GasSolver::GasSolver(const GasConfig& config, GasGrid grid, const Vec3& gravity_
       pressure_solver_(config.pressure_tolerance, config.max_pressure_iterations,
                        config.pressure_preconditioner) {
   kinematic_viscosity_ = config_.viscosity_pa_s / config_.density_kg_per_m3;
+  if (config_.smagorinsky_constant > 0.0) {
+    // Δ: the geometric mean cell edge over the axes that resolve anything.
+    double product = 1.0;
+    int axes = 0;
+    for (int a = 0; a < 3; ++a)
+      if (!(grid_.periodic[std::size_t(a)] && grid_.n[std::size_t(a)] == 1))
+        product *= grid_.h_m[a], ++axes;
+    filter_width_m_ = axes > 0 ? std::pow(product, 1.0 / axes) : grid_.h_m.x;
+    eddy_viscosity_.assign(grid_.padded_size, 0.0);
+  }
   for (int a = 0; a < 3; ++a)
     if (grid_.periodic[std::size_t(a)]) {
       const double imposed = config_.mean_pressure_gradient_pa_per_m[a];
@@ -120,7 +130,8 @@ void GasSolver::fill_velocity_ghosts(std::array<std::vector<double>, 3>& u) cons
 
 double GasSolver::stable_step_s() const {
   const GasGrid& g = grid_;
-  double rate = 0.0;
+  double rate = 0.0, nu = kinematic_viscosity_;
+  for (double nu_t : eddy_viscosity_) nu = std::max(nu, kinematic_viscosity_ + nu_t);
   for (int a = 0; a < 3; ++a) {
     const std::size_t au = std::size_t(a);
     double umax = 0.0;
@@ -130,8 +141,7 @@ double GasSolver::stable_step_s() const {
         umax = std::max(umax, std::abs(velocity_[au][f]));
     }
     rate += umax / g.h_m[a];
-    if (!(g.periodic[au] && g.n[au] == 1))
-      rate += 2.0 * kinematic_viscosity_ / (g.h_m[a] * g.h_m[a]);
+    if (!(g.periodic[au] && g.n[au] == 1)) rate += 2.0 * nu / (g.h_m[a] * g.h_m[a]);
   }
   return rate > 0.0 ? config_.courant / rate : 1e300;
 }
@@ -146,9 +156,49 @@ double GasSolver::max_exchange_rate_per_s() const {
   return rate;
 }
 
+// ν_t = (C_s Δ)² |S|, |S| = √(2 S_ij S_ij), at the cell centres: the normal rates from the
+// cell's own faces, the shear rates from the neighbours' centred velocities (ghosts hold the
+// walls' mirror values and the periodic copies).
+void GasSolver::update_eddy_viscosity() {
+  const GasGrid& g = grid_;
+  const double scale = std::pow(config_.smagorinsky_constant * filter_width_m_, 2);
+  const auto centred = [&](int a, std::size_t c) {
+    return 0.5 *
+           (velocity_[std::size_t(a)][c] + velocity_[std::size_t(a)][c - g.stride[std::size_t(a)]]);
+  };
+  for (int k = 1; k <= g.n[2]; ++k)
+    for (int j = 1; j <= g.n[1]; ++j)
+      for (int i = 1; i <= g.n[0]; ++i) {
+        const std::size_t c = g.index(i, j, k);
+        if (!g.fluid[c]) {
+          eddy_viscosity_[c] = 0.0;
+          continue;
+        }
+        double grad[3][3];  // grad[a][b] = ∂u_a/∂x_b
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b) {
+            const std::size_t sb = g.stride[std::size_t(b)];
+            grad[a][b] =
+                a == b
+                    ? (velocity_[std::size_t(a)][c] - velocity_[std::size_t(a)][c - sb]) / g.h_m[b]
+                    : (centred(a, c + sb) - centred(a, c - sb)) / (2.0 * g.h_m[b]);
+          }
+        double s2 = 0.0;
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b) {
+            const double sab = 0.5 * (grad[a][b] + grad[b][a]);
+            s2 += sab * sab;
+          }
+        eddy_viscosity_[c] = scale * std::sqrt(2.0 * s2);
+      }
+  fill_copy_ghosts(eddy_viscosity_);
+}
+
 void GasSolver::predictor(double dt) {
   const GasGrid& g = grid_;
-  const double nu = kinematic_viscosity_, rho = config_.density_kg_per_m3;
+  const double rho = config_.density_kg_per_m3;
+  const bool eddy = !eddy_viscosity_.empty();
+  if (eddy) update_eddy_viscosity();
   const AdvectionScheme scheme = config_.advection;
   for (int a = 0; a < 3; ++a) {
     const std::size_t au = std::size_t(a);
@@ -161,6 +211,10 @@ void GasSolver::predictor(double dt) {
         continue;
       }
       const double uf = u[f];
+      const double nu =
+          kinematic_viscosity_ + (eddy ? 0.5 * (eddy_viscosity_[g.wrap_cell(f, a)] +
+                                                eddy_viscosity_[g.wrap_cell(f + g.stride[au], a)])
+                                       : 0.0);
       double advection = 0.0, diffusion = 0.0;
       for (int b = 0; b < 3; ++b) {
         const std::size_t bu = std::size_t(b), s = g.stride[bu];

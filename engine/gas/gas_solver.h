@@ -90,11 +90,15 @@ class GasSolver {
   const GasStepStats& stats() const { return stats_; }
   double time_s() const { return time_s_; }
 
+  // The Smagorinsky eddy viscosity ν_t at each padded cell, m²/s, from the last step's
+  // velocity (empty when the constant is 0).
+  const std::vector<double>& eddy_viscosity() const { return eddy_viscosity_; }
   // Fills the ghost layers of the velocity (boundary conditions, periodic copies).
   void fill_velocity_ghosts(std::array<std::vector<double>, 3>& u) const;
 
  private:
   void predictor(double dt);
+  void update_eddy_viscosity();
   void assemble_pressure_matrix();
   bool solve_pressure(double dt);
   void correct(double dt);
@@ -110,6 +114,9 @@ class GasSolver {
   // an imposed mean gradient ρ g instead (the gas does not accelerate, particles feel buoyancy).
   Vec3 background_gradient_pa_per_m_;
   double kinematic_viscosity_ = 0.0;
+  // Smagorinsky eddy viscosity per padded cell (empty when off), and its filter width.
+  std::vector<double> eddy_viscosity_;
+  double filter_width_m_ = 0.0;
 
   std::array<std::vector<double>, 3> velocity_, predicted_, source_, exchange_, gradient_,
       drag_response_, seen_;

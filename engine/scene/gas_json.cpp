@@ -144,6 +144,7 @@ GasConfig parse_gas(const json& v, const DomainConfig& domain, InputErrors& erro
   }
   g.courant = r.number("courant", 0.5, NumberRange::open_closed(0.0, 1.0));
   g.drag_courant = r.number("drag_courant", 20.0, NumberRange::open_closed(0.0, 100.0));
+  g.smagorinsky_constant = r.number("smagorinsky_constant", 0.0, NumberRange::closed(0.0, 0.5));
   const std::string scheme = r.string("advection", "hybrid", {"hybrid", "central", "upwind"});
   g.advection = scheme == "central"  ? AdvectionScheme::Central
                 : scheme == "upwind" ? AdvectionScheme::Upwind

@@ -49,6 +49,31 @@ TEST(GasSolver, PlanePoiseuilleMatchesTheParabola) {
   EXPECT_NEAR(gas.velocity_at({0.1, 0.3, 0.03}).y, 0.0, 1e-10);
 }
 
+TEST(GasSolver, SmagorinskyEddyViscosityInCouetteFlow) {
+  // Plane Couette flow (lid at y = H moving at U, periodic x and z): the steady profile is
+  // U y / H whatever the viscosity, and the shear rate U / H is uniform, so the eddy viscosity
+  // must be (C_s Δ)² U / H in every cell (|S| = √(2 S_ij S_ij) = U / H for simple shear).
+  GasConfig config;
+  config.density_kg_per_m3 = 1.0;
+  config.viscosity_pa_s = 0.1;
+  config.cells = {4, 16, 1};
+  config.smagorinsky_constant = 0.17;
+  config.pressure_tolerance = 1e-12;
+  GasBoundaryPatch lid;
+  lid.face = 3;
+  lid.velocity_m_per_s = {1.0, 0.0, 0.0};
+  config.boundaries.push_back(lid);
+  const double H = 1.0, U = 1.0, h = 1.0 / 16;
+  GasSolver gas(config, build_gas_grid(config, {0, 0, 0}, {4 * h, H, h}, {true, false, true}), {});
+  ASSERT_LT(run_to_steady(gas, 1e-10, 400.0), 1e-10);
+  for (double y = 0.03; y < H; y += 0.1)
+    EXPECT_NEAR(gas.velocity_at({0.1, y, 0.5 * h}).x, U * y / H, 1e-6) << "y = " << y;
+  const double expected = std::pow(0.17 * h, 2) * U / H;  // Δ = √(h_x h_y) = h
+  const GasGrid& g = gas.grid();
+  for (int j = 1; j <= g.n[1]; ++j)
+    EXPECT_NEAR(gas.eddy_viscosity()[g.index(2, j, 1)], expected, 1e-6 * expected) << "j = " << j;
+}
+
 TEST(GasSolver, LidDrivenCavityAtRe100MatchesGhia) {
   GasConfig config;
   config.density_kg_per_m3 = 1.0;
