@@ -49,7 +49,6 @@ class DemCellFluidTable {
   DemCellFluidTable() = default;
   DemCellFluidTable(double cell_m, const Vec3& origin_m);
 
-  double cell_m() const { return cell_m_; }
   void clear();
   // The state of the DEM cell that holds x (wrapped into the domain by the caller).
   const FluidCellState& at(const Vec3& x, const GasSolver& gas, bool with_vorticity);

@@ -143,6 +143,8 @@ void add_gas_summary(const Simulation& sim, nlohmann::ordered_json& s) {
       {"max_continuity_error_m3_per_s", g.gas().max_continuity_error_m3_per_s()},
       {"min_volume_fraction", c.min_volume_fraction},
       {"clamped_cell_steps", c.clamped_cells},
+      {"unplaced_deposits", c.unplaced_deposits},
+      {"pressure_matrix_builds", gs.matrix_builds},
       {"drag_cache_threshold", g.config().cache_threshold},
       {"drag_evaluations", c.drag_evaluations},
       {"drag_reuses", c.drag_reuses},
