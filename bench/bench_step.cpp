@@ -1,14 +1,16 @@
 // bench_step: the full DEM step (search + Hertz–Mindlin forces + integration) on a shared
 // benchmark scene (shared/bench/FORMAT.md), one core, at the file's time step.
 //
-//   bench_step SCENE.txt [--steps N] [--json] [--skin-dmin F] [--subcells K] [--k-scan]
+//   bench_step SCENE.txt [--steps N] [--json] [--skin-dmin F] [--subcells K] [--levels L]
+//              [--k-scan]
 //   bench_step --generate-mono N OUT.txt   writes a mono-like scene of N particles (d = 100 µm,
 //                                          φ = 0.2, periodic, v ~ N(0, 2 m/s), Table 1, dt as
 //                                          mono) in the shared format, for the scaling runs
 //
 // --skin-dmin F sets the Verlet skin to F × the smallest diameter, --subcells K fixes the
-// sub-grid division (default: the engine's automatic choice); --k-scan runs K = 1..8 in turn and
-// prints the time per step of each, normalised by the fastest (the paper's Fig. 3).
+// sub-grid division and --levels L the number of grid levels (default: the engine's automatic
+// choice; K alone means the paper's two levels); --k-scan runs K = 1..8 with two levels in turn
+// and prints the time per step of each, normalised by the fastest (the paper's Fig. 3).
 //
 // Prints particle-steps per second, pair distance tests per true contact, neighbour-list
 // rebuilds and their cost, resident memory per particle, the phase breakdown, and the physics
@@ -27,6 +29,7 @@
 
 #include "core/errors.h"
 #include "particles/particle_sources.h"
+#include "search/hashed_grid.h"
 #include "sim/simulation.h"
 
 namespace {
@@ -77,6 +80,34 @@ int generate_mono(std::int64_t n, const std::string& path) {
   return std::fclose(out) == 0 ? 0 : 4;
 }
 
+// One rebuild's search on the final state for every grid division, at the final skin: distance
+// tests, candidates and the best of three times.
+void print_search_scan(const millsim::Simulation& sim) {
+  using namespace millsim;
+  const ParticleStore& p = sim.particles();
+  const double skin = sim.neighbors().skin_m();
+  std::printf(
+      "skin %.3e m\n| k | levels | distance tests | cell probes | candidates | seconds |\n"
+      "| --- | --- | --- | --- | --- | --- |\n",
+      skin);
+  for (int k = 1; k <= 8; ++k)
+    for (int levels = 2; levels <= (k == 1 ? 2 : kMaxGridLevels); ++levels) {
+      HashedGrid grid;
+      PairList pairs;
+      double best = 1e300;
+      for (int rep = 0; rep < 3; ++rep) {
+        const auto t0 = std::chrono::steady_clock::now();
+        grid.find_pairs(p.position_m, p.radius_m, sim.box(), {skin, k, levels, std::nullopt},
+                        pairs);
+        best = std::min(
+            best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      }
+      std::printf("| %d | %d | %llu | %llu | %zu | %.4e |\n", k, k == 1 ? 1 : levels,
+                  (unsigned long long)grid.stats().distance_tests,
+                  (unsigned long long)grid.stats().cell_lookups, pairs.size(), best);
+    }
+}
+
 int main(int argc, char** argv) {
   using namespace millsim;
   if (argc == 4 && std::string(argv[1]) == "--generate-mono")
@@ -86,9 +117,10 @@ int main(int argc, char** argv) {
     return 2;
   }
   std::int64_t steps = 1000;
-  bool as_json = false, k_scan = false;
+  bool as_json = false, k_scan = false, search_scan = false;
   std::optional<double> skin_dmin;
   std::optional<int> subcells;
+  std::optional<int> levels;
   for (int k = 2; k < argc; ++k) {
     const std::string a = argv[k];
     if (a == "--steps" && k + 1 < argc)
@@ -99,8 +131,12 @@ int main(int argc, char** argv) {
       skin_dmin = std::stod(argv[++k]);
     else if (a == "--subcells" && k + 1 < argc)
       subcells = std::stoi(argv[++k]);
+    else if (a == "--levels" && k + 1 < argc)
+      levels = std::stoi(argv[++k]);
     else if (a == "--k-scan")
       k_scan = true;
+    else if (a == "--search-scan")
+      search_scan = true;
     else {
       std::fprintf(stderr, "bench_step: unknown option %s\n", a.c_str());
       return 2;
@@ -132,6 +168,7 @@ int main(int argc, char** argv) {
       return 0;
     }
     scene.search.subcells_per_axis = subcells;
+    scene.search.grid_levels = levels;
     const long rss_before = resident_kib();
     Simulation sim(scene);
     const double ke0 = sim.energy().kinetic_j;
@@ -147,6 +184,10 @@ int main(int argc, char** argv) {
     }
     const double loop_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (search_scan) {
+      print_search_scan(sim);
+      return 0;
+    }
     const long rss_after = resident_kib();
     const std::size_t n = sim.particles().size();
     const auto& ns = sim.neighbors().stats();
@@ -164,6 +205,9 @@ int main(int argc, char** argv) {
     out["candidate_pairs"] = sim.neighbors().pairs.size();
     out["subcells_per_axis"] = ns.last_search.subcells_per_axis;
     out["fine_particles"] = ns.last_search.fine_particles;
+    out["grid_levels"] = ns.last_search.levels;
+    out["level_particles"] = std::vector<std::uint64_t>(
+        ns.last_search.level_particles, ns.last_search.level_particles + ns.last_search.levels);
     out["candidates_per_contact"] =
         double(sim.neighbors().pairs.size()) /
         double(std::max<std::uint64_t>(1, sim.contact_stats().touching_pairs));

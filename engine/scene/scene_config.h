@@ -159,6 +159,8 @@ struct SearchConfig {
   std::optional<double> skin_m;          // Verlet skin; absent = automatic
   std::optional<double> cell_size_m;     // lower bound on the DEM-cell edge; absent = automatic
   std::optional<int> subcells_per_axis;  // sub-grid division k (§2.2); absent = automatic
+  // Grid levels of edge C0/k^l; absent = automatic, or the paper's 2 when k is given.
+  std::optional<int> grid_levels;
 };
 
 // How a particle–particle impact maps onto the single-particle (wall) impact the strength

@@ -6,6 +6,7 @@
 
 #include "core/json_reader.h"
 #include "scene/gas_json.h"
+#include "search/hashed_grid.h"
 
 namespace millsim {
 namespace {
@@ -499,6 +500,18 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
         else
           errors.push_back({"/search/subcells", json_value_text(*k),
                             "expected \"auto\" or an integer in [1, 8]"});
+      }
+    }
+    if (const json* l = r.child("levels")) {
+      if (!(l->is_string() && l->get<std::string>() == "auto")) {
+        const bool ok = l->is_number_integer() && l->get<long long>() >= 1 &&
+                        l->get<long long>() <= kMaxGridLevels;
+        if (ok)
+          scene.search.grid_levels = int(l->get<long long>());
+        else
+          errors.push_back(
+              {"/search/levels", json_value_text(*l),
+               "expected \"auto\" or an integer in [1, " + std::to_string(kMaxGridLevels) + "]"});
       }
     }
     r.finish();

@@ -35,111 +35,250 @@ inline std::uint64_t hash_key(std::uint64_t key) {
   return key * 0x9E3779B97F4A7C15ULL;
 }
 
-// The 13 offsets of the half shell: each neighbouring pair of cells is visited from one side.
-constexpr int kHalfShell[13][3] = {{1, 0, 0},  {-1, 1, 0}, {0, 1, 0},  {1, 1, 0}, {-1, -1, 1},
-                                   {0, -1, 1}, {1, -1, 1}, {-1, 0, 1}, {0, 0, 1}, {1, 0, 1},
-                                   {-1, 1, 1}, {0, 1, 1},  {1, 1, 1}};
-
-struct PairTester {
-  const std::vector<Vec3>& x;
-  const std::vector<double>& r;
+// Distance tests of one sphere against runs of a level's members; candidates are pushed as slot
+// pairs (smaller slot first).
+struct PairSink {
   const PeriodicBox& box;
   double skin;
   PairList& out;
   std::uint64_t tests = 0;
-  bool periodic = box.any_periodic();
+  std::uint64_t lookups = 0;  // cell probes through the hash or direct table
 
-  void operator()(std::uint32_t i, std::uint32_t j) {
-    ++tests;
-    Vec3 d = x[i] - x[j];
-    if (periodic) d = box.minimum_image_wrapped(d);  // positions are wrapped before a build
-    const double reach = r[i] + r[j] + skin;
-    if (norm2(d) < reach * reach) out.push(std::min(i, j), std::max(i, j));
+  // Members [first, last) of `level`, whose periodic image is displaced by `shift`.
+  void run(const Sphere& a, std::uint32_t slot_a, const CellLevel& level, std::uint32_t first,
+           std::uint32_t last, const Vec3& shift) {
+    tests += last - first;
+    const Sphere* sphere = level.spheres().data();
+    const std::uint32_t* slot = level.slots().data();
+    const double ax = a.x - shift[0], ay = a.y - shift[1], az = a.z - shift[2], ar = a.r + skin;
+    for (std::uint32_t k = first; k < last; ++k) {
+      const double dx = ax - sphere[k].x, dy = ay - sphere[k].y, dz = az - sphere[k].z;
+      const double reach = ar + sphere[k].r;
+      if (dx * dx + dy * dy + dz * dz < reach * reach)
+        out.push(std::min(slot_a, slot[k]), std::max(slot_a, slot[k]));
+    }
+  }
+
+  // The same under the minimum image, for periodic boxes too small for one image per cell;
+  // with `after_slot`, only members of a larger slot (each pair once).
+  void run_minimum_image(const Sphere& a, std::uint32_t slot_a, const CellLevel& level,
+                         std::uint32_t first, std::uint32_t last, bool after_slot) {
+    const Sphere* sphere = level.spheres().data();
+    const std::uint32_t* slot = level.slots().data();
+    for (std::uint32_t k = first; k < last; ++k) {
+      if (after_slot && slot[k] <= slot_a) continue;
+      ++tests;
+      const Vec3 d =
+          box.minimum_image_wrapped(Vec3{a.x - sphere[k].x, a.y - sphere[k].y, a.z - sphere[k].z});
+      const double reach = a.r + sphere[k].r + skin;
+      if (norm2(d) < reach * reach) out.push(std::min(slot_a, slot[k]), std::max(slot_a, slot[k]));
+    }
   }
 };
 
-// All pairs within one level: own cell + half shell with the proximity check; when a periodic
-// axis has fewer than 3 cells, every distinct neighbour cell once with j > i instead.
-void same_level_pairs(const CellLevel& level, const std::vector<Vec3>& x,
-                      const std::vector<double>& r, double reach_extra, PairTester& test) {
-  bool half_shell = true;
-  for (int a = 0; a < 3; ++a)
-    if (level.periodic_cells(a) != 0 && level.periodic_cells(a) < 3) half_shell = false;
+// A periodic axis with fewer than 3 cells: every distinct neighbour cell once, each pair once
+// by slot order, under the minimum image.
+void small_box_pairs(const CellLevel& level, PairSink& sink) {
   std::vector<long> neighbours;
   for (std::size_t cell = 0; cell < level.cell_count(); ++cell) {
     long c[3];
     level.coordinates(cell, c);
-    const std::uint32_t* first = level.begin(cell);
-    const std::uint32_t* last = level.end(cell);
-    if (!half_shell) {
-      neighbours.clear();
-      for (int dz = -1; dz <= 1; ++dz)
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dx = -1; dx <= 1; ++dx) {
-            const long nb = level.find(c[0] + dx, c[1] + dy, c[2] + dz);
-            if (nb >= 0) neighbours.push_back(nb);
-          }
-      std::sort(neighbours.begin(), neighbours.end());
-      neighbours.erase(std::unique(neighbours.begin(), neighbours.end()), neighbours.end());
-      for (const std::uint32_t* a = first; a != last; ++a)
-        for (long nb : neighbours)
-          for (const std::uint32_t* b = level.begin(std::size_t(nb));
-               b != level.end(std::size_t(nb)); ++b)
-            if (*b > *a) test(*a, *b);
+    neighbours.clear();
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const long nb = level.find(c[0] + dx, c[1] + dy, c[2] + dz);
+          if (nb >= 0) neighbours.push_back(nb);
+        }
+    std::sort(neighbours.begin(), neighbours.end());
+    neighbours.erase(std::unique(neighbours.begin(), neighbours.end()), neighbours.end());
+    for (std::uint32_t q = level.first(cell); q < level.last(cell); ++q)
+      for (long nb : neighbours)
+        sink.run_minimum_image(level.spheres()[q], level.slots()[q], level,
+                               level.first(std::size_t(nb)), level.last(std::size_t(nb)), true);
+  }
+}
+
+// The half shell in key order (x slowest, z fastest): of a cell's 26 neighbours, the 13 that come
+// after it, in five rows along z: (x, y, z+1), (x, y+1, z−1..z+1), (x+1, y−1..y+1, z−1..z+1).
+constexpr int kShellRow[5][2] = {{0, 0}, {0, 1}, {1, -1}, {1, 0}, {1, 1}};  // (dx, dy)
+
+// A neighbour cell found for the half shell: where it is, its offset, the shift of its image.
+struct ShellCell {
+  long cell;
+  int offset[3];
+  Vec3 shift;
+};
+
+// The half-shell neighbours of `cell` (coordinates c). Rows that stay inside the box are read
+// from the sorted cell list through one forward-only cursor per row (no hashing: successive
+// cells' rows only move forward in key order); rows that wrap a periodic axis are looked up.
+int half_shell_cells(const CellLevel& level, const PeriodicBox& box, const long c[3],
+                     std::size_t cursor[5], ShellCell out[13], std::uint64_t& lookups) {
+  int count = 0;
+  for (int row = 0; row < 5; ++row) {
+    const long dx = kShellRow[row][0], dy = kShellRow[row][1];
+    const long z_lo = row == 0 ? c[2] + 1 : c[2] - 1, z_hi = c[2] + 1;
+    const long xy[2] = {c[0] + dx, c[1] + dy};
+    bool wraps = false, empty = false;
+    for (int a = 0; a < 2; ++a) {
+      const long n = level.periodic_cells(a);
+      if (xy[a] < 0 || (n && xy[a] >= n)) (n ? wraps : empty) = true;
+    }
+    const long nz = level.periodic_cells(2);
+    if (nz && (z_lo < 0 || z_hi >= nz)) wraps = true;
+    if (empty) continue;
+    if (wraps) {
+      for (long z = z_lo; z <= z_hi; ++z) {
+        long nb[3] = {xy[0], xy[1], z};
+        Vec3 shift{0.0, 0.0, 0.0};
+        for (int a = 0; a < 3; ++a) {
+          const long n = level.periodic_cells(a);
+          if (n && nb[a] < 0) nb[a] += n, shift[a] = -box.length(a);
+          if (n && nb[a] >= n) nb[a] -= n, shift[a] = box.length(a);
+        }
+        ++lookups;
+        const long found = level.find_wrapped(nb[0], nb[1], nb[2]);
+        if (found >= 0) out[count++] = {found, {int(dx), int(dy), int(z - c[2])}, shift};
+      }
       continue;
     }
-    // Neighbour cells of the half shell, looked up once per cell.
-    long shell[13];
-    for (int s = 0; s < 13; ++s)
-      shell[s] =
-          level.find(c[0] + kHalfShell[s][0], c[1] + kHalfShell[s][1], c[2] + kHalfShell[s][2]);
+    const std::uint64_t key_lo = CellLevel::pack(xy[0], xy[1], std::max(0L, z_lo));
+    const std::uint64_t key_hi = CellLevel::pack(xy[0], xy[1], z_hi);
+    std::size_t& q = cursor[row];
+    while (q < level.cell_count() && level.key(q) < key_lo) ++q;
+    for (std::size_t k = q; k < level.cell_count() && level.key(k) <= key_hi; ++k) {
+      const long z = long(level.key(k) & std::uint64_t(kAxisLimit));
+      out[count++] = {long(k), {int(dx), int(dy), int(z - c[2])}, Vec3{0.0, 0.0, 0.0}};
+    }
+  }
+  return count;
+}
+
+// All pairs within one level: own cell + half shell with the proximity check.
+void same_level_pairs(const CellLevel& level, const PeriodicBox& box, double reach_extra,
+                      PairSink& sink) {
+  for (int a = 0; a < 3; ++a)
+    if (level.periodic_cells(a) != 0 && level.periodic_cells(a) < 3)
+      return small_box_pairs(level, sink);
+  const Vec3 no_shift{0.0, 0.0, 0.0};
+  std::size_t cursor[5] = {0, 0, 0, 0, 0};
+  ShellCell shell[13];
+  for (std::size_t cell = 0; cell < level.cell_count(); ++cell) {
+    long c[3];
+    level.coordinates(cell, c);
+    const int shell_count = half_shell_cells(level, box, c, cursor, shell, sink.lookups);
     double lo[3], hi[3];
     for (int a = 0; a < 3; ++a) lo[a] = level.lower(c[a], a), hi[a] = lo[a] + level.edge(a);
-    for (const std::uint32_t* a = first; a != last; ++a) {
-      const std::uint32_t i = *a;
-      for (const std::uint32_t* b = a + 1; b != last; ++b) test(i, *b);
+    const std::uint32_t last = level.last(cell);
+    for (std::uint32_t q = level.first(cell); q < last; ++q) {
+      const Sphere& p = level.spheres()[q];
+      const std::uint32_t slot = level.slots()[q];
+      sink.run(p, slot, level, q + 1, last, no_shift);
       // Proximity check (§2.1): sweep a neighbour only if the particle's reach crosses into it.
-      const double reach = r[i] + reach_extra;
-      double gap_lo[3], gap_hi[3];
-      for (int ax = 0; ax < 3; ++ax) {
-        gap_lo[ax] = std::max(0.0, x[i][ax] - lo[ax]);
-        gap_hi[ax] = std::max(0.0, hi[ax] - x[i][ax]);
-      }
-      for (int s = 0; s < 13; ++s) {
-        if (shell[s] < 0) continue;
+      const double reach = p.r + reach_extra;
+      const double gap_lo[3] = {std::max(0.0, p.x - lo[0]), std::max(0.0, p.y - lo[1]),
+                                std::max(0.0, p.z - lo[2])};
+      const double gap_hi[3] = {std::max(0.0, hi[0] - p.x), std::max(0.0, hi[1] - p.y),
+                                std::max(0.0, hi[2] - p.z)};
+      for (int s = 0; s < shell_count; ++s) {
         double gap2 = 0.0;
         for (int ax = 0; ax < 3; ++ax) {
-          const int o = kHalfShell[s][ax];
+          const int o = shell[s].offset[ax];
           const double gap = o > 0 ? gap_hi[ax] : (o < 0 ? gap_lo[ax] : 0.0);
           gap2 += gap * gap;
         }
         if (gap2 >= reach * reach) continue;
-        for (const std::uint32_t* b = level.begin(std::size_t(shell[s]));
-             b != level.end(std::size_t(shell[s])); ++b)
-          test(i, *b);
+        const std::size_t nb = std::size_t(shell[s].cell);
+        sink.run(p, slot, level, level.first(nb), level.last(nb), shell[s].shift);
       }
     }
   }
 }
 
-// Distinct wrapped cell indices along one axis covering [x − reach, x + reach], each with the
-// smallest gap from x to that cell (over its periodic images).
-void axis_cover(const CellLevel& level, int axis, double x, double reach,
-                std::vector<std::pair<long, double>>& out) {
+// A cell index along one axis within reach of a coordinate: wrapped, with the smallest gap from
+// the coordinate to the cell and the shift of the periodic image that gap belongs to.
+struct CoverCell {
+  long index;
+  double gap, shift;
+};
+
+// Cells along one axis covering [x − reach, x + reach]. Returns false when two images of one
+// cell fall within reach (a periodic box narrower than the reach): the cells are then listed
+// once each and the caller must use the minimum image.
+bool axis_cover(const CellLevel& level, const PeriodicBox& box, int axis, double x, double reach,
+                std::vector<CoverCell>& out) {
   out.clear();
   const long lo = level.index_of(x - reach, axis), hi = level.index_of(x + reach, axis);
   const long n = level.periodic_cells(axis);
+  const bool unique_images = n == 0 || hi - lo + 1 <= n;
   for (long index = lo; index <= hi; ++index) {
     const double cell_lo = level.lower(index, axis), cell_hi = cell_lo + level.edge(axis);
     const double gap = x < cell_lo ? cell_lo - x : (x > cell_hi ? x - cell_hi : 0.0);
     const long wrapped = n > 0 ? ((index % n) + n) % n : index;
-    auto it =
-        std::find_if(out.begin(), out.end(), [&](const auto& e) { return e.first == wrapped; });
+    const double shift = n > 0 ? double((index - wrapped) / n) * box.length(axis) : 0.0;
+    if (unique_images) {
+      out.push_back({wrapped, gap, shift});
+      continue;
+    }
+    auto it = std::find_if(out.begin(), out.end(),
+                           [&](const CoverCell& e) { return e.index == wrapped; });
     if (it == out.end())
-      out.emplace_back(wrapped, gap);
+      out.push_back({wrapped, gap, 0.0});
     else
-      it->second = std::min(it->second, gap);
+      it->gap = std::min(it->gap, gap);
   }
+  return unique_images;
+}
+
+// Every particle of `from` visits the cells of `to` that its reach sphere (r_i + reach_extra)
+// touches. `to` holds the other level, so no pair is met twice.
+void cross_level_pairs(const CellLevel& from, const CellLevel& to, const PeriodicBox& box,
+                       double reach_extra, PairSink& sink) {
+  std::vector<CoverCell> cover[3];
+  for (std::uint32_t q = 0; q < from.slots().size(); ++q) {
+    const Sphere& p = from.spheres()[q];
+    const std::uint32_t slot = from.slots()[q];
+    const double reach = p.r + reach_extra, reach2 = reach * reach;
+    const double centre[3] = {p.x, p.y, p.z};
+    bool images = true;
+    for (int a = 0; a < 3; ++a) images &= axis_cover(to, box, a, centre[a], reach, cover[a]);
+    for (const CoverCell& z : cover[2])
+      for (const CoverCell& y : cover[1]) {
+        const double gyz = y.gap * y.gap + z.gap * z.gap;
+        if (gyz >= reach2) continue;
+        for (const CoverCell& x : cover[0]) {
+          if (x.gap * x.gap + gyz >= reach2) continue;
+          ++sink.lookups;
+          const long cell = to.find_wrapped(x.index, y.index, z.index);
+          if (cell < 0) continue;
+          if (images)
+            sink.run(p, slot, to, to.first(std::size_t(cell)), to.last(std::size_t(cell)),
+                     Vec3{x.shift, y.shift, z.shift});
+          else
+            sink.run_minimum_image(p, slot, to, to.first(std::size_t(cell)),
+                                   to.last(std::size_t(cell)), false);
+        }
+      }
+  }
+}
+
+// What the counts of one level say about it, for choosing how to search across levels.
+struct LevelSummary {
+  double count = 0.0;
+  double density_per_m3 = 0.0;  // particles per unit volume of the level's occupied cells
+  double edge_m = 1.0;
+  double r_mean_m = 0.0, r_max_m = 0.0;
+};
+
+constexpr double kLookupCost = kLookupCostTests;
+
+// Estimated tests and lookups when each particle of `from` visits the cells of `to` within its
+// reach: the reach box, padded by one cell, in cells and in particles of `to`.
+double visit_cost(const LevelSummary& from, const LevelSummary& to, double skin) {
+  const double span = 2.0 * (from.r_mean_m + to.r_max_m + skin) + to.edge_m;
+  const double lookups = std::pow(span / to.edge_m, 3.0);
+  return from.count * (kLookupCost * lookups + span * span * span * to.density_per_m3);
 }
 
 }  // namespace
@@ -153,8 +292,9 @@ long CellLevel::index_of(double coordinate, int axis) const {
   return long(std::floor((coordinate - origin_[axis]) / edge_[axis]));
 }
 
-void CellLevel::build(const std::vector<Vec3>& x, const std::vector<std::uint32_t>& members,
-                      const PeriodicBox& box, const Vec3& origin, double cell_m) {
+void CellLevel::build(const std::vector<Vec3>& x, const std::vector<double>& r,
+                      const std::vector<std::uint32_t>& members, const PeriodicBox& box,
+                      const Vec3& origin, double cell_m) {
   origin_ = origin;
   for (int a = 0; a < 3; ++a) {
     if (box.periodic[a]) {
@@ -193,7 +333,7 @@ void CellLevel::build(const std::vector<Vec3>& x, const std::vector<std::uint32_
     auto linear = [this](std::uint64_t key) {
       const long ix = long(key >> (2 * kAxisBits)), iy = long((key >> kAxisBits) & kAxisLimit),
                  iz = long(key & kAxisLimit);
-      return std::size_t((iz * dims_[1] + iy) * dims_[0] + ix);
+      return std::size_t((ix * dims_[1] + iy) * dims_[2] + iz);  // key order
     };
     direct_cell_.assign(std::size_t(box_cells), -1);
     std::vector<std::uint32_t> count(std::size_t(box_cells) + 1, 0);
@@ -213,6 +353,7 @@ void CellLevel::build(const std::vector<Vec3>& x, const std::vector<std::uint32_
       cell_key_[std::size_t(direct_cell_[b])] = keys[k];
       members_[count[b]++] = members[k];
     }
+    fill_spheres(x, r);
     return;
   }
   std::vector<std::uint32_t> slots(members);
@@ -231,6 +372,15 @@ void CellLevel::build(const std::vector<Vec3>& x, const std::vector<std::uint32_
     while (table_key_[slot] != ~std::uint64_t(0)) slot = (slot + 1) & table_mask_;
     table_key_[slot] = cell_key_[cell];
     table_cell_[slot] = std::uint32_t(cell);
+  }
+  fill_spheres(x, r);
+}
+
+void CellLevel::fill_spheres(const std::vector<Vec3>& x, const std::vector<double>& r) {
+  sphere_.resize(members_.size());
+  for (std::size_t k = 0; k < members_.size(); ++k) {
+    const Vec3& p = x[members_[k]];
+    sphere_[k] = {p[0], p[1], p[2], r[members_[k]]};
   }
 }
 
@@ -252,7 +402,7 @@ long CellLevel::find_wrapped(long ix, long iy, long iz) const {
   if (ix < 0 || iy < 0 || iz < 0) return -1;
   if (direct_) {
     if (ix >= dims_[0] || iy >= dims_[1] || iz >= dims_[2]) return -1;
-    return direct_cell_[std::size_t((iz * dims_[1] + iy) * dims_[0] + ix)];
+    return direct_cell_[std::size_t((ix * dims_[1] + iy) * dims_[2] + iz)];
   }
   if (ix > kAxisLimit || iy > kAxisLimit || iz > kAxisLimit) return -1;
   const std::uint64_t key = pack(ix, iy, iz);
@@ -293,54 +443,59 @@ void HashedGrid::find_pairs(const std::vector<Vec3>& x, const std::vector<double
     c0 = std::max(c0, extent / double(kAxisLimit - 2));
   }
   const int k = std::max(1, settings.subcells_per_axis);
-  const double c1 = c0 / double(k);
+  const int levels = k == 1 ? 1 : std::clamp(settings.levels, 1, kMaxGridLevels);
+  double edge[kMaxGridLevels];
+  for (int l = 0; l < levels; ++l) edge[l] = c0 / std::pow(double(k), l);
 
-  coarse_members_.clear();
-  fine_members_.clear();
-  double r_fine_max = 0.0, r_coarse_max = 0.0;
+  // Each particle on the deepest level whose cells it fits.
+  LevelSummary summary[kMaxGridLevels];
+  for (int l = 0; l < kMaxGridLevels; ++l) members_[l].clear();
   for (std::uint32_t i = 0; i < n; ++i) {
-    if (k > 1 && 2.0 * r[i] + skin <= c1) {
-      fine_members_.push_back(i);
-      r_fine_max = std::max(r_fine_max, r[i]);
-    } else {
-      coarse_members_.push_back(i);
-      r_coarse_max = std::max(r_coarse_max, r[i]);
-    }
+    const double reach = 2.0 * r[i] + skin;
+    int l = levels - 1;
+    while (l > 0 && reach > edge[l]) --l;
+    members_[l].push_back(i);
+    summary[l].r_mean_m += r[i];
+    summary[l].r_max_m = std::max(summary[l].r_max_m, r[i]);
   }
-  PairTester test{x, r, box, skin, out};
-  coarse_.build(x, coarse_members_, box, origin, c0);
-  same_level_pairs(coarse_, x, r, r_coarse_max + skin, test);
-  stats_.cells = coarse_.cell_count();
-  if (!fine_members_.empty()) {
-    fine_.build(x, fine_members_, box, origin, c1);
-    same_level_pairs(fine_, x, r, r_fine_max + skin, test);
-    stats_.subcells = fine_.cell_count();
-    // Coarse–fine: each coarse particle visits the sub-cells its reach sphere touches.
-    std::vector<std::pair<long, double>> cover[3];
-    for (std::uint32_t i : coarse_members_) {
-      const double reach = r[i] + r_fine_max + skin;
-      for (int a = 0; a < 3; ++a) axis_cover(fine_, a, x[i][a], reach, cover[a]);
-      for (const auto& [cz, gz] : cover[2])
-        for (const auto& [cy, gy] : cover[1]) {
-          const double gyz = gy * gy + gz * gz;
-          if (gyz >= reach * reach) continue;
-          for (const auto& [cx, gx] : cover[0]) {
-            if (gx * gx + gyz >= reach * reach) continue;
-            const long cell = fine_.find_wrapped(cx, cy, cz);
-            if (cell < 0) continue;
-            for (const std::uint32_t* b = fine_.begin(std::size_t(cell));
-                 b != fine_.end(std::size_t(cell)); ++b)
-              test(i, *b);
-          }
-        }
-    }
+  PairSink sink{box, skin, out};
+  int used[kMaxGridLevels], used_count = 0;
+  for (int l = 0; l < levels; ++l) {
+    if (members_[l].empty() && l > 0) continue;
+    level_[l].build(x, r, members_[l], box, origin, edge[l]);
+    same_level_pairs(level_[l], box, summary[l].r_max_m + skin, sink);
+    LevelSummary& s = summary[l];
+    s.count = double(members_[l].size());
+    s.r_mean_m /= std::max(1.0, s.count);
+    s.edge_m = level_[l].edge(0);
+    const double cell_volume = level_[l].edge(0) * level_[l].edge(1) * level_[l].edge(2);
+    s.density_per_m3 = s.count / std::max(1e-300, double(level_[l].cell_count()) * cell_volume);
+    used[used_count++] = l;
+    stats_.level_particles[l] = members_[l].size();
+    if (l == 0)
+      stats_.cells = level_[l].cell_count();
+    else
+      stats_.subcells += level_[l].cell_count(), stats_.fine_particles += members_[l].size();
   }
-  stats_.distance_tests = test.tests;
-  stats_.coarse_particles = coarse_members_.size();
-  stats_.fine_particles = fine_members_.size();
-  stats_.cell_m = coarse_.edge(0);
-  stats_.subcell_m = fine_members_.empty() ? 0.0 : fine_.edge(0);
+  // Across levels: from whichever side the estimate says is cheaper.
+  for (int a = 0; a < used_count; ++a)
+    for (int b = a + 1; b < used_count; ++b) {
+      const int coarse = used[a], fine = used[b];
+      if (members_[coarse].empty()) continue;
+      const bool upwards = visit_cost(summary[fine], summary[coarse], skin) <
+                           visit_cost(summary[coarse], summary[fine], skin);
+      if (upwards)
+        cross_level_pairs(level_[fine], level_[coarse], box, summary[coarse].r_max_m + skin, sink);
+      else
+        cross_level_pairs(level_[coarse], level_[fine], box, summary[fine].r_max_m + skin, sink);
+    }
+  stats_.distance_tests = sink.tests;
+  stats_.cell_lookups = sink.lookups;
+  stats_.coarse_particles = members_[0].size();
+  stats_.cell_m = level_[0].edge(0);
+  stats_.subcell_m = levels > 1 && used_count > 1 ? level_[used[1]].edge(0) : 0.0;
   stats_.subcells_per_axis = k;
+  stats_.levels = used_count;
 }
 
 std::vector<std::uint32_t> spatial_order(const std::vector<Vec3>& x, const PeriodicBox& box) {
@@ -381,41 +536,80 @@ std::vector<std::uint32_t> spatial_order(const std::vector<Vec3>& x, const Perio
   return order;
 }
 
-int choose_subcells_per_axis(const std::vector<double>& r, double skin, double volume) {
-  if (r.size() < 2 || volume <= 0.0) return 1;
-  double d_max = 0.0;
-  for (double radius : r) d_max = std::max(d_max, 2.0 * radius);
-  const double n_total = double(r.size()), density = n_total / volume;
-  const double c0 = d_max + skin;
-  double best_cost = 0.0;
-  int best_k = 1;
-  for (int k = 1; k <= 8; ++k) {
-    const double c1 = c0 / k;
-    // Fine particles: 2r + skin <= c1 (none at k = 1).
-    double n_fine = 0.0, fine_d_max = 0.0, coarse_d_sum = 0.0;
-    for (double radius : r) {
-      const double d = 2.0 * radius;
-      if (k > 1 && d + skin <= c1)
-        n_fine += 1.0, fine_d_max = std::max(fine_d_max, d);
-      else
-        coarse_d_sum += d;
-    }
-    const double n_coarse = n_total - n_fine;
-    const double d_coarse_mean = n_coarse > 0 ? coarse_d_sum / n_coarse : 0.0;
-    const double fine_reach = n_fine > 0 ? fine_d_max + skin : 0.0;
-    // Expected tests: each particle meets the others of its level in ~half of 27 cells (half
-    // shell, own cell halved); each coarse particle scans the fines in its reach box and probes
-    // the sub-cells there.
-    const double coarse_coarse = n_coarse * 13.5 * c0 * c0 * c0 * density * (n_coarse / n_total);
-    const double fine_fine = n_fine * 13.5 * c1 * c1 * c1 * density * (n_fine / n_total);
-    const double box_edge = d_coarse_mean + fine_reach + c1;
-    const double coarse_fine =
-        n_coarse * box_edge * box_edge * box_edge * density * (n_fine / n_total);
-    const double lookups = n_fine > 0 ? n_coarse * std::pow(box_edge / c1, 3.0) : 0.0;
-    const double cost = coarse_coarse + fine_fine + coarse_fine + 2.0 * lookups;
-    if (k == 1 || cost < best_cost) best_cost = cost, best_k = k;
+namespace {
+
+// Diameters in logarithmic bins: the cost model evaluates every division on bins, not particles.
+struct DiameterBin {
+  double count = 0.0, d_sum = 0.0, d_max = 0.0;
+};
+
+// Estimated distance tests plus weighted lookups per rebuild for one division, at uniform
+// number density (docs/contact-search.md).
+double division_cost(const std::vector<DiameterBin>& bins, double skin, double volume, double c0,
+                     int k, int levels) {
+  double edge[kMaxGridLevels];
+  for (int l = 0; l < levels; ++l) edge[l] = c0 / std::pow(double(k), l);
+  LevelSummary level[kMaxGridLevels];
+  for (const DiameterBin& bin : bins) {
+    if (bin.count == 0.0) continue;
+    int l = levels - 1;
+    while (l > 0 && bin.d_max + skin > edge[l]) --l;
+    level[l].count += bin.count;
+    level[l].r_mean_m += 0.5 * bin.d_sum;
+    level[l].r_max_m = std::max(level[l].r_max_m, 0.5 * bin.d_max);
   }
-  return best_k;
+  double cost = 0.0;
+  for (int l = 0; l < levels; ++l) {
+    LevelSummary& s = level[l];
+    s.edge_m = edge[l];
+    s.density_per_m3 = s.count / volume;
+    s.r_mean_m /= std::max(1.0, s.count);
+    if (s.count == 0.0) continue;
+    // Half shell and own cell: 13.5 cells of tests, 13 lookups per occupied cell.
+    const double cell_volume = edge[l] * edge[l] * edge[l];
+    const double cells = std::min(s.count, volume / cell_volume);
+    cost += s.count * 13.5 * cell_volume * s.density_per_m3 + kLookupCost * 13.0 * cells;
+    for (int c = 0; c < l; ++c)
+      if (level[c].count > 0.0)
+        cost += std::min(visit_cost(level[c], s, skin), visit_cost(s, level[c], skin));
+  }
+  return cost;
+}
+
+}  // namespace
+
+GridDivision choose_grid_division(const std::vector<double>& r, double skin, double volume,
+                                  std::optional<int> fixed_k, std::optional<int> fixed_levels) {
+  auto normalised = [](int k, int levels) {
+    return k <= 1 ? GridDivision{1, 1} : GridDivision{k, std::clamp(levels, 2, kMaxGridLevels)};
+  };
+  if (fixed_levels && *fixed_levels <= 1) return {1, 1};
+  if (fixed_k) return normalised(*fixed_k, fixed_levels.value_or(2));
+  if (r.size() < 2 || volume <= 0.0) return {};
+  const auto [lo, hi] = std::minmax_element(r.begin(), r.end());
+  const double d_min = 2.0 * *lo, d_max = 2.0 * *hi;
+  const double c0 = d_max + skin;
+  constexpr int kBins = 256;
+  std::vector<DiameterBin> bins(kBins);
+  const double log_span = std::log(std::max(1.0 + 1e-12, d_max / d_min));
+  for (double radius : r) {
+    const double d = 2.0 * radius;
+    const int b = std::clamp(int(std::log(d / d_min) / log_span * kBins), 0, kBins - 1);
+    bins[std::size_t(b)].count += 1.0;
+    bins[std::size_t(b)].d_sum += d;
+    bins[std::size_t(b)].d_max = std::max(bins[std::size_t(b)].d_max, d);
+  }
+  GridDivision best{1, 1};
+  double best_cost = division_cost(bins, skin, volume, c0, 1, 1);
+  for (int k = 2; k <= 8; ++k)
+    for (int levels = 2; levels <= kMaxGridLevels; ++levels) {
+      if (fixed_levels && levels != std::clamp(*fixed_levels, 2, kMaxGridLevels)) continue;
+      // A level finer than the smallest particle holds nobody: no deeper division helps.
+      if (c0 / std::pow(double(k), levels - 1) < d_min + skin && levels > 2) continue;
+      const double cost = division_cost(bins, skin, volume, c0, k, levels);
+      if (cost < best_cost) best_cost = cost, best = {k, levels};
+    }
+  return best;
 }
 
 }  // namespace millsim

@@ -102,7 +102,7 @@ void NeighborList::sort_pairs_by_first(std::size_t particle_count) {
   pairs = std::move(sorted);
 }
 
-double NeighborList::steer_skin(const ParticleStore& p) const {
+double NeighborList::steer_skin(const ParticleStore& p, double steps_per_skin) const {
   // Per step, a candidate costs one evaluation in the force loop and a rebuild costs about
   // kRebuildPerParticle evaluations per particle (bench/RESULTS.md: 300–740 ns per particle
   // against 5–8 ns per candidate). Candidates C(s') for s' <= s are counted from this list's
@@ -112,12 +112,14 @@ double NeighborList::steer_skin(const ParticleStore& p) const {
   const double s = settings_.skin_m;
   if (s <= 0.0 || pairs.size() == 0) return s;
   std::vector<double> below(kBins + 1, 0.0);  // below[b]: candidates with gap < s·b/kBins
-  for (std::size_t k = 0; k < pairs.size(); ++k) {
+  // A regular sample of at most ~32 000 candidates, each standing for `stride` of them.
+  const std::size_t stride = std::max<std::size_t>(1, pairs.size() / 32768);
+  for (std::size_t k = 0; k < pairs.size(); k += stride) {
     const std::uint32_t i = pairs.first[k], j = pairs.second[k];
     const double gap =
         norm(p.position_m[i] - p.position_m[j] - pair_shift(k)) - p.radius_m[i] - p.radius_m[j];
     const int bin = std::clamp(int(std::ceil(gap / s * kBins)), 0, kBins);
-    below[std::size_t(bin)] += 1.0;
+    below[std::size_t(bin)] += double(stride);
   }
   for (int b = 0; b < kBins; ++b) below[std::size_t(b + 1)] += below[std::size_t(b)];
   const double slope = (below[kBins] - below[kBins / 2]) / (0.5 * s);
@@ -125,18 +127,28 @@ double NeighborList::steer_skin(const ParticleStore& p) const {
     if (skin >= s) return below[kBins] + (skin - s) * slope;
     return below[std::size_t(std::clamp(int(skin / s * kBins), 0, kBins))];
   };
-  const double interval_per_skin =
-      double(steps_since_rebuild_) / std::max(previous_skin_m_, 1e-300);
   auto cost = [&](double skin) {
     return candidates(skin) +
-           kRebuildPerParticle * double(p.size()) / std::max(1.0, interval_per_skin * skin);
+           kRebuildPerParticle * double(p.size()) / std::max(1.0, steps_per_skin * skin);
   };
   double best = s, best_cost = cost(s);
-  for (double f : {0.5, 0.63, 0.79, 1.26, 1.59, 2.0}) {
+  for (double f : {0.25, 0.32, 0.4, 0.5, 0.63, 0.79, 1.26, 1.59, 2.0}) {
     const double skin = std::clamp(s * f, skin_floor_m(p), settings_.max_skin_m);
     if (cost(skin) < best_cost) best = skin, best_cost = cost(skin);
   }
   return best;
+}
+
+GridDivision NeighborList::division(const ParticleStore& p, const PeriodicBox& box,
+                                    bool population_changed) {
+  const double skin = settings_.skin_m;
+  const bool skin_moved = skin > 1.25 * division_skin_m_ || skin < 0.8 * division_skin_m_;
+  if (population_changed || division_skin_m_ < 0.0 || skin_moved) {
+    division_ = choose_grid_division(p.radius_m, skin, occupied_volume_m3(p.position_m, box),
+                                     settings_.subcells_per_axis, settings_.grid_levels);
+    division_skin_m_ = skin;
+  }
+  return division_;
 }
 
 bool NeighborList::update(ParticleStore& p, const PeriodicBox& box,
@@ -151,10 +163,23 @@ bool NeighborList::update(ParticleStore& p, const PeriodicBox& box,
   }
   if (box.any_periodic())
     for (Vec3& x : p.position_m) box.wrap(x);
-  // Keep neighbours in space neighbours in memory; history follows by id. Small sets fit in
-  // cache anyway and keep their slot order (tests rely on it).
-  if (p.size() >= kReorderMinParticles) p.permute(spatial_order(p.position_m, box));
+  // Keep neighbours in space neighbours in memory; history follows by id. Reordered when the
+  // population changed or particles may have moved half a mean spacing since the last reorder.
+  // Small sets fit in cache anyway and keep their slot order (tests rely on it).
+  if (p.size() >= kReorderMinParticles && (population_changed || reorder_due())) {
+    p.permute(spatial_order(p.position_m, box));
+    reorder_spacing_m_ = std::cbrt(occupied_volume_m3(p.position_m, box) / double(p.size()));
+    motion_since_reorder_m_ = 0.0;
+  }
+  const bool first_build = stats_.rebuilds == 0;
   rebuild(p, box, walls, population_changed);
+  // The first list's skin is the size rule's guess; when the steering already knows better (from
+  // the speeds), build again at once rather than carry a far too thick list for its lifetime.
+  if (first_build && next_skin_m_ && *next_skin_m_ < 0.67 * settings_.skin_m) {
+    steps_since_rebuild_ = 0;  // nothing observed yet: the next skin is predicted again
+    rebuild(p, box, walls, false);
+  }
+  motion_since_reorder_m_ += 0.5 * settings_.skin_m;  // what the new list lets anyone move
   motion_bound_m_ = 0.0;
   steps_since_rebuild_ = 0;
   population_version_ = p.population_version;  // after any permute above
@@ -184,9 +209,9 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
     settings_.skin_m = population_changed || !next_skin_m_
                            ? automatic_skin_m(p.radius_m, settings_.max_skin_m)
                            : *next_skin_m_;
-  const int k = settings_.subcells_per_axis.value_or(choose_subcells_per_axis(
-      p.radius_m, settings_.skin_m, occupied_volume_m3(p.position_m, box)));
-  grid_.find_pairs(p.position_m, p.radius_m, box, {settings_.skin_m, k, settings_.cell_size_m},
+  const GridDivision split = division(p, box, population_changed);
+  grid_.find_pairs(p.position_m, p.radius_m, box,
+                   {settings_.skin_m, split.subcells_per_axis, split.levels, settings_.cell_size_m},
                    pairs);
   stats_.last_search = grid_.stats();
   stats_.distance_tests += grid_.stats().distance_tests;
@@ -266,10 +291,16 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
     }
   newborn_.clear();
 
-  if (settings_.automatic_skin && !population_changed && steps_since_rebuild_ > 0)
-    next_skin_m_ = steer_skin(p);
-  else
-    next_skin_m_.reset();
+  next_skin_m_.reset();
+  if (settings_.automatic_skin && !population_changed && steps_since_rebuild_ > 0) {
+    next_skin_m_ = steer_skin(p, double(steps_since_rebuild_) / std::max(previous_skin_m_, 1e-300));
+  } else if (settings_.automatic_skin && settings_.step_s > 0.0) {
+    // No interval observed for this population: predict it, skin/2 at the largest speed.
+    double max_speed2 = 0.0;
+    for (const Vec3& v : p.velocity_m_per_s) max_speed2 = std::max(max_speed2, norm2(v));
+    if (max_speed2 > 0.0)
+      next_skin_m_ = steer_skin(p, 1.0 / (2.0 * std::sqrt(max_speed2) * settings_.step_s));
+  }
   reference_position_m_ = p.position_m;
   reference_id_ = p.id;
   ++stats_.rebuilds;

@@ -46,7 +46,9 @@ struct NeighborSettings {
   bool automatic_skin = false;  // ¼ √(d_min d_max) when the population changes, then steered
   double max_skin_m = 1e300;    // never past this (the periodic minimum image)
   std::optional<double> cell_size_m;     // lower bound on the DEM-cell edge
-  std::optional<int> subcells_per_axis;  // absent = automatic at each rebuild
+  std::optional<int> subcells_per_axis;  // absent = automatic (with the levels)
+  std::optional<int> grid_levels;        // absent = automatic, or 2 when k is given
+  double step_s = 0.0;  // DEM time step, to predict a new population's list lifetime; 0 = unknown
 };
 
 class NeighborList {
@@ -96,11 +98,22 @@ class NeighborList {
   void rebuild(const ParticleStore& particles, const PeriodicBox& box,
                const std::vector<PlaneWall>& walls, bool population_changed);
   // The skin for the next list, from this list's candidate gaps and the last rebuild interval.
-  double steer_skin(const ParticleStore& particles) const;
+  // `steps_per_skin`: steps a list lasts per metre of skin (observed, or predicted from speeds).
+  double steer_skin(const ParticleStore& particles, double steps_per_skin) const;
   void sort_pairs_by_first(std::size_t particle_count);
+  // Whether particles may have strayed far enough from the last spatial reorder (half a mean
+  // spacing) for memory order to lose its locality.
+  bool reorder_due() const { return motion_since_reorder_m_ >= 0.5 * reorder_spacing_m_; }
+
+  // The grid division for this rebuild: re-chosen when the population changed or the skin moved
+  // by more than a quarter since the last choice.
+  GridDivision division(const ParticleStore& particles, const PeriodicBox& box,
+                        bool population_changed);
 
   NeighborSettings settings_;
   HashedGrid grid_;
+  GridDivision division_;
+  double division_skin_m_ = -1.0;
   Vec3 image_shift_[27];
   double motion_bound_m_ = 0.0;
   std::uint64_t steps_since_rebuild_ = 0;
@@ -109,7 +122,9 @@ class NeighborList {
   std::uint64_t population_version_ = ~std::uint64_t(0);
   std::vector<Vec3> reference_position_m_;
   std::vector<ParticleId> reference_id_;
-  std::vector<Newborn> newborn_;  // sorted by id
+  std::vector<Newborn> newborn_;         // sorted by id
+  double reorder_spacing_m_ = 0.0;       // mean particle spacing at the last reorder
+  double motion_since_reorder_m_ = 0.0;  // bound on any particle's motion since then
   double newborn_ghost_ratio_ =
       0.15;  // overlap / smaller diameter past which a birth contact is a ghost
   NeighborStats stats_;

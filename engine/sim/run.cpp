@@ -306,6 +306,10 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
                  {"candidate_pairs", sim.neighbors().pairs.size()},
                  {"cell_m", n.last_search.cell_m},
                  {"subcells_per_axis", n.last_search.subcells_per_axis},
+                 {"grid_levels", n.last_search.levels},
+                 {"level_particles",
+                  std::vector<std::uint64_t>(n.last_search.level_particles,
+                                             n.last_search.level_particles + n.last_search.levels)},
                  {"occupied_cells", n.last_search.cells},
                  {"occupied_subcells", n.last_search.subcells},
                  {"fine_particles", n.last_search.fine_particles}};

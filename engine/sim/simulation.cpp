@@ -267,7 +267,8 @@ Simulation::Simulation(const SceneConfig& scene)
   const bool automatic_skin = !scene.search.skin_m.has_value();
   neighbors_ =
       NeighborList({std::clamp(scene.search.skin_m.value_or(0.0), 0.0, max_skin), automatic_skin,
-                    max_skin, scene.search.cell_size_m, scene.search.subcells_per_axis});
+                    max_skin, scene.search.cell_size_m, scene.search.subcells_per_axis,
+                    scene.search.grid_levels, time_.step_s});
   neighbors_.update(particles_, box_, walls_, true);
   if (gas_)
     if (auto failure = gas_->advance(particles_, time_.step_s, 0))

@@ -1,7 +1,7 @@
 // The hashed NBS grid with the sub-grid must return exactly the pair set of the O(N²) all-pairs
 // reference (compared as sorted sets, each pair once), for size ratios 1, 10, 100 and 1000,
 // dilute and clustered sets, walled and periodic boxes (including boxes of fewer than 3 cells),
-// every sub-cell division k from 1 to 8, and with a skin.
+// every sub-cell division k from 1 to 8 with 2 to 4 grid levels, and with a skin.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -57,15 +57,16 @@ Cloud random_cloud(std::size_t n, double size_ratio, double box_length, bool per
   return c;
 }
 
-void expect_same_pairs(const Cloud& c, double skin, int k) {
+void expect_same_pairs(const Cloud& c, double skin, int k, int levels = 2) {
   PairList reference, grid;
   find_pairs_all_pairs(c.x, c.r, c.box, skin, reference);
   HashedGrid hashed;
-  hashed.find_pairs(c.x, c.r, c.box, {skin, k, std::nullopt}, grid);
+  hashed.find_pairs(c.x, c.r, c.box, {skin, k, levels, std::nullopt}, grid);
   const Pairs expected = sorted_pairs(reference), found = sorted_pairs(grid);
   EXPECT_EQ(std::adjacent_find(found.begin(), found.end()), found.end())
       << "a pair was found twice";
-  ASSERT_EQ(found.size(), expected.size()) << "k = " << k << ", skin = " << skin;
+  ASSERT_EQ(found.size(), expected.size())
+      << "k = " << k << ", levels = " << levels << ", skin = " << skin;
   const auto diff = std::mismatch(found.begin(), found.end(), expected.begin());
   EXPECT_TRUE(diff.first == found.end())
       << "first difference: grid (" << diff.first->first << "," << diff.first->second
@@ -78,8 +79,10 @@ class HashedGridMatchesAllPairs
 TEST_P(HashedGridMatchesAllPairs, SameContactSet) {
   const auto [size_ratio, box_length, periodic, clustered, k] = GetParam();
   const Cloud c = random_cloud(1200, size_ratio, box_length, periodic, clustered, 7u + unsigned(k));
-  expect_same_pairs(c, 0.0, k);
-  expect_same_pairs(c, 0.004, k);
+  for (int levels = 2; levels <= kMaxGridLevels; ++levels) {
+    expect_same_pairs(c, 0.0, k, levels);
+    expect_same_pairs(c, 0.004, k, levels);
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Sets, HashedGridMatchesAllPairs,
@@ -91,9 +94,9 @@ TEST(HashedGrid, ZeroAndOneParticleGiveNoPairs) {
   PairList out;
   HashedGrid grid;
   const PeriodicBox box{{0, 0, 0}, {1, 1, 1}, {true, true, true}};
-  grid.find_pairs({}, {}, box, {0.0, 4, std::nullopt}, out);
+  grid.find_pairs({}, {}, box, {0.0, 4, 2, std::nullopt}, out);
   EXPECT_EQ(out.size(), 0u);
-  grid.find_pairs({{0.5, 0.5, 0.5}}, {0.1}, box, {0.0, 4, std::nullopt}, out);
+  grid.find_pairs({{0.5, 0.5, 0.5}}, {0.1}, box, {0.0, 4, 2, std::nullopt}, out);
   EXPECT_EQ(out.size(), 0u);
 }
 
@@ -112,7 +115,7 @@ TEST(HashedGrid, ParticlesExactlyOnCellFacesAcrossTheSeam) {
   for (int k : {1, 2, 4}) {
     PairList grid, reference;
     HashedGrid hashed;
-    hashed.find_pairs(c.x, c.r, c.box, {0.0, k, 0.125}, grid);
+    hashed.find_pairs(c.x, c.r, c.box, {0.0, k, 3, 0.125}, grid);
     find_pairs_all_pairs(c.x, c.r, c.box, 0.0, reference);
     EXPECT_EQ(sorted_pairs(grid), sorted_pairs(reference)) << "k = " << k;
   }
@@ -125,21 +128,68 @@ TEST(HashedGrid, EverythingInOneCellAndDiluteDomains) {
   expect_same_pairs(dilute, 0.0, 2);
   HashedGrid grid;
   PairList out;
-  grid.find_pairs(dilute.x, dilute.r, dilute.box, {0.0, 1, std::nullopt}, out);
+  grid.find_pairs(dilute.x, dilute.r, dilute.box, {0.0, 1, 1, std::nullopt}, out);
   EXPECT_LE(grid.stats().cells, 500u);
 }
 
-TEST(HashedGrid, AutomaticDivisionPrefersSubcellsForWideDistributions) {
-  // Expectation (paper §2.2, Fig. 3): a sub-grid pays when fines dominate a wide distribution,
-  // and not for equal sizes.
-  std::vector<double> mono(5000, 50e-6), wide;
-  std::mt19937_64 rng(1);
+// Measured work of one search: distance tests plus cell probes weighted as the cost model
+// weighs them (a probe ≈ kLookupCostTests tests).
+double measured_work(const Cloud& c, double skin, GridDivision division) {
+  HashedGrid grid;
+  PairList out;
+  grid.find_pairs(c.x, c.r, c.box, {skin, division.subcells_per_axis, division.levels, {}}, out);
+  return double(grid.stats().distance_tests) + kLookupCostTests * double(grid.stats().cell_lookups);
+}
+
+// Particles at solids fraction 0.2 in a periodic box: diameters with n(d) ∝ d^−2.5 between
+// d_max/ratio and d_max (as the shared r100 scene), or all equal.
+Cloud packing(std::size_t n, double ratio, unsigned seed) {
+  std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> u(0.0, 1.0);
-  for (int i = 0; i < 5000; ++i)
-    wide.push_back(0.5e-6 * std::pow(u(rng), -1.0 / 1.5));  // n(d) ∝ d^−2.5
-  for (double& r : wide) r = std::min(r, 50e-6);
-  EXPECT_EQ(choose_subcells_per_axis(mono, 1e-6, 1e-9), 1);
-  EXPECT_GE(choose_subcells_per_axis(wide, 1e-6, 1e-9), 3);
+  Cloud c;
+  double volume = 0.0;
+  const double d_max = 100e-6, d_min = d_max / ratio;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double a = std::pow(d_min, -1.5), b = std::pow(d_max, -1.5);
+    const double d = ratio == 1.0 ? d_max : std::pow(a - u(rng) * (a - b), -1.0 / 1.5);
+    c.r.push_back(0.5 * d);
+    volume += std::acos(-1.0) / 6.0 * d * d * d;
+  }
+  const double length = std::cbrt(volume / 0.2);
+  c.box = {{0, 0, 0}, {length, length, length}, {true, true, true}};
+  for (std::size_t i = 0; i < n; ++i)
+    c.x.push_back({u(rng) * length, u(rng) * length, u(rng) * length});
+  return c;
+}
+
+TEST(HashedGrid, AutomaticDivisionIsNearTheMeasuredBest) {
+  // Independent expectation: the work actually counted by the grid for every division. The
+  // estimate (uniform density, binned sizes) must pick one within 30 % of the best, and no
+  // sub-grid for equal sizes (paper §2.2, Fig. 3).
+  for (const double ratio : {1.0, 10.0, 100.0}) {
+    const Cloud c = packing(20000, ratio, 11);
+    const double d_min = 2.0 * *std::min_element(c.r.begin(), c.r.end());
+    const double skin = 0.5 * d_min, volume = std::pow(c.box.length(0), 3);
+    const GridDivision chosen = choose_grid_division(c.r, skin, volume);
+    if (ratio == 1.0) {
+      EXPECT_EQ(chosen, (GridDivision{1, 1}));
+    }
+    double best = measured_work(c, skin, {1, 1});
+    for (int k = 2; k <= 8; ++k)
+      for (int levels = 2; levels <= kMaxGridLevels; ++levels)
+        best = std::min(best, measured_work(c, skin, {k, levels}));
+    EXPECT_LE(measured_work(c, skin, chosen), 1.3 * best)
+        << "ratio " << ratio << ": chose k = " << chosen.subcells_per_axis
+        << ", levels = " << chosen.levels;
+  }
+}
+
+TEST(HashedGrid, GivenDivisionIsKept) {
+  const std::vector<double> r(100, 1e-6);
+  EXPECT_EQ(choose_grid_division(r, 0.0, 1e-12, 5), (GridDivision{5, 2})) << "k alone: two levels";
+  EXPECT_EQ(choose_grid_division(r, 0.0, 1e-12, 5, 3), (GridDivision{5, 3}));
+  EXPECT_EQ(choose_grid_division(r, 0.0, 1e-12, 1, 3), (GridDivision{1, 1}));
+  EXPECT_EQ(choose_grid_division(r, 0.0, 1e-12, {}, 1), (GridDivision{1, 1}));
 }
 
 }  // namespace

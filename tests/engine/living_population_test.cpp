@@ -89,8 +89,9 @@ TEST(LivingPopulation, ContactSetStaysExactThroughRemovalsAndAdditions) {
   EXPECT_DOUBLE_EQ(sim.neighbors().skin_m(), 0.5 * std::sqrt(*r_min * *r_max))
       << "skin = ¼ √(d_min d_max) of the current population";
   const double volume = std::pow(sim.box().length(0), 3);
-  EXPECT_EQ(sim.neighbors().stats().last_search.subcells_per_axis,
-            choose_subcells_per_axis(p.radius_m, sim.neighbors().skin_m(), volume));
+  const GridDivision expected = choose_grid_division(p.radius_m, sim.neighbors().skin_m(), volume);
+  EXPECT_EQ(sim.neighbors().stats().last_search.subcells_per_axis, expected.subcells_per_axis);
+  EXPECT_EQ(sim.neighbors().stats().last_search.levels, expected.levels);
 }
 
 }  // namespace
