@@ -50,14 +50,21 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
   double max_ratio = 0.0;
   std::size_t max_pair = 0;
 
-  // The second partners are scattered: fetch them a few candidates ahead (the loop is bound by
-  // these loads, not by arithmetic).
-  constexpr std::size_t kPrefetchAhead = 16;
+  // The second partners are scattered: fetch them some candidates ahead (the loop is bound by
+  // these loads, not by arithmetic), and everything a contact reads for pairs that touched at the
+  // last pass, which nearly always still do.
+  constexpr std::size_t kPrefetchAhead = 48;
   for (std::size_t k = 0; k < count; ++k) {
     if (k + kPrefetchAhead < count) {
       const std::uint32_t ahead = second[k + kPrefetchAhead];
       __builtin_prefetch(&x[ahead]);
       __builtin_prefetch(&r[ahead]);
+      if (touching_flag[k + kPrefetchAhead] != kPairApart) {
+        law.prefetch(ahead);
+        __builtin_prefetch(&v[ahead]), __builtin_prefetch(&w[ahead]);
+        __builtin_prefetch(&f[ahead]), __builtin_prefetch(&tq[ahead]);
+        __builtin_prefetch(&mat[ahead]);
+      }
     }
     const std::uint32_t i = first[k], j = second[k];
     Vec3 d = x[i] - x[j];

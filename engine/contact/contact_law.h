@@ -47,6 +47,11 @@ struct PerParticleSprings {
         etan(p.normal_damping.data()),
         kt(p.tangential_stiffness.data()),
         etat(p.tangential_damping.data()) {}
+  // Starts loading particle j's constants (pair loop prefetch).
+  void prefetch(std::size_t j) const {
+    __builtin_prefetch(kn + j), __builtin_prefetch(etan + j);
+    __builtin_prefetch(kt + j), __builtin_prefetch(etat + j);
+  }
   PairSprings operator()(std::size_t i, std::size_t j, const PairConstants&) const {
     if constexpr (kSeriesTangential)
       return {series(kn[i], kn[j]), series(etan[i], etan[j]), 4.0 * series(kt[i], kt[j]),
@@ -77,6 +82,10 @@ struct EquivalentProperties {
         m(p.mass_kg.data()),
         cn(p.normal_compliance.data()),
         cs(p.shear_compliance.data()) {}
+  void prefetch(std::size_t j) const {
+    __builtin_prefetch(r + j), __builtin_prefetch(m + j);
+    __builtin_prefetch(cn + j), __builtin_prefetch(cs + j);
+  }
   PairSprings operator()(std::size_t i, std::size_t j, const PairConstants& pair) const {
     return hertz_mindlin_springs(1.0 / (cn[i] + cn[j]), 1.0 / (cs[i] + cs[j]),
                                  r[i] * r[j] / (r[i] + r[j]), m[i] * m[j] / (m[i] + m[j]),

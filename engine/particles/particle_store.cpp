@@ -1,5 +1,9 @@
 #include "particles/particle_store.h"
 
+#include <algorithm>
+#include <cstring>
+#include <type_traits>
+
 namespace millsim {
 
 void ParticleStore::reserve(std::size_t n) {
@@ -56,10 +60,19 @@ void ParticleStore::remove_swap(std::size_t slot) {
 }
 
 void ParticleStore::permute(const std::vector<std::uint32_t>& order) {
-  for_each_column([&order](auto& column) {
-    std::remove_reference_t<decltype(column)> sorted(column.size());
-    for (std::size_t k = 0; k < order.size(); ++k) sorted[k] = column[order[k]];
-    column.swap(sorted);
+  std::vector<Vec3> scratch;
+  permute(order, scratch);
+}
+
+void ParticleStore::permute(const std::vector<std::uint32_t>& order, std::vector<Vec3>& scratch) {
+  for_each_column([&order, &scratch](auto& column) {
+    using T = typename std::remove_reference_t<decltype(column)>::value_type;
+    static_assert(std::is_trivially_copyable_v<T> && sizeof(T) <= sizeof(Vec3));
+    scratch.resize(std::max(scratch.size(), order.size()));
+    unsigned char* gathered = reinterpret_cast<unsigned char*>(scratch.data());
+    for (std::size_t k = 0; k < order.size(); ++k)
+      std::memcpy(gathered + k * sizeof(T), &column[order[k]], sizeof(T));
+    if (!order.empty()) std::memcpy(column.data(), gathered, order.size() * sizeof(T));
   });
   ++population_version;
 }

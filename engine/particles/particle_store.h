@@ -109,6 +109,9 @@ struct ParticleStore {
   // Reorders every column: new slot k holds the particle that was in slot order[k]. Used to keep
   // particles that are close in space close in memory.
   void permute(const std::vector<std::uint32_t>& order);
+  // The same with a caller's work buffer (its contents are overwritten), so that repeated
+  // reorders do not allocate.
+  void permute(const std::vector<std::uint32_t>& order, std::vector<Vec3>& scratch);
 };
 
 }  // namespace millsim

@@ -11,23 +11,26 @@ constexpr int kAxisBits = 21;
 constexpr long kAxisLimit = (1L << kAxisBits) - 1;
 
 // LSD radix sort of (key, value) by key, 16 bits per pass, only as many passes as the keys need.
-void radix_sort(std::vector<std::uint64_t>& keys, std::vector<std::uint32_t>& values) {
+// The scratch arrays keep their capacity from call to call.
+void radix_sort(std::vector<std::uint64_t>& keys, std::vector<std::uint32_t>& values,
+                SortScratch& scratch) {
   const std::size_t n = keys.size();
   std::uint64_t max_key = 0;
   for (std::uint64_t k : keys) max_key |= k;
-  std::vector<std::uint64_t> keys_tmp(n);
-  std::vector<std::uint32_t> values_tmp(n);
+  scratch.keys.resize(n);
+  scratch.values.resize(n);
   for (int shift = 0; shift < 64 && (max_key >> shift) != 0; shift += 16) {
-    std::vector<std::uint32_t> count(65537, 0);
+    scratch.count.assign(65537, 0);
+    std::uint32_t* count = scratch.count.data();
     for (std::uint64_t k : keys) ++count[((k >> shift) & 0xFFFF) + 1];
     for (std::size_t d = 0; d < 65536; ++d) count[d + 1] += count[d];
     for (std::size_t i = 0; i < n; ++i) {
       const std::uint32_t pos = count[(keys[i] >> shift) & 0xFFFF]++;
-      keys_tmp[pos] = keys[i];
-      values_tmp[pos] = values[i];
+      scratch.keys[pos] = keys[i];
+      scratch.values[pos] = values[i];
     }
-    keys.swap(keys_tmp);
-    values.swap(values_tmp);
+    keys.swap(scratch.keys);
+    values.swap(scratch.values);
   }
 }
 
@@ -294,7 +297,7 @@ long CellLevel::index_of(double coordinate, int axis) const {
 
 void CellLevel::build(const std::vector<Vec3>& x, const std::vector<double>& r,
                       const std::vector<std::uint32_t>& members, const PeriodicBox& box,
-                      const Vec3& origin, double cell_m) {
+                      const Vec3& origin, double cell_m, SortScratch& scratch) {
   origin_ = origin;
   for (int a = 0; a < 3; ++a) {
     if (box.periodic[a]) {
@@ -308,7 +311,8 @@ void CellLevel::build(const std::vector<Vec3>& x, const std::vector<double>& r,
     }
   }
   // Cell coordinates of every member, and the box of cells they occupy.
-  std::vector<std::uint64_t> keys(members.size());
+  std::vector<std::uint64_t>& keys = scratch.input_keys;
+  keys.resize(members.size());
   long max_index[3] = {0, 0, 0};
   for (std::size_t k = 0; k < members.size(); ++k) {
     long c[3];
@@ -336,7 +340,8 @@ void CellLevel::build(const std::vector<Vec3>& x, const std::vector<double>& r,
       return std::size_t((ix * dims_[1] + iy) * dims_[2] + iz);  // key order
     };
     direct_cell_.assign(std::size_t(box_cells), -1);
-    std::vector<std::uint32_t> count(std::size_t(box_cells) + 1, 0);
+    std::vector<std::uint32_t>& count = scratch.count;
+    count.assign(std::size_t(box_cells) + 1, 0);
     for (std::uint64_t key : keys) ++count[linear(key) + 1];
     for (std::size_t b = 0; b < std::size_t(box_cells); ++b) {
       if (count[b + 1] != 0) {
@@ -356,9 +361,8 @@ void CellLevel::build(const std::vector<Vec3>& x, const std::vector<double>& r,
     fill_spheres(x, r);
     return;
   }
-  std::vector<std::uint32_t> slots(members);
-  radix_sort(keys, slots);
-  members_ = std::move(slots);
+  members_.assign(members.begin(), members.end());
+  radix_sort(keys, members_, scratch);
   for (std::size_t k = 0; k < keys.size(); ++k)
     if (k == 0 || keys[k] != keys[k - 1])
       cell_key_.push_back(keys[k]), start_.push_back(std::uint32_t(k));
@@ -462,7 +466,7 @@ void HashedGrid::find_pairs(const std::vector<Vec3>& x, const std::vector<double
   int used[kMaxGridLevels], used_count = 0;
   for (int l = 0; l < levels; ++l) {
     if (members_[l].empty() && l > 0) continue;
-    level_[l].build(x, r, members_[l], box, origin, edge[l]);
+    level_[l].build(x, r, members_[l], box, origin, edge[l], scratch_);
     same_level_pairs(level_[l], box, summary[l].r_max_m + skin, sink);
     LevelSummary& s = summary[l];
     s.count = double(members_[l].size());
@@ -498,7 +502,8 @@ void HashedGrid::find_pairs(const std::vector<Vec3>& x, const std::vector<double
   stats_.levels = used_count;
 }
 
-std::vector<std::uint32_t> spatial_order(const std::vector<Vec3>& x, const PeriodicBox& box) {
+void spatial_order(const std::vector<Vec3>& x, const PeriodicBox& box,
+                   std::vector<std::uint32_t>& order, SortScratch& scratch) {
   // Morton (Z-order) key of each particle's cell, cells of about one mean spacing: neighbours in
   // space are neighbours in memory along all three axes, not just the fastest one.
   Vec3 lo = box.min_m, hi = box.max_m;
@@ -521,8 +526,9 @@ std::vector<std::uint32_t> spatial_order(const std::vector<Vec3>& x, const Perio
     v = (v | v << 2) & 0x1249249249249249ULL;
     return v;
   };
-  std::vector<std::uint64_t> keys(x.size());
-  std::vector<std::uint32_t> order(x.size());
+  std::vector<std::uint64_t>& keys = scratch.input_keys;
+  keys.resize(x.size());
+  order.resize(x.size());
   for (std::uint32_t i = 0; i < x.size(); ++i) {
     std::uint64_t key = 0;
     for (int a = 0; a < 3; ++a) {
@@ -532,8 +538,7 @@ std::vector<std::uint32_t> spatial_order(const std::vector<Vec3>& x, const Perio
     keys[i] = key;
     order[i] = i;
   }
-  radix_sort(keys, order);
-  return order;
+  radix_sort(keys, order, scratch);
 }
 
 namespace {

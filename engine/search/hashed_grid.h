@@ -27,6 +27,13 @@
 
 namespace millsim {
 
+// Work arrays of a radix sort, kept between rebuilds so that no rebuild allocates.
+struct SortScratch {
+  std::vector<std::uint64_t> input_keys;  // the keys to sort, filled by the caller
+  std::vector<std::uint64_t> keys;
+  std::vector<std::uint32_t> values, count;
+};
+
 // A particle as the distance tests read it.
 struct Sphere {
   double x, y, z, r;
@@ -39,7 +46,7 @@ class CellLevel {
   // periodic axis the edge is stretched so a whole number of cells fills the box.
   void build(const std::vector<Vec3>& x, const std::vector<double>& r,
              const std::vector<std::uint32_t>& members, const PeriodicBox& box, const Vec3& origin,
-             double cell_m);
+             double cell_m, SortScratch& scratch);
 
   // Index of the occupied cell (ix, iy, iz) after periodic wrapping, or −1 when empty/outside.
   // Indices may lie at most one box length outside [0, n) on periodic axes.
@@ -109,16 +116,20 @@ class HashedGrid {
   void find_pairs(const std::vector<Vec3>& x, const std::vector<double>& r, const PeriodicBox& box,
                   const HashedGridSettings& settings, PairList& out);
   const HashedGridStats& stats() const { return stats_; }
+  // The grid's sort buffers, free between searches (the neighbour list reorders with them).
+  SortScratch& scratch() { return scratch_; }
 
  private:
   CellLevel level_[kMaxGridLevels];
   std::vector<std::uint32_t> members_[kMaxGridLevels];
+  SortScratch scratch_;
   HashedGridStats stats_;
 };
 
-// A spatially coherent order of all particles (cell by cell, cells of about 2 mean spacings),
-// for ParticleStore::permute.
-std::vector<std::uint32_t> spatial_order(const std::vector<Vec3>& x, const PeriodicBox& box);
+// A spatially coherent order of all particles (Morton order of cells of about one mean
+// spacing), for ParticleStore::permute, written into `order`.
+void spatial_order(const std::vector<Vec3>& x, const PeriodicBox& box,
+                   std::vector<std::uint32_t>& order, SortScratch& scratch);
 
 // One cell probe (hash or direct table) costs about as many distance tests as this in the
 // search's cost model (bench_step --search-scan).

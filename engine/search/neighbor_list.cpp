@@ -88,10 +88,11 @@ double NeighborList::max_displacement_m(const ParticleStore& p, const PeriodicBo
 
 void NeighborList::sort_pairs_by_first(std::size_t particle_count) {
   // Counting sort on the first slot: the force loop then walks particles in memory order.
-  std::vector<std::uint32_t> start(particle_count + 1, 0);
+  std::vector<std::uint32_t>& start = order_;
+  start.assign(particle_count + 1, 0);
   for (std::uint32_t i : pairs.first) ++start[i + 1];
   for (std::size_t i = 0; i < particle_count; ++i) start[i + 1] += start[i];
-  PairList sorted;
+  PairList& sorted = sorted_pairs_;
   sorted.first.resize(pairs.size());
   sorted.second.resize(pairs.size());
   for (std::size_t k = 0; k < pairs.size(); ++k) {
@@ -99,7 +100,7 @@ void NeighborList::sort_pairs_by_first(std::size_t particle_count) {
     sorted.first[at] = pairs.first[k];
     sorted.second[at] = pairs.second[k];
   }
-  pairs = std::move(sorted);
+  std::swap(pairs, sorted);
 }
 
 double NeighborList::steer_skin(const ParticleStore& p, double steps_per_skin) const {
@@ -167,7 +168,8 @@ bool NeighborList::update(ParticleStore& p, const PeriodicBox& box,
   // population changed or particles may have moved half a mean spacing since the last reorder.
   // Small sets fit in cache anyway and keep their slot order (tests rely on it).
   if (p.size() >= kReorderMinParticles && (population_changed || reorder_due())) {
-    p.permute(spatial_order(p.position_m, box));
+    spatial_order(p.position_m, box, order_, grid_.scratch());
+    p.permute(order_, reference_position_m_);  // free until rebuild() sets it again
     reorder_spacing_m_ = std::cbrt(occupied_volume_m3(p.position_m, box) / double(p.size()));
     motion_since_reorder_m_ = 0.0;
   }

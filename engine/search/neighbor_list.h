@@ -122,7 +122,10 @@ class NeighborList {
   std::uint64_t population_version_ = ~std::uint64_t(0);
   std::vector<Vec3> reference_position_m_;
   std::vector<ParticleId> reference_id_;
-  std::vector<Newborn> newborn_;         // sorted by id
+  std::vector<Newborn> newborn_;  // sorted by id
+  // Work arrays kept between rebuilds, so that a rebuild does not allocate.
+  std::vector<std::uint32_t> order_;
+  PairList sorted_pairs_;
   double reorder_spacing_m_ = 0.0;       // mean particle spacing at the last reorder
   double motion_since_reorder_m_ = 0.0;  // bound on any particle's motion since then
   double newborn_ghost_ratio_ =
