@@ -37,7 +37,8 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
   const std::size_t count = nl.pairs.size();
   const std::uint32_t* first = nl.pairs.first.data();
   const std::uint32_t* second = nl.pairs.second.data();
-  Vec3* history = nl.pair_history_m.data();
+  std::uint32_t* history = nl.pair_history.data();
+  HistoryPool& pool = nl.history_pool;
   std::uint8_t* touching_flag = nl.pair_touching.data();
   const Vec3* x = p.position_m.data();
   const Vec3* v = p.velocity_m_per_s.data();
@@ -64,6 +65,8 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
         __builtin_prefetch(&v[ahead]), __builtin_prefetch(&w[ahead]);
         __builtin_prefetch(&f[ahead]), __builtin_prefetch(&tq[ahead]);
         __builtin_prefetch(&mat[ahead]);
+        if (history[k + kPrefetchAhead] != kNoHistory)
+          __builtin_prefetch(&pool[history[k + kPrefetchAhead]]);
       }
     }
     const std::uint32_t i = first[k], j = second[k];
@@ -71,7 +74,10 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
     if constexpr (kPeriodic) d -= nl.pair_shift(k);
     const double dist2 = norm2(d), rsum = r[i] + r[j];
     if (dist2 >= rsum * rsum) {
-      if (touching_flag[k]) touching_flag[k] = kPairApart, history[k] = {};  // the contact ended
+      if (touching_flag[k]) {  // the contact ended: it forgets its history
+        touching_flag[k] = kPairApart;
+        if (history[k] != kNoHistory) pool.give_back(history[k]), history[k] = kNoHistory;
+      }
       continue;
     }
     const std::uint8_t before = touching_flag[k];
@@ -81,12 +87,13 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
     if (ghost) {
       // Born overlapping: only overlap beyond the remembered birth overlap (history[k][0], which
       // follows the overlap down as the pair separates) pushes back (neighbor_list.h).
-      double& memory = history[k][0];
+      double& memory = pool[history[k]][0];
       memory = std::min(memory, overlap);
       overlap -= memory;
       if (overlap <= 0.0) continue;
     } else {
       touching_flag[k] = kPairTouching;
+      if (history[k] == kNoHistory) history[k] = pool.take({});
     }
     ++touching;
     const Vec3 n = d * (1.0 / dist);
@@ -103,7 +110,8 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
       stats.impacts.push_back({i, j, false, -vn});
     const double fn = hertz_normal_force_n(s, overlap, sqrt_overlap, vn);
     const Vec3 ft =
-        ghost ? Vec3{} : tangential_force(s, sqrt_overlap, fn, pc.friction, n, v_t, dt, history[k]);
+        ghost ? Vec3{}
+              : tangential_force(s, sqrt_overlap, fn, pc.friction, n, v_t, dt, pool[history[k]]);
     const Vec3 force = n * fn + ft;
     f[i] += force;
     f[j] -= force;
@@ -229,7 +237,7 @@ double contact_elastic_energy_j(ContactModel model, const MaterialTable& materia
     const double dist = norm(box.minimum_image(p.position_m[i] - p.position_m[j]));
     const bool ghost = nl.pair_touching[k] == kPairGhost;
     const double overlap =
-        p.radius_m[i] + p.radius_m[j] - dist - (ghost ? nl.pair_history_m[k][0] : 0.0);
+        p.radius_m[i] + p.radius_m[j] - dist - (ghost ? nl.pair_history_m(k)[0] : 0.0);
     if (overlap <= 0.0) continue;
     const PairConstants& pc = materials.pair(p.material[i], p.material[j]);
     const PairSprings s = model == ContactModel::SeriesSprings  ? series_law(i, j, pc)
@@ -237,7 +245,7 @@ double contact_elastic_energy_j(ContactModel model, const MaterialTable& materia
                                                                 : equivalent_law(i, j, pc);
     energy += 0.4 * s.normal_stiffness * overlap * overlap * std::sqrt(overlap);
     if (!ghost)
-      energy += 0.5 * s.tangential_stiffness * std::sqrt(overlap) * norm2(nl.pair_history_m[k]);
+      energy += 0.5 * s.tangential_stiffness * std::sqrt(overlap) * norm2(nl.pair_history_m(k));
   }
   for (std::size_t k = 0; k < nl.wall_particle.size(); ++k) {
     const std::uint32_t i = nl.wall_particle[k];

@@ -193,9 +193,9 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
   // Keep the state of pairs that have any (touching ones), keyed by stable ids.
   std::vector<KeyedHistory> old_pairs, old_walls;
   for (std::size_t k = 0; k < pairs.size(); ++k)
-    if (pair_touching[k] != kPairApart || norm2(pair_history_m[k]) > 0.0) {
+    if (pair_touching[k] != kPairApart || norm2(pair_history_m(k)) > 0.0) {
       std::uint64_t a = reference_id_[pairs.first[k]], b = reference_id_[pairs.second[k]];
-      old_pairs.push_back({std::min(a, b), std::max(a, b), pair_history_m[k], pair_touching[k]});
+      old_pairs.push_back({std::min(a, b), std::max(a, b), pair_history_m(k), pair_touching[k]});
     }
   for (std::size_t k = 0; k < wall_particle.size(); ++k)
     if (wall_touching[k] != kPairApart || norm2(wall_history_m[k]) > 0.0)
@@ -235,7 +235,8 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
   }
   // A pair absent from the old list was apart at the last force pass (the rebuild rule keeps
   // every touching pair listed), except for newborn particles.
-  pair_history_m.assign(pairs.size(), Vec3{});
+  pair_history.assign(pairs.size(), kNoHistory);
+  history_pool.clear();
   pair_touching.assign(pairs.size(), kPairApart);
   if (!old_pairs.empty() || !newborn_.empty())
     for (std::size_t k = 0; k < pairs.size(); ++k) {
@@ -247,7 +248,8 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
       if (norm2(d) >= reach * reach) continue;
       const std::uint64_t a = p.id[i], b = p.id[j];
       if (const KeyedHistory* h = lookup(old_pairs, std::min(a, b), std::max(a, b))) {
-        pair_history_m[k] = h->history;
+        if (norm2(h->history) > 0.0 || h->state == kPairGhost)
+          pair_history[k] = history_pool.take(h->history);
         pair_touching[k] = h->state;
         continue;
       }
@@ -261,7 +263,7 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
           reach - dist > newborn_ghost_ratio_ * 2.0 * std::min(p.radius_m[i], p.radius_m[j]);
       if (siblings || deep || parents_were_ghosts(old_pairs, a, ni, b, nj)) {
         pair_touching[k] = kPairGhost;
-        pair_history_m[k] = {reach - dist, 0.0, 0.0};  // the overlap memory
+        pair_history[k] = history_pool.take({reach - dist, 0.0, 0.0});  // the overlap memory
       } else {
         pair_touching[k] = kPairTouching;
       }

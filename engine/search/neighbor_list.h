@@ -35,6 +35,33 @@ struct Newborn {
   ParticleId parent;     // the broken particle; 0 = none
 };
 
+// Tangential spring displacements (m), or a ghost pair's overlap memory, of the candidates that
+// have one, kept in a pool that candidates index into: most candidates never touch, and cost 4
+// bytes instead of 24. Slots freed when a contact ends are reused.
+inline constexpr std::uint32_t kNoHistory = ~std::uint32_t(0);
+class HistoryPool {
+ public:
+  std::uint32_t take(const Vec3& value) {
+    if (free_.empty()) {
+      values_.push_back(value);
+      return std::uint32_t(values_.size() - 1);
+    }
+    const std::uint32_t slot = free_.back();
+    free_.pop_back();
+    values_[slot] = value;
+    return slot;
+  }
+  void give_back(std::uint32_t slot) { free_.push_back(slot); }
+  void clear() { values_.clear(), free_.clear(); }
+  Vec3& operator[](std::uint32_t slot) { return values_[slot]; }
+  const Vec3& operator[](std::uint32_t slot) const { return values_[slot]; }
+  std::size_t in_use() const { return values_.size() - free_.size(); }
+
+ private:
+  std::vector<Vec3> values_;
+  std::vector<std::uint32_t> free_;
+};
+
 struct NeighborStats {
   std::uint64_t rebuilds = 0;
   std::uint64_t distance_tests = 0;
@@ -81,8 +108,13 @@ class NeighborList {
 
   // Particle–particle candidates and their tangential spring displacement (m).
   PairList pairs;
-  std::vector<std::uint8_t> pair_image;  // index into the 27 periodic shifts
-  std::vector<Vec3> pair_history_m;
+  std::vector<std::uint8_t> pair_image;     // index into the 27 periodic shifts
+  std::vector<std::uint32_t> pair_history;  // slot in history_pool, or kNoHistory
+  HistoryPool history_pool;
+  // Pair k's tangential spring displacement (m), or overlap memory for a ghost; zero when none.
+  Vec3 pair_history_m(std::size_t k) const {
+    return pair_history[k] == kNoHistory ? Vec3{} : history_pool[pair_history[k]];
+  }
   // kPairApart/kPairTouching/kPairGhost at the last force pass; carried across rebuilds by id,
   // so a contact's onset (an impact) is seen exactly once.
   std::vector<std::uint8_t> pair_touching;

@@ -25,7 +25,7 @@ TEST(PenetrationLimiter, ReversesClosingVelocityTimesRestitutionAndConservesMome
   p.add(table, 0, 2, {0.6, 0.5, 0.5}, {-1.0, 0.0, 2.0}, {}, 0.1);
   NeighborList nl;
   nl.pairs.push(0, 1);
-  nl.pair_history_m.push_back({});
+  nl.pair_history.push_back(kNoHistory);
   ContactStepStats stats;
   stats.pairs_over_limit.push_back(0);
   const Vec3 momentum_before =
