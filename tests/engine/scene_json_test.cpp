@@ -52,6 +52,24 @@ TEST(SceneJson, OutOfRangeValueNamesPathValueAndRange) {
   EXPECT_EQ(errors[0].allowed, "expected a number in [0.05, 1]");
 }
 
+TEST(SceneJson, GridDivisionIsAutoOrInRange) {
+  json doc = valid_scene();
+  doc["search"] = {{"subcells", 3}, {"levels", 4}};
+  InputErrors errors;
+  const SceneConfig s = parse_scene(doc, ".", errors);
+  EXPECT_TRUE(errors.empty()) << format_input_errors("scene", errors);
+  EXPECT_EQ(s.search.subcells_per_axis, 3);
+  EXPECT_EQ(s.search.grid_levels, 4);
+  doc["search"] = {{"subcells", "auto"}, {"levels", "auto"}};
+  EXPECT_FALSE(parse_scene(doc, ".", errors).search.grid_levels.has_value());
+  doc["search"] = {{"levels", 5}};
+  const InputErrors bad = errors_of(doc);
+  ASSERT_EQ(bad.size(), 1u);
+  EXPECT_EQ(bad[0].path, "/search/levels");
+  EXPECT_EQ(bad[0].value, "5");
+  EXPECT_EQ(bad[0].allowed, "expected \"auto\" or an integer in [1, 4]");
+}
+
 TEST(SceneJson, WrongTypeIsRejected) {
   json doc = valid_scene();
   doc["time"]["end_s"] = "ten";
