@@ -156,7 +156,7 @@ int main(int argc, char** argv) {
         scene.search.subcells_per_axis = k;
         Simulation sim(scene);
         const auto start = std::chrono::steady_clock::now();
-        while (sim.step_index() < steps) sim.step();
+        sim.advance(steps);
         seconds.push_back(
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
       }
@@ -174,14 +174,11 @@ int main(int argc, char** argv) {
     const double ke0 = sim.energy().kinetic_j;
     const auto neighbor_before = sim.neighbors().stats();
     const auto start = std::chrono::steady_clock::now();
-    std::uint64_t contact_steps = 0;
-    while (sim.step_index() < steps) {
-      if (auto failure = sim.step()) {
-        std::fprintf(stderr, "bench_step: %s\n", failure->detail.c_str());
-        return 3;
-      }
-      contact_steps += sim.contact_stats().touching_pairs;
+    if (auto failure = sim.advance(steps)) {
+      std::fprintf(stderr, "bench_step: %s\n", failure->detail.c_str());
+      return 3;
     }
+    const std::uint64_t contact_steps = sim.contact_steps();
     const double loop_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (search_scan) {

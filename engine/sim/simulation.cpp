@@ -403,34 +403,57 @@ void Simulation::refresh_forces() {
 }
 
 std::optional<StepFailure> Simulation::step() {
+  return step_once(false);
+}
+
+std::optional<StepFailure> Simulation::advance(std::int64_t steps) {
+  for (std::int64_t s = 0; s < steps; ++s)
+    if (auto failure = step_once(s + 1 < steps)) return failure;
+  return std::nullopt;
+}
+
+std::optional<StepFailure> Simulation::step_once(bool may_defer) {
   const double dt = time_.step_s;
   double max_speed = 0.0;
-  profile_.time(Phase::KickDrift, [&] { max_speed = kick_drift(particles_, dt); });
+  profile_.time(Phase::KickDrift, [&] {
+    max_speed = kick_pending_ ? kick_then_kick_drift(particles_, dt) : kick_drift(particles_, dt);
+    kick_pending_ = false;
+  });
   profile_.time(Phase::Neighbors, [&] {
     neighbors_.note_motion(max_speed * dt);
     neighbors_.update(particles_, box_, walls_, false);
   });
   profile_.time(Phase::Forces, [&] { compute_forces(); });
   if (gas_) profile_.time(Phase::Fluid, [&] { gas_->add_fluid_forces(particles_, dt, true); });
+  particle_steps_ += double(particles_.size());
+  contact_steps_ += contact_stats_.touching_pairs;
+  ++step_index_;
+  const bool limiter = contact_.penetration_limiter && !(contact_stats_.pairs_over_limit.empty() &&
+                                                         contact_stats_.walls_over_limit.empty());
+  const bool population = breakage_ || !outlets_.empty() || !feeders_.empty();
+  const bool gas_due = gas_ && gas_->due(step_index_);
+  auto health_due = [&] {
+    return step_index_ % 16 == 0 || step_index_ == total_steps_ ||
+           contact_stats_.max_overlap_ratio > 2.0 * contact_.penetration_limit;
+  };
+  if (may_defer && !limiter && !population && !gas_due && !health_due()) {
+    kick_pending_ = true;  // done by the next step's kick-drift
+    return std::nullopt;
+  }
   profile_.time(Phase::Kick, [&] {
     kick(particles_, dt);
-    if (contact_.penetration_limiter &&
-        !(contact_stats_.pairs_over_limit.empty() && contact_stats_.walls_over_limit.empty()))
+    if (limiter)
       limiter_events_ += apply_penetration_limiter(contact_stats_, materials_, box_, walls_,
                                                    neighbors_, particles_);
   });
-  particle_steps_ += double(particles_.size());
-  ++step_index_;
-  if (breakage_ || !outlets_.empty() || !feeders_.empty()) process_population();
+  if (population) process_population();
   std::optional<StepFailure> failure;
-  if (gas_ && gas_->due(step_index_)) {
+  if (gas_due) {
     std::optional<std::string> message;
     profile_.time(Phase::Gas, [&] { message = gas_->advance(particles_, dt, step_index_); });
     if (message) return StepFailure{step_index_, time_s(), 0, "gas_solver", *message};
   }
-  if (step_index_ % 16 == 0 || step_index_ == total_steps_ ||
-      contact_stats_.max_overlap_ratio > 2.0 * contact_.penetration_limit)
-    profile_.time(Phase::Health, [&] { failure = check_health(); });
+  if (health_due()) profile_.time(Phase::Health, [&] { failure = check_health(); });
   return failure;
 }
 

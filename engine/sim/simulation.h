@@ -75,6 +75,12 @@ class Simulation {
 
   // One DEM step; returns the failure when the stability guard stops the run.
   std::optional<StepFailure> step();
+  // `steps` DEM steps (fewer when one fails), the same trajectory bit for bit as calling step()
+  // that often, but faster: while nothing looks at the state between two steps of the call (no
+  // limiter event, population change, gas step or health check), a step's closing kick is
+  // carried into the next step's opening kick-drift, one pass over the particles instead of two.
+  // The state is complete on return.
+  std::optional<StepFailure> advance(std::int64_t steps);
 
   std::int64_t step_index() const { return step_index_; }
   double time_s() const { return double(step_index_) * time_.step_s; }
@@ -108,6 +114,8 @@ class Simulation {
   // Momentum that left the run with outlet particles and dust.
   Vec3 removed_momentum_kg_m_per_s() const;
   double particle_steps() const { return particle_steps_; }
+  // Σ over steps of the touching particle pairs: contact-steps, for per-contact figures.
+  std::uint64_t contact_steps() const { return contact_steps_; }
 
   EnergyReport energy() const;
   // Recomputes forces for the current state after editing particles by hand; the edited state
@@ -127,6 +135,8 @@ class Simulation {
   // The energy guard's reference and scale, from the current state.
   void set_energy_baseline();
   std::optional<StepFailure> check_health();
+  // One step; with `may_defer` its closing kick may be left for the next step (advance()).
+  std::optional<StepFailure> step_once(bool may_defer);
   std::string describe_worst_overlap() const;
 
   MaterialTable materials_;
@@ -148,6 +158,8 @@ class Simulation {
   StepProfile profile_;
   ParticleId next_id_ = 1;
   double particle_steps_ = 0.0;
+  std::uint64_t contact_steps_ = 0;
+  bool kick_pending_ = false;    // the last step's closing kick is still to do (advance())
   double energy_added_j_ = 0.0;  // energy of particles added minus removed since the start
   std::optional<Breakage> breakage_;
   std::optional<GasCoupling> gas_;
