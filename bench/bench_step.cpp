@@ -64,6 +64,9 @@ int generate_mono(std::int64_t n, const std::string& path) {
   }
   std::FILE* out = std::fopen(path.c_str(), "w");
   if (!out) return 4;
+  // The header keys shared/bench/peers/scene2data.py reads too, so LAMMPS can run the same file.
+  std::fprintf(out, "# scene: mono_%lld\n# d_min_nominal: 1.000000e-04\n",
+               static_cast<long long>(n));
   std::fprintf(out,
                "# N: %lld\n# boundary: periodic periodic periodic\n# box: 0 %.9e 0 %.9e 0 %.9e\n",
                static_cast<long long>(n), L, L, L);
