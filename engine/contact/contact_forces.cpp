@@ -34,7 +34,7 @@ inline Vec3 tangential_force(const PairSprings& s, double sqrt_overlap, double n
 template <class Law, bool kPeriodic>
 void pair_loop(const Law& law, const MaterialTable& materials, double dt, double limit,
                ParticleStore& p, NeighborList& nl, ContactStepStats& stats) {
-  const std::size_t count = nl.pairs.size();
+  const std::size_t count = nl.active_pair_count();
   const std::uint32_t* first = nl.pairs.first.data();
   const std::uint32_t* second = nl.pairs.second.data();
   std::uint32_t* history = nl.pair_history.data();

@@ -86,12 +86,12 @@ double NeighborList::max_displacement_m(const ParticleStore& p, const PeriodicBo
   return std::sqrt(max2);
 }
 
-void NeighborList::sort_pairs_by_first(std::size_t particle_count) {
+void NeighborList::sort_pairs(const ParticleStore& p, const PeriodicBox& box) {
   // Counting sort on the first slot: the force loop then walks particles in memory order.
   std::vector<std::uint32_t>& start = order_;
-  start.assign(particle_count + 1, 0);
+  start.assign(p.size() + 1, 0);
   for (std::uint32_t i : pairs.first) ++start[i + 1];
-  for (std::size_t i = 0; i < particle_count; ++i) start[i + 1] += start[i];
+  for (std::size_t i = 0; i < p.size(); ++i) start[i + 1] += start[i];
   PairList& sorted = sorted_pairs_;
   sorted.first.resize(pairs.size());
   sorted.second.resize(pairs.size());
@@ -100,7 +100,52 @@ void NeighborList::sort_pairs_by_first(std::size_t particle_count) {
     sorted.first[at] = pairs.first[k];
     sorted.second[at] = pairs.second[k];
   }
-  std::swap(pairs, sorted);
+  // Periodic image and gap band of each pair, then a stable sort by band.
+  for (int image = 0; image < 27; ++image) {
+    const int n[3] = {image % 3 - 1, (image / 3) % 3 - 1, image / 9 - 1};
+    for (int a = 0; a < 3; ++a)
+      image_shift_[image][a] = box.periodic[a] ? n[a] * box.length(a) : 0.0;
+  }
+  const double band_width = 0.25 * settings_.skin_m;
+  image_scratch_.resize(sorted.size());
+  band_scratch_.resize(sorted.size());
+  std::size_t band_count[kGapBands] = {};
+  for (std::size_t k = 0; k < sorted.size(); ++k) {
+    const std::uint32_t i = sorted.first[k], j = sorted.second[k];
+    const Vec3 d = p.position_m[i] - p.position_m[j];
+    int image = 0, stride = 1;
+    for (int a = 0; a < 3; ++a, stride *= 3) image += (box.image_of(d[a], a) + 1) * stride;
+    image_scratch_[k] = std::uint8_t(image);
+    const double gap = norm(d - image_shift_[image]) - p.radius_m[i] - p.radius_m[j];
+    const int band = band_width > 0.0 ? std::clamp(int(gap / band_width), 0, kGapBands - 1) : 0;
+    band_scratch_[k] = std::uint8_t(band);
+    ++band_count[band];
+  }
+  std::size_t at[kGapBands];
+  for (int b = 0, sum = 0; b < kGapBands; ++b) {
+    at[b] = std::size_t(sum);
+    sum += int(band_count[b]);
+    band_end_[b] = std::size_t(sum);
+  }
+  pairs.first.resize(sorted.size());
+  pairs.second.resize(sorted.size());
+  pair_image.resize(sorted.size());
+  for (std::size_t k = 0; k < sorted.size(); ++k) {
+    const std::size_t to = at[band_scratch_[k]]++;
+    pairs.first[to] = sorted.first[k];
+    pairs.second[to] = sorted.second[k];
+    pair_image[to] = image_scratch_[k];
+  }
+}
+
+void NeighborList::widen_active_bands() {
+  // Band b's gaps at the rebuild exceed b·skin/4, and two partners close at most twice the
+  // motion bound: until then none of its pairs can touch. Bands only ever join (the exact
+  // displacement check may lower the bound, but a pair looked at once keeps being looked at, so
+  // its contact state stays current).
+  while (active_bands_ < kGapBands &&
+         double(active_bands_) * 0.25 * settings_.skin_m <= 2.0 * motion_bound_m_)
+    ++active_bands_;
 }
 
 double NeighborList::steer_skin(const ParticleStore& p, double steps_per_skin) const {
@@ -157,6 +202,7 @@ bool NeighborList::update(ParticleStore& p, const PeriodicBox& box,
   ++steps_since_rebuild_;
   const bool population_changed = p.population_version != population_version_;
   if (!force && !population_changed) {
+    widen_active_bands();
     if (motion_bound_m_ <= 0.5 * settings_.skin_m) return false;
     // The cheap bound says maybe: measure, and keep the exact figure as the new bound.
     motion_bound_m_ = max_displacement_m(p, box);
@@ -183,6 +229,7 @@ bool NeighborList::update(ParticleStore& p, const PeriodicBox& box,
   }
   motion_since_reorder_m_ += 0.5 * settings_.skin_m;  // what the new list lets anyone move
   motion_bound_m_ = 0.0;
+  active_bands_ = 1;
   steps_since_rebuild_ = 0;
   population_version_ = p.population_version;  // after any permute above
   return true;
@@ -217,22 +264,7 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
                    pairs);
   stats_.last_search = grid_.stats();
   stats_.distance_tests += grid_.stats().distance_tests;
-  sort_pairs_by_first(p.size());
-  // Periodic image of each pair, fixed until the next rebuild.
-  for (int image = 0; image < 27; ++image) {
-    const int n[3] = {image % 3 - 1, (image / 3) % 3 - 1, image / 9 - 1};
-    for (int a = 0; a < 3; ++a)
-      image_shift_[image][a] = box.periodic[a] ? n[a] * box.length(a) : 0.0;
-  }
-  pair_image.resize(pairs.size());
-  for (std::size_t k = 0; k < pairs.size(); ++k) {
-    const Vec3 d = p.position_m[pairs.first[k]] - p.position_m[pairs.second[k]];
-    int image = 0, stride = 1;
-    for (int a = 0; a < 3; ++a, stride *= 3) {
-      image += (box.image_of(d[a], a) + 1) * stride;
-    }
-    pair_image[k] = std::uint8_t(image);
-  }
+  sort_pairs(p, box);
   // A pair absent from the old list was apart at the last force pass (the rebuild rule keeps
   // every touching pair listed), except for newborn particles.
   pair_history.assign(pairs.size(), kNoHistory);

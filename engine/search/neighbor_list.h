@@ -97,6 +97,11 @@ class NeighborList {
   // come before any force pass.
   void mark_newborn(std::vector<Newborn> newborn, double penetration_limit);
 
+  // Candidates [0, active_pair_count()) may touch now; the rest are still too far apart to
+  // have closed their gap at the rebuild (candidates are sorted by that gap, in bands of a
+  // quarter skin), so the force loop need not look at them.
+  std::size_t active_pair_count() const { return active_bands_ ? band_end_[active_bands_ - 1] : 0; }
+
   // Separation of pair k's partners: x_i − x_j − pair_shift(k).
   const Vec3& pair_shift(std::size_t k) const { return image_shift_[pair_image[k]]; }
 
@@ -132,7 +137,11 @@ class NeighborList {
   // The skin for the next list, from this list's candidate gaps and the last rebuild interval.
   // `steps_per_skin`: steps a list lasts per metre of skin (observed, or predicted from speeds).
   double steer_skin(const ParticleStore& particles, double steps_per_skin) const;
-  void sort_pairs_by_first(std::size_t particle_count);
+  // Sorts the candidates by gap band (gap at the rebuild in quarters of the skin), each band by
+  // first slot, and sets their periodic images.
+  void sort_pairs(const ParticleStore& particles, const PeriodicBox& box);
+  // Lets in the bands whose pairs the motion since the rebuild may have closed.
+  void widen_active_bands();
   // Whether particles may have strayed far enough from the last spatial reorder (half a mean
   // spacing) for memory order to lose its locality.
   bool reorder_due() const { return motion_since_reorder_m_ >= 0.5 * reorder_spacing_m_; }
@@ -158,6 +167,10 @@ class NeighborList {
   // Work arrays kept between rebuilds, so that a rebuild does not allocate.
   std::vector<std::uint32_t> order_;
   PairList sorted_pairs_;
+  std::vector<std::uint8_t> image_scratch_, band_scratch_;
+  static constexpr int kGapBands = 4;
+  std::size_t band_end_[kGapBands] = {0, 0, 0, 0};
+  int active_bands_ = kGapBands;         // bands [0, active_bands_) may hold touching pairs
   double reorder_spacing_m_ = 0.0;       // mean particle spacing at the last reorder
   double motion_since_reorder_m_ = 0.0;  // bound on any particle's motion since then
   double newborn_ghost_ratio_ =
