@@ -121,11 +121,11 @@ void NeighborList::sort_pairs(const ParticleStore& p, const PeriodicBox& box) {
     band_scratch_[k] = std::uint8_t(band);
     ++band_count[band];
   }
-  std::size_t at[kGapBands];
-  for (int b = 0, sum = 0; b < kGapBands; ++b) {
-    at[b] = std::size_t(sum);
-    sum += int(band_count[b]);
-    band_end_[b] = std::size_t(sum);
+  std::size_t at[kGapBands], sum = 0;
+  for (int b = 0; b < kGapBands; ++b) {
+    at[b] = sum;
+    sum += band_count[b];
+    band_end_[b] = sum;
   }
   pairs.first.resize(sorted.size());
   pairs.second.resize(sorted.size());
@@ -149,10 +149,12 @@ void NeighborList::widen_active_bands() {
 }
 
 double NeighborList::steer_skin(const ParticleStore& p, double steps_per_skin) const {
-  // Per step, a candidate costs one evaluation in the force loop and a rebuild costs about
-  // kRebuildPerParticle evaluations per particle (bench/RESULTS.md: 300–740 ns per particle
-  // against 5–8 ns per candidate). Candidates C(s') for s' <= s are counted from this list's
-  // gaps, beyond s extrapolated linearly; the rebuild interval scales with the skin.
+  // Per step, a looked-at candidate costs one evaluation in the force loop and a rebuild costs
+  // about kRebuildPerParticle evaluations per particle (bench/RESULTS.md: 300–740 ns per particle
+  // against 5–8 ns per candidate). A candidate in gap band b (of 4) is looked at for about
+  // 1 − b/4 of a list's life, the motion bound growing about linearly to skin/2. Candidates for
+  // s' <= s are counted from this list's gaps, beyond s extrapolated linearly (at the weight of
+  // the outer bands); the rebuild interval scales with the skin.
   constexpr double kRebuildPerParticle = 60.0;
   constexpr int kBins = 32;
   const double s = settings_.skin_m;
@@ -167,14 +169,21 @@ double NeighborList::steer_skin(const ParticleStore& p, double steps_per_skin) c
     const int bin = std::clamp(int(std::ceil(gap / s * kBins)), 0, kBins);
     below[std::size_t(bin)] += double(stride);
   }
+  const std::vector<double> in_bin = below;
   for (int b = 0; b < kBins; ++b) below[std::size_t(b + 1)] += below[std::size_t(b)];
   const double slope = (below[kBins] - below[kBins / 2]) / (0.5 * s);
-  auto candidates = [&](double skin) {
-    if (skin >= s) return below[kBins] + (skin - s) * slope;
-    return below[std::size_t(std::clamp(int(skin / s * kBins), 0, kBins))];
+  auto evaluations = [&](double skin) {  // per step, over the list's life
+    double sum = 0.0;
+    for (int b = 0; b <= kBins; ++b) {
+      const double gap = std::max(0.0, (double(b) - 0.5) * s / kBins);
+      if (gap >= skin) break;
+      const int band = std::min(kGapBands - 1, int(gap / (0.25 * skin)));
+      sum += in_bin[std::size_t(b)] * (1.0 - 0.25 * band);
+    }
+    return sum + std::max(0.0, skin - s) * slope * 0.375;
   };
   auto cost = [&](double skin) {
-    return candidates(skin) +
+    return evaluations(skin) +
            kRebuildPerParticle * double(p.size()) / std::max(1.0, steps_per_skin * skin);
   };
   double best = s, best_cost = cost(s);
