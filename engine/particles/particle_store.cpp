@@ -59,11 +59,6 @@ void ParticleStore::remove_swap(std::size_t slot) {
   ++population_version;
 }
 
-void ParticleStore::permute(const std::vector<std::uint32_t>& order) {
-  std::vector<Vec3> scratch;
-  permute(order, scratch);
-}
-
 void ParticleStore::permute(const std::vector<std::uint32_t>& order, std::vector<Vec3>& scratch) {
   for_each_column([&order, &scratch](auto& column) {
     using T = typename std::remove_reference_t<decltype(column)>::value_type;

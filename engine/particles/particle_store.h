@@ -107,10 +107,8 @@ struct ParticleStore {
   void remove_swap(std::size_t slot);
 
   // Reorders every column: new slot k holds the particle that was in slot order[k]. Used to keep
-  // particles that are close in space close in memory.
-  void permute(const std::vector<std::uint32_t>& order);
-  // The same with a caller's work buffer (its contents are overwritten), so that repeated
-  // reorders do not allocate.
+  // particles that are close in space close in memory. `scratch` is a work buffer (its contents
+  // are overwritten), so that repeated reorders do not allocate.
   void permute(const std::vector<std::uint32_t>& order, std::vector<Vec3>& scratch);
 };
 

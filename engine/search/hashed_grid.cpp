@@ -495,9 +495,7 @@ void HashedGrid::find_pairs(const std::vector<Vec3>& x, const std::vector<double
     }
   stats_.distance_tests = sink.tests;
   stats_.cell_lookups = sink.lookups;
-  stats_.coarse_particles = members_[0].size();
   stats_.cell_m = level_[0].edge(0);
-  stats_.subcell_m = levels > 1 && used_count > 1 ? level_[used[1]].edge(0) : 0.0;
   stats_.subcells_per_axis = k;
   stats_.levels = used_count;
 }

@@ -102,10 +102,10 @@ struct HashedGridSettings {
 
 struct HashedGridStats {
   std::uint64_t distance_tests = 0;
-  std::uint64_t cell_lookups = 0;  // hash or direct-table probes (sorted-row reads not counted)
-  std::uint64_t coarse_particles = 0, fine_particles = 0;  // level 0, levels >= 1
-  std::uint64_t cells = 0, subcells = 0;                   // occupied, level 0 and levels >= 1
-  double cell_m = 0.0, subcell_m = 0.0;                    // level-0 and level-1 edges
+  std::uint64_t cell_lookups = 0;    // hash or direct-table probes (sorted-row reads not counted)
+  std::uint64_t fine_particles = 0;  // on levels >= 1
+  std::uint64_t cells = 0, subcells = 0;  // occupied, level 0 and levels >= 1
+  double cell_m = 0.0;                    // level-0 edge
   int subcells_per_axis = 1;
   int levels = 1;  // levels holding particles
   std::uint64_t level_particles[kMaxGridLevels] = {0, 0, 0, 0};
