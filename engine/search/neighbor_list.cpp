@@ -10,10 +10,17 @@ constexpr std::size_t kReorderMinParticles = 4096;
 
 struct KeyedHistory {
   std::uint64_t a, b;  // stable ids (particle ids, or particle id and wall index)
-  Vec3 history;
+  Vec3 history;        // a pair's tangential spring as seen from a (the lower id)
   std::uint8_t state;  // kPairApart / kPairTouching / kPairGhost
   bool operator<(const KeyedHistory& o) const { return a != o.a ? a < o.a : b < o.b; }
 };
+
+// A tangential spring is the first partner's displacement relative to the second, so it turns
+// with the pair when a rebuild lists the pair the other way round; a ghost's overlap memory is a
+// length and does not. `first_is_higher`: the pair is listed from its higher id.
+Vec3 spring_from_lower_id(const Vec3& history, std::uint8_t state, bool first_is_higher) {
+  return first_is_higher && state != kPairGhost ? -history : history;
+}
 
 const KeyedHistory* lookup(const std::vector<KeyedHistory>& table, std::uint64_t a,
                            std::uint64_t b) {
@@ -251,7 +258,9 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
   for (std::size_t k = 0; k < pairs.size(); ++k)
     if (pair_touching[k] != kPairApart || norm2(pair_history_m(k)) > 0.0) {
       std::uint64_t a = reference_id_[pairs.first[k]], b = reference_id_[pairs.second[k]];
-      old_pairs.push_back({std::min(a, b), std::max(a, b), pair_history_m(k), pair_touching[k]});
+      old_pairs.push_back({std::min(a, b), std::max(a, b),
+                           spring_from_lower_id(pair_history_m(k), pair_touching[k], a > b),
+                           pair_touching[k]});
     }
   for (std::size_t k = 0; k < wall_particle.size(); ++k)
     if (wall_touching[k] != kPairApart || norm2(wall_history_m[k]) > 0.0)
@@ -290,7 +299,7 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
       const std::uint64_t a = p.id[i], b = p.id[j];
       if (const KeyedHistory* h = lookup(old_pairs, std::min(a, b), std::max(a, b))) {
         if (norm2(h->history) > 0.0 || h->state == kPairGhost)
-          pair_history[k] = history_pool.take(h->history);
+          pair_history[k] = history_pool.take(spring_from_lower_id(h->history, h->state, a > b));
         pair_touching[k] = h->state;
         continue;
       }
