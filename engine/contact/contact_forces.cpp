@@ -51,24 +51,8 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
   double max_ratio = 0.0;
   std::size_t max_pair = 0;
 
-  // The second partners are scattered: fetch them some candidates ahead (the loop is bound by
-  // these loads, not by arithmetic), and everything a contact reads for pairs that touched at the
-  // last pass, which nearly always still do.
-  constexpr std::size_t kPrefetchAhead = 48;
-  for (std::size_t k = 0; k < count; ++k) {
-    if (k + kPrefetchAhead < count) {
-      const std::uint32_t ahead = second[k + kPrefetchAhead];
-      __builtin_prefetch(&x[ahead]);
-      __builtin_prefetch(&r[ahead]);
-      if (touching_flag[k + kPrefetchAhead] != kPairApart) {
-        law.prefetch(ahead);
-        __builtin_prefetch(&v[ahead]), __builtin_prefetch(&w[ahead]);
-        __builtin_prefetch(&f[ahead]), __builtin_prefetch(&tq[ahead]);
-        __builtin_prefetch(&mat[ahead]);
-        if (history[k + kPrefetchAhead] != kNoHistory)
-          __builtin_prefetch(&pool[history[k + kPrefetchAhead]]);
-      }
-    }
+  // The contact law on candidate k, which touches now or touched at the last pass.
+  auto visit = [&](std::size_t k) {
     const std::uint32_t i = first[k], j = second[k];
     Vec3 d = x[i] - x[j];
     if constexpr (kPeriodic) d -= nl.pair_shift(k);
@@ -78,7 +62,7 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
         touching_flag[k] = kPairApart;
         if (history[k] != kNoHistory) pool.give_back(history[k]), history[k] = kNoHistory;
       }
-      continue;
+      return;
     }
     const std::uint8_t before = touching_flag[k];
     const double dist = std::sqrt(dist2);
@@ -90,7 +74,7 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
       double& memory = pool[history[k]][0];
       memory = std::min(memory, overlap);
       overlap -= memory;
-      if (overlap <= 0.0) continue;
+      if (overlap <= 0.0) return;
     } else {
       touching_flag[k] = kPairTouching;
       if (history[k] == kNoHistory) history[k] = pool.take({});
@@ -131,6 +115,39 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
     const double ratio = overlap / (2.0 * std::min(r[i], r[j]));
     if (ratio > limit) stats.pairs_over_limit.push_back(std::uint32_t(k));
     if (ratio > max_ratio) max_ratio = ratio, max_pair = k;
+  };
+  // A lean pass over a chunk of candidates keeps those that touch or touched at the last pass (a
+  // few percent). Second partners lie behind in memory, mostly still in cache; the few far ones
+  // are fetched some candidates ahead. Then everything the kept contacts read is fetched, and
+  // only they go through the contact law.
+  constexpr std::size_t kChunk = 256, kPrefetchAhead = 64;
+  std::uint32_t kept[kChunk];
+  for (std::size_t chunk = 0; chunk < count; chunk += kChunk) {
+    const std::size_t chunk_end = std::min(count, chunk + kChunk);
+    std::size_t n = 0;
+    for (std::size_t k = chunk; k < chunk_end; ++k) {
+      if (k + kPrefetchAhead < count) {
+        __builtin_prefetch(&x[second[k + kPrefetchAhead]]);
+        __builtin_prefetch(&r[second[k + kPrefetchAhead]]);
+      }
+      const std::uint32_t i = first[k], j = second[k];
+      Vec3 d = x[i] - x[j];
+      if constexpr (kPeriodic) d -= nl.pair_shift(k);
+      const double rsum = r[i] + r[j];
+      kept[n] = std::uint32_t(k - chunk);
+      n += (norm2(d) < rsum * rsum) | (touching_flag[k] != kPairApart);
+    }
+    for (std::size_t h = 0; h < n; ++h) {
+      const std::size_t k = chunk + kept[h];
+      for (const std::uint32_t a : {first[k], second[k]}) {
+        law.prefetch(a);
+        __builtin_prefetch(&v[a]), __builtin_prefetch(&w[a]);
+        __builtin_prefetch(&f[a]), __builtin_prefetch(&tq[a]);
+        __builtin_prefetch(&mat[a]);
+      }
+      if (history[k] != kNoHistory) __builtin_prefetch(&pool[history[k]]);
+    }
+    for (std::size_t h = 0; h < n; ++h) visit(chunk + kept[h]);
   }
   stats.touching_pairs = touching;
   if (max_ratio > stats.max_overlap_ratio) {
