@@ -6,6 +6,9 @@
 // on each particle after a rebuild that flips the pair equal those before it.
 #include <gtest/gtest.h>
 
+#include <array>
+#include <cmath>
+
 #include "contact/contact_forces.h"
 #include "search/neighbor_list.h"
 #include "support/scenes.h"
