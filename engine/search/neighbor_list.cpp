@@ -126,9 +126,10 @@ void NeighborList::sort_pairs(const ParticleStore& p, const PeriodicBox& box) {
     int image = 0, stride = 1;
     for (int a = 0; a < 3; ++a, stride *= 3) image += (box.image_of(d[a], a) + 1) * stride;
     image_scratch_[k] = std::uint8_t(image);
-    const double gap = norm(d - image_shift_[image]) - p.radius_m[i] - p.radius_m[j];
+    const double dist2 = norm2(d - image_shift_[image]), reach = p.radius_m[i] + p.radius_m[j];
+    const double gap = std::sqrt(dist2) - p.radius_m[i] - p.radius_m[j];
     const int band = band_width > 0.0 ? std::clamp(int(gap / band_width), 0, kGapBands - 1) : 0;
-    band_scratch_[k] = std::uint8_t(band);
+    band_scratch_[k] = std::uint8_t(band | (dist2 < reach * reach ? kOverlappingBit : 0));
     ++band_count[band];
   }
   std::size_t at[kGapBands], sum = 0;
@@ -140,12 +141,15 @@ void NeighborList::sort_pairs(const ParticleStore& p, const PeriodicBox& box) {
   pairs.first.resize(sorted.size());
   pairs.second.resize(sorted.size());
   pair_image.resize(sorted.size());
+  overlapping_.clear();
   for (std::size_t k = 0; k < sorted.size(); ++k) {
-    const std::size_t to = at[band_scratch_[k]]++;
+    const std::size_t to = at[band_scratch_[k] & ~kOverlappingBit]++;
     pairs.first[to] = sorted.first[k];
     pairs.second[to] = sorted.second[k];
     pair_image[to] = image_scratch_[k];
+    if (band_scratch_[k] & kOverlappingBit) overlapping_.push_back(std::uint32_t(to));
   }
+  std::sort(overlapping_.begin(), overlapping_.end());
 }
 
 void NeighborList::widen_active_bands() {
@@ -292,13 +296,12 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
   history_pool.clear();
   pair_touching.assign(pairs.size(), kPairApart);
   if (!old_pairs.empty() || !newborn_.empty())
-    for (std::size_t k = 0; k < pairs.size(); ++k) {
+    for (const std::uint32_t k : overlapping_) {
       // A pair apart now is apart at the next force pass whatever it was (its history is then
       // cleared): only overlapping pairs need their state.
       const std::uint32_t i = pairs.first[k], j = pairs.second[k];
       const double reach = p.radius_m[i] + p.radius_m[j];
       const Vec3 d = p.position_m[i] - p.position_m[j] - image_shift_[pair_image[k]];
-      if (norm2(d) >= reach * reach) continue;
       const std::uint64_t a = p.id[i], b = p.id[j];
       if (const KeyedHistory* h = lookup(old_pairs, std::min(a, b), std::max(a, b))) {
         if (norm2(h->history) > 0.0 || h->state == kPairGhost)

@@ -138,7 +138,7 @@ class NeighborList {
   // `steps_per_skin`: steps a list lasts per metre of skin (observed, or predicted from speeds).
   double steer_skin(const ParticleStore& particles, double steps_per_skin) const;
   // Sorts the candidates by gap band (gap at the rebuild in quarters of the skin), each band by
-  // first slot, and sets their periodic images.
+  // first slot, sets their periodic images, and lists those that overlap now (overlapping_).
   void sort_pairs(const ParticleStore& particles, const PeriodicBox& box);
   // Lets in the bands whose pairs the motion since the rebuild may have closed.
   void widen_active_bands();
@@ -168,6 +168,8 @@ class NeighborList {
   std::vector<std::uint32_t> order_;
   PairList sorted_pairs_;
   std::vector<std::uint8_t> image_scratch_, band_scratch_;
+  static constexpr std::uint8_t kOverlappingBit = 0x80;  // in band_scratch_
+  std::vector<std::uint32_t> overlapping_;               // candidates overlapping at the rebuild
   static constexpr int kGapBands = 4;
   std::size_t band_end_[kGapBands] = {0, 0, 0, 0};
   int active_bands_ = kGapBands;         // bands [0, active_bands_) may hold touching pairs
