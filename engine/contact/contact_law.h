@@ -38,26 +38,21 @@ inline double series(double a, double b) {
 // otherwise, like the normal spring. The paper's parallel sum stays selectable for comparison.
 template <bool kSeriesTangential>
 struct PerParticleSprings {
-  const double* kn;
-  const double* etan;
-  const double* kt;
-  const double* etat;
-  explicit PerParticleSprings(const ParticleStore& p)
-      : kn(p.normal_stiffness.data()),
-        etan(p.normal_damping.data()),
-        kt(p.tangential_stiffness.data()),
-        etat(p.tangential_damping.data()) {}
+  const ParticleSprings* springs;
+  explicit PerParticleSprings(const ParticleStore& p) : springs(p.springs.data()) {}
   // Starts loading particle j's constants (pair loop prefetch).
-  void prefetch(std::size_t j) const {
-    __builtin_prefetch(kn + j), __builtin_prefetch(etan + j);
-    __builtin_prefetch(kt + j), __builtin_prefetch(etat + j);
-  }
+  void prefetch(std::size_t j) const { __builtin_prefetch(springs + j); }
   PairSprings operator()(std::size_t i, std::size_t j, const PairConstants&) const {
+    const ParticleSprings& a = springs[i];
+    const ParticleSprings& b = springs[j];
+    const double kn = series(a.normal_stiffness, b.normal_stiffness);
+    const double etan = series(a.normal_damping, b.normal_damping);
     if constexpr (kSeriesTangential)
-      return {series(kn[i], kn[j]), series(etan[i], etan[j]), 4.0 * series(kt[i], kt[j]),
-              4.0 * series(etat[i], etat[j])};
+      return {kn, etan, 4.0 * series(a.tangential_stiffness, b.tangential_stiffness),
+              4.0 * series(a.tangential_damping, b.tangential_damping)};
     else
-      return {series(kn[i], kn[j]), series(etan[i], etan[j]), kt[i] + kt[j], etat[i] + etat[j]};
+      return {kn, etan, a.tangential_stiffness + b.tangential_stiffness,
+              a.tangential_damping + b.tangential_damping};
   }
 };
 using SeriesSprings = PerParticleSprings<true>;

@@ -17,7 +17,6 @@ std::size_t ParticleStore::add(const MaterialTable& materials, int material_inde
   const MaterialConstants& m = materials.material(material_index);
   const double r = 0.5 * diameter_m;
   const double mass = sphere_mass_kg(m.density_kg_per_m3, diameter_m);
-  const ParticleSprings springs = particle_springs(m, r, mass, stiffness_scale);
 
   position_m.push_back(position);
   velocity_m_per_s.push_back(velocity);
@@ -29,10 +28,7 @@ std::size_t ParticleStore::add(const MaterialTable& materials, int material_inde
   radius_m.push_back(r);
   inv_mass_per_kg.push_back(1.0 / mass);
   inv_inertia_per_kg_m2.push_back(1.0 / (0.4 * mass * r * r));
-  normal_stiffness.push_back(springs.normal_stiffness);
-  normal_damping.push_back(springs.normal_damping);
-  tangential_stiffness.push_back(springs.tangential_stiffness);
-  tangential_damping.push_back(springs.tangential_damping);
+  springs.push_back(particle_springs(m, r, mass, stiffness_scale));
   normal_compliance.push_back(m.normal_compliance / stiffness_scale);
   shear_compliance.push_back(m.shear_compliance / stiffness_scale);
   material.push_back(std::uint16_t(material_index));
@@ -62,8 +58,9 @@ void ParticleStore::remove_swap(std::size_t slot) {
 void ParticleStore::permute(const std::vector<std::uint32_t>& order, std::vector<Vec3>& scratch) {
   for_each_column([&order, &scratch](auto& column) {
     using T = typename std::remove_reference_t<decltype(column)>::value_type;
-    static_assert(std::is_trivially_copyable_v<T> && sizeof(T) <= sizeof(Vec3));
-    scratch.resize(std::max(scratch.size(), order.size()));
+    static_assert(std::is_trivially_copyable_v<T>);
+    const std::size_t scratch_size = (order.size() * sizeof(T) + sizeof(Vec3) - 1) / sizeof(Vec3);
+    scratch.resize(std::max(scratch.size(), scratch_size));
     unsigned char* gathered = reinterpret_cast<unsigned char*>(scratch.data());
     for (std::size_t k = 0; k < order.size(); ++k)
       std::memcpy(gathered + k * sizeof(T), &column[order[k]], sizeof(T));

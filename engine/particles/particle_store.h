@@ -33,12 +33,11 @@ struct ParticleStore {
   std::vector<double> radius_m;
   std::vector<double> inv_mass_per_kg;
   std::vector<double> inv_inertia_per_kg_m2;
-  std::vector<double> normal_stiffness;  // k_np, N/m^1.5 (Eq. 2)
-  std::vector<double> normal_damping;    // η_np, N s/m^1.25 (Eq. 2, damping from restitution.h)
-  std::vector<double> tangential_stiffness;  // k_tp / δ_n^{1/2}, N/m^1.5 (Eq. 3)
-  std::vector<double> tangential_damping;    // η_tp / δ_n^{1/4}, N s/m^1.25 (Eq. 3)
-  std::vector<double> normal_compliance;     // (1−ν²)/(s·E), 1/Pa; s = reduced-stiffness scale
-  std::vector<double> shear_compliance;      // (2−ν)/(s·G), 1/Pa
+  // k_np, η_np, k_tp/δ^½, η_tp/δ^¼ (Eq. 2–3, materials.h) in one record: a contact reads all four
+  // of both partners, so each costs one cache line, not four.
+  std::vector<ParticleSprings> springs;
+  std::vector<double> normal_compliance;  // (1−ν²)/(s·E), 1/Pa; s = reduced-stiffness scale
+  std::vector<double> shear_compliance;   // (2−ν)/(s·G), 1/Pa
   std::vector<std::uint16_t> material;
   // cold
   std::vector<double> mass_kg;
@@ -70,7 +69,7 @@ struct ParticleStore {
     f(position_m), f(velocity_m_per_s), f(force_n), f(angular_velocity_rad_per_s), f(torque_n_m);
     f(previous_force_n), f(previous_torque_n_m);
     f(radius_m), f(inv_mass_per_kg), f(inv_inertia_per_kg_m2);
-    f(normal_stiffness), f(normal_damping), f(tangential_stiffness), f(tangential_damping);
+    f(springs);
     f(normal_compliance), f(shear_compliance);
     f(material), f(mass_kg), f(id);
     if (has_breakage_state) f(remaining_capacity_j_per_kg);
