@@ -94,21 +94,22 @@ double NeighborList::max_displacement_m(const ParticleStore& p, const PeriodicBo
 }
 
 void NeighborList::sort_pairs(const ParticleStore& p, const PeriodicBox& box) {
-  // Counting sort on the higher slot, listed first: the force loop walks particles in memory
-  // order, and each second partner lies behind, where that walk has just been (in cache).
+  // Each pair listed from its higher slot, then a counting sort on that slot: the force loop
+  // walks particles in memory order, and each second partner lies behind, where that walk has
+  // just been (in cache).
+  for (std::size_t k = 0; k < pairs.size(); ++k)
+    if (pairs.first[k] < pairs.second[k]) std::swap(pairs.first[k], pairs.second[k]);
   std::vector<std::uint32_t>& start = order_;
   start.assign(p.size() + 1, 0);
-  for (std::size_t k = 0; k < pairs.size(); ++k)
-    ++start[std::max(pairs.first[k], pairs.second[k]) + 1];
+  for (std::uint32_t i : pairs.first) ++start[i + 1];
   for (std::size_t i = 0; i < p.size(); ++i) start[i + 1] += start[i];
   PairList& sorted = sorted_pairs_;
   sorted.first.resize(pairs.size());
   sorted.second.resize(pairs.size());
   for (std::size_t k = 0; k < pairs.size(); ++k) {
-    const std::uint32_t higher = std::max(pairs.first[k], pairs.second[k]);
-    const std::uint32_t at = start[higher]++;
-    sorted.first[at] = higher;
-    sorted.second[at] = std::min(pairs.first[k], pairs.second[k]);
+    const std::uint32_t at = start[pairs.first[k]]++;
+    sorted.first[at] = pairs.first[k];
+    sorted.second[at] = pairs.second[k];
   }
   // Periodic image and gap band of each pair, then a stable sort by band.
   for (int image = 0; image < 27; ++image) {

@@ -111,7 +111,8 @@ class NeighborList {
   double skin_m() const { return settings_.skin_m; }
   const NeighborStats& stats() const { return stats_; }
 
-  // Particle–particle candidates and their tangential spring displacement (m).
+  // Particle–particle candidates, each listed from its higher slot (first > second), and their
+  // tangential spring displacement (m).
   PairList pairs;
   std::vector<std::uint8_t> pair_image;     // index into the 27 periodic shifts
   std::vector<std::uint32_t> pair_history;  // slot in history_pool, or kNoHistory
