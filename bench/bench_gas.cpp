@@ -104,9 +104,9 @@ void settling(double threshold, DragCacheStore store) {
     double peak = 0.0;
     while (sim.step_index() < sim.total_steps()) {
       sim.step();
-      peak = std::max(peak, norm(sim.particles().velocity_m_per_s[0]));
+      peak = std::max(peak, norm(sim.particles().motion[0].velocity_m_per_s));
     }
-    const double v = norm(sim.particles().velocity_m_per_s[0]);
+    const double v = norm(sim.particles().motion[0].velocity_m_per_s);
     const CouplingStats& s = sim.gas()->stats();
     std::printf("| %g %% | %s | %g mm | %.3f %% | %.3f %% | %.4f |\n", 100 * threshold,
                 store == DragCacheStore::Force ? "force" : "coefficient", 1e3 * d,

@@ -98,9 +98,9 @@ void Breakage::break_particle(std::size_t slot, double dt_s, ParticleStore& p, P
   const Material& m = *material_[std::size_t(material)];
   const double density = materials_->material(material).density_kg_per_m3;
   const double parent_d = 2.0 * p.radius_m[slot];
-  const Vec3 x = p.position_m[slot], v = p.velocity_m_per_s[slot];
-  const Vec3 w = p.angular_velocity_rad_per_s[slot];
-  const Vec3 force = p.force_n[slot], torque = p.torque_n_m[slot];
+  const Vec3 x = p.position_m[slot], v = p.motion[slot].velocity_m_per_s;
+  const Vec3 w = p.motion[slot].angular_velocity_rad_per_s;
+  const Vec3 force = p.load[slot].force_n, torque = p.load[slot].torque_n_m;
   const double parent_mass = p.mass_kg[slot];
   const ParticleId parent_id = p.id[slot];
   const std::uint64_t family = ++stats_.events;
@@ -127,8 +127,8 @@ void Breakage::break_particle(std::size_t slot, double dt_s, ParticleStore& p, P
     const std::size_t s = p.add(*materials_, material, id, x + offset[k], v + cross(w, offset[k]),
                                 w, kept_d[k], scale);
     const double share = p.mass_kg[s] / parent_mass;
-    p.force_n[s] = force * share;
-    p.torque_n_m[s] = torque * share;
+    p.load[s].force_n = force * share;
+    p.load[s].torque_n_m = torque * share;
     draw_strength(p, s);
     newborn.push_back({id, family, parent_id});
     after_addition(p, s);

@@ -41,12 +41,10 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
   HistoryPool& pool = nl.history_pool;
   std::uint8_t* touching_flag = nl.pair_touching.data();
   const Vec3* x = p.position_m.data();
-  const Vec3* v = p.velocity_m_per_s.data();
-  const Vec3* w = p.angular_velocity_rad_per_s.data();
+  const Motion* motion = p.motion.data();
   const double* r = p.radius_m.data();
   const std::uint16_t* mat = p.material.data();
-  Vec3* f = p.force_n.data();
-  Vec3* tq = p.torque_n_m.data();
+  Load* load = p.load.data();
   std::uint64_t touching = 0;
   double max_ratio = 0.0;
   std::size_t max_pair = 0;
@@ -87,7 +85,10 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
 
     // Velocity of the contact point of i relative to j; contact point at −r_i n from i, +r_j n
     // from j.
-    const Vec3 v_rel = v[i] - v[j] - cross(w[i] * r[i] + w[j] * r[j], n);
+    const Motion &mi = motion[i], &mj = motion[j];
+    const Vec3 v_rel =
+        mi.velocity_m_per_s - mj.velocity_m_per_s -
+        cross(mi.angular_velocity_rad_per_s * r[i] + mj.angular_velocity_rad_per_s * r[j], n);
     const double vn = dot(v_rel, n);
     const Vec3 v_t = v_rel - n * vn;
     if (before == kPairApart && vn < 0.0 && stats.record_impacts)
@@ -97,19 +98,20 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
         ghost ? Vec3{}
               : tangential_force(s, sqrt_overlap, fn, pc.friction, n, v_t, dt, pool[history[k]]);
     const Vec3 force = n * fn + ft;
-    f[i] += force;
-    f[j] -= force;
+    Load &li = load[i], &lj = load[j];
+    li.force_n += force;
+    lj.force_n -= force;
     const Vec3 n_cross_ft = cross(n, ft);
-    tq[i] -= n_cross_ft * (r[i] - 0.5 * overlap);
-    tq[j] -= n_cross_ft * (r[j] - 0.5 * overlap);
+    li.torque_n_m -= n_cross_ft * (r[i] - 0.5 * overlap);
+    lj.torque_n_m -= n_cross_ft * (r[j] - 0.5 * overlap);
     if (pc.rolling_friction > 0.0) {
       // Constant directional torque (Zhou et al. 1999): −μ_r R* F_n ω_rel/|ω_rel|.
-      const Vec3 w_rel = w[i] - w[j];
+      const Vec3 w_rel = mi.angular_velocity_rad_per_s - mj.angular_velocity_rad_per_s;
       const double w_len = norm(w_rel);
       if (w_len > 0.0) {
         const Vec3 t = w_rel * (pc.rolling_friction * (r[i] * r[j] / rsum) * fn / w_len);
-        tq[i] -= t;
-        tq[j] += t;
+        li.torque_n_m -= t;
+        lj.torque_n_m += t;
       }
     }
     const double ratio = overlap / (2.0 * std::min(r[i], r[j]));
@@ -140,9 +142,12 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
     for (std::size_t h = 0; h < n; ++h) {
       const std::size_t k = chunk + kept[h];
       for (const std::uint32_t a : {first[k], second[k]}) {
+        // A 48-byte record may span two cache lines: fetch its first and last byte.
+        const char* m = reinterpret_cast<const char*>(&motion[a]);
+        const char* l = reinterpret_cast<const char*>(&load[a]);
         law.prefetch(a);
-        __builtin_prefetch(&v[a]), __builtin_prefetch(&w[a]);
-        __builtin_prefetch(&f[a]), __builtin_prefetch(&tq[a]);
+        __builtin_prefetch(m), __builtin_prefetch(m + sizeof(Motion) - 1);
+        __builtin_prefetch(l), __builtin_prefetch(l + sizeof(Load) - 1);
         __builtin_prefetch(&mat[a]);
       }
       if (history[k] != kNoHistory) __builtin_prefetch(&pool[history[k]]);
@@ -214,7 +219,8 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Plane
     const PairConstants& pc = materials.wall_pair(wall.pair_table, p.material[i]);
     const PairSprings s = wall_springs(p, i, pc);
     const double sqrt_overlap = std::sqrt(overlap);
-    const Vec3 v_rel = p.velocity_m_per_s[i] - cross(p.angular_velocity_rad_per_s[i] * r, n);
+    const Vec3 v_rel =
+        p.motion[i].velocity_m_per_s - cross(p.motion[i].angular_velocity_rad_per_s * r, n);
     const double vn = dot(v_rel, n);
     const Vec3 v_t = v_rel - n * vn;
     if (onset && vn < 0.0 && stats.record_impacts)
@@ -223,12 +229,12 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Plane
     const Vec3 ft = ghost ? Vec3{}
                           : tangential_force(s, sqrt_overlap, fn, pc.friction, n, v_t, dt,
                                              nl.wall_history_m[k]);
-    p.force_n[i] += n * fn + ft;
-    p.torque_n_m[i] -= cross(n, ft) * (r - 0.5 * overlap);
+    p.load[i].force_n += n * fn + ft;
+    p.load[i].torque_n_m -= cross(n, ft) * (r - 0.5 * overlap);
     if (pc.rolling_friction > 0.0) {
-      const Vec3& w = p.angular_velocity_rad_per_s[i];
+      const Vec3& w = p.motion[i].angular_velocity_rad_per_s;
       const double w_len = norm(w);
-      if (w_len > 0.0) p.torque_n_m[i] -= w * (pc.rolling_friction * r * fn / w_len);
+      if (w_len > 0.0) p.load[i].torque_n_m -= w * (pc.rolling_friction * r * fn / w_len);
     }
     const double ratio = overlap / (2.0 * r);
     if (ratio > limit) stats.walls_over_limit.push_back(std::uint32_t(k));

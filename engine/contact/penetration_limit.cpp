@@ -18,22 +18,22 @@ std::uint64_t apply_penetration_limiter(const ContactStepStats& stats,
     const std::uint32_t i = nl.pairs.first[k], j = nl.pairs.second[k];
     const Vec3 d = box.minimum_image(p.position_m[i] - p.position_m[j]);
     const Vec3 n = d * (1.0 / norm(d));
-    const double vn = dot(p.velocity_m_per_s[i] - p.velocity_m_per_s[j], n);
+    const double vn = dot(p.motion[i].velocity_m_per_s - p.motion[j].velocity_m_per_s, n);
     if (vn >= 0.0) continue;  // already separating
     const double e = materials.pair(p.material[i], p.material[j]).restitution;
     const double reduced_mass = 1.0 / (p.inv_mass_per_kg[i] + p.inv_mass_per_kg[j]);
     const Vec3 impulse = n * (-(1.0 + e) * vn * reduced_mass);  // (§4, Eq. 8): v_n → −e v_n
-    p.velocity_m_per_s[i] += impulse * p.inv_mass_per_kg[i];
-    p.velocity_m_per_s[j] -= impulse * p.inv_mass_per_kg[j];
+    p.motion[i].velocity_m_per_s += impulse * p.inv_mass_per_kg[i];
+    p.motion[j].velocity_m_per_s -= impulse * p.inv_mass_per_kg[j];
     ++events;
   }
   for (std::uint32_t k : stats.walls_over_limit) {
     const std::uint32_t i = nl.wall_particle[k];
     const PlaneWall& wall = walls[nl.wall_index[k]];
-    const double vn = dot(p.velocity_m_per_s[i], wall.normal);
+    const double vn = dot(p.motion[i].velocity_m_per_s, wall.normal);
     if (vn >= 0.0) continue;
     const double e = materials.wall_pair(wall.pair_table, p.material[i]).restitution;
-    p.velocity_m_per_s[i] -= wall.normal * ((1.0 + e) * vn);  // (§4, Eq. 8)
+    p.motion[i].velocity_m_per_s -= wall.normal * ((1.0 + e) * vn);  // (§4, Eq. 8)
     ++events;
   }
   return events;

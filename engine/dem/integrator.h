@@ -26,13 +26,18 @@ inline double kick_drift(ParticleStore& p, double dt) {
   const double half = 0.5 * dt;
   const std::size_t n = p.size();
   double max_speed2 = 0.0;
+  Vec3* x = p.position_m.data();
+  Motion* motion = p.motion.data();
+  const Load* load = p.load.data();
   for (std::size_t i = 0; i < n; ++i) {
-    const Vec3 dv = p.force_n[i] * (half * p.inv_mass_per_kg[i]);
-    const Vec3 v_half = p.velocity_m_per_s[i] + dv;
+    const Motion m = motion[i];
+    const Load l = load[i];
+    const Vec3 dv = l.force_n * (half * p.inv_mass_per_kg[i]);
+    const Vec3 v_half = m.velocity_m_per_s + dv;
     max_speed2 = std::max(max_speed2, norm2(v_half));
-    p.position_m[i] += v_half * dt;
-    p.velocity_m_per_s[i] = v_half + dv;
-    p.angular_velocity_rad_per_s[i] += p.torque_n_m[i] * (dt * p.inv_inertia_per_kg_m2[i]);
+    x[i] += v_half * dt;
+    motion[i] = {v_half + dv,
+                 m.angular_velocity_rad_per_s + l.torque_n_m * (dt * p.inv_inertia_per_kg_m2[i])};
   }
   return std::sqrt(max_speed2);
 }
@@ -40,10 +45,14 @@ inline double kick_drift(ParticleStore& p, double dt) {
 inline void kick(ParticleStore& p, double dt) {
   const double half = 0.5 * dt;
   const std::size_t n = p.size();
+  Motion* motion = p.motion.data();
+  const Load* load = p.load.data();
+  const Load* previous_load = p.previous_load.data();
   for (std::size_t i = 0; i < n; ++i) {
-    p.velocity_m_per_s[i] += (p.force_n[i] - p.previous_force_n[i]) * (half * p.inv_mass_per_kg[i]);
-    p.angular_velocity_rad_per_s[i] +=
-        (p.torque_n_m[i] - p.previous_torque_n_m[i]) * (half * p.inv_inertia_per_kg_m2[i]);
+    const Load l = load[i], l_old = previous_load[i];
+    motion[i].velocity_m_per_s += (l.force_n - l_old.force_n) * (half * p.inv_mass_per_kg[i]);
+    motion[i].angular_velocity_rad_per_s +=
+        (l.torque_n_m - l_old.torque_n_m) * (half * p.inv_inertia_per_kg_m2[i]);
   }
 }
 
@@ -56,19 +65,22 @@ inline double kick_then_kick_drift(ParticleStore& p, double dt) {
   const double half = 0.5 * dt;
   const std::size_t n = p.size();
   double max_speed2 = 0.0;
+  Vec3* x = p.position_m.data();
+  Motion* motion = p.motion.data();
+  const Load* load = p.load.data();
+  const Load* previous_load = p.previous_load.data();
   for (std::size_t i = 0; i < n; ++i) {
+    const Motion m = motion[i];
+    const Load l = load[i], l_old = previous_load[i];
     const double half_inv_mass = half * p.inv_mass_per_kg[i];
-    const Vec3 v_end =
-        p.velocity_m_per_s[i] + (p.force_n[i] - p.previous_force_n[i]) * half_inv_mass;
-    const Vec3 w_end =
-        p.angular_velocity_rad_per_s[i] +
-        (p.torque_n_m[i] - p.previous_torque_n_m[i]) * (half * p.inv_inertia_per_kg_m2[i]);
-    const Vec3 dv = p.force_n[i] * half_inv_mass;
+    const Vec3 v_end = m.velocity_m_per_s + (l.force_n - l_old.force_n) * half_inv_mass;
+    const Vec3 w_end = m.angular_velocity_rad_per_s +
+                       (l.torque_n_m - l_old.torque_n_m) * (half * p.inv_inertia_per_kg_m2[i]);
+    const Vec3 dv = l.force_n * half_inv_mass;
     const Vec3 v_half = v_end + dv;
     max_speed2 = std::max(max_speed2, norm2(v_half));
-    p.position_m[i] += v_half * dt;
-    p.velocity_m_per_s[i] = v_half + dv;
-    p.angular_velocity_rad_per_s[i] = w_end + p.torque_n_m[i] * (dt * p.inv_inertia_per_kg_m2[i]);
+    x[i] += v_half * dt;
+    motion[i] = {v_half + dv, w_end + l.torque_n_m * (dt * p.inv_inertia_per_kg_m2[i])};
   }
   return std::sqrt(max_speed2);
 }
@@ -76,15 +88,10 @@ inline double kick_then_kick_drift(ParticleStore& p, double dt) {
 // Keeps the current forces as the previous ones, then clears forces and torques and adds
 // gravity, m·g.
 inline void clear_forces(ParticleStore& p, const Vec3& gravity) {
-  std::swap(p.force_n, p.previous_force_n);
-  std::swap(p.torque_n_m, p.previous_torque_n_m);
+  std::swap(p.load, p.previous_load);
   const std::size_t n = p.size();
-  p.force_n.resize(n);
-  p.torque_n_m.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    p.force_n[i] = gravity * p.mass_kg[i];
-    p.torque_n_m[i] = {};
-  }
+  p.load.resize(n);
+  for (std::size_t i = 0; i < n; ++i) p.load[i] = {gravity * p.mass_kg[i], {}};
 }
 
 }  // namespace millsim

@@ -264,7 +264,7 @@ void GasCoupling::return_drag_response(ParticleStore& p, double cfd_step_s) {
       for (int k = 0; k < s.count; ++k)
         impulse[a] += beta * s.weight[k] * response[std::size_t(a)][s.node[k]];
     }
-    p.velocity_m_per_s[i] += impulse * p.inv_mass_per_kg[i];
+    p.motion[i].velocity_m_per_s += impulse * p.inv_mass_per_kg[i];
     stats_.particle_impulse_n_s += impulse;
     stats_.deposited_impulse_n_s -= impulse;
   }
@@ -316,7 +316,7 @@ void GasCoupling::add_fluid_forces(ParticleStore& p, double dt, bool accumulate)
   const std::size_t n = p.size();
   for (std::size_t i = 0; i < n; ++i) {
     const FluidCellState& st = fluid_at(p.position_m[i]);
-    const Vec3 slip = st.velocity_m_per_s - p.velocity_m_per_s[i];
+    const Vec3 slip = st.velocity_m_per_s - p.motion[i].velocity_m_per_s;
     const double d = 2.0 * p.radius_m[i];
     bool recompute = p.fluid_coefficient_kg_per_s[i] < 0.0 || threshold <= 0.0;
     if (!recompute) {
@@ -348,7 +348,7 @@ void GasCoupling::add_fluid_forces(ParticleStore& p, double dt, bool accumulate)
                               : slip * p.fluid_coefficient_kg_per_s[i] + p.fluid_cached_force_n[i];
     Vec3 force = exchange;
     if (pressure) force -= st.pressure_gradient_pa_per_m * (std::numbers::pi / 6.0 * d * d * d);
-    p.force_n[i] += force;
+    p.load[i].force_n += force;
     if (accumulate) {
       p.fluid_impulse_n_s[i] += exchange * dt;
       impulse_sum += exchange * dt;

@@ -74,15 +74,19 @@ void H5Writer::write_snapshot(std::int64_t step, double time_s, const ParticleSt
   static_assert(sizeof(Vec3) == 3 * sizeof(double));
   std::vector<double> diameter(n);
   std::vector<int> material(n);
-  for (std::size_t i = 0; i < n; ++i)
+  std::vector<Vec3> velocity(n), angular_velocity(n);
+  for (std::size_t i = 0; i < n; ++i) {
     diameter[i] = 2.0 * p.radius_m[i], material[i] = p.material[i];
+    velocity[i] = p.motion[i].velocity_m_per_s;
+    angular_velocity[i] = p.motion[i].angular_velocity_rad_per_s;
+  }
   try {
     write_dataset(g, "position", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, 2, dims3, p.position_m.data(),
                   path_);
-    write_dataset(g, "velocity", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, 2, dims3,
-                  p.velocity_m_per_s.data(), path_);
+    write_dataset(g, "velocity", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, 2, dims3, velocity.data(),
+                  path_);
     write_dataset(g, "angular_velocity", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, 2, dims3,
-                  p.angular_velocity_rad_per_s.data(), path_);
+                  angular_velocity.data(), path_);
     write_dataset(g, "diameter", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, 1, dims1, diameter.data(),
                   path_);
     write_dataset(g, "id", H5T_NATIVE_UINT64, H5T_STD_U64LE, 1, dims1, p.id.data(), path_);

@@ -5,6 +5,29 @@
 #include <type_traits>
 
 namespace millsim {
+namespace {
+
+// Permutes an array of kSize-byte elements in slices of at most one Vec3, starting at byte
+// kOffset of each element: the slice of every element is gathered into `gathered` (room for one
+// Vec3 per element), then written back in place.
+template <std::size_t kSize, std::size_t kOffset = 0>
+void permute_slices(unsigned char* bytes, const std::vector<std::uint32_t>& order,
+                    unsigned char* gathered) {
+  constexpr std::size_t kWidth = std::min(sizeof(Vec3), kSize - kOffset);
+  const std::size_t n = order.size();
+  for (std::size_t k = 0; k < n; ++k)
+    std::memcpy(gathered + k * kWidth, bytes + order[k] * kSize + kOffset, kWidth);
+  if constexpr (kWidth == kSize) {
+    if (n) std::memcpy(bytes, gathered, n * kSize);
+  } else {
+    for (std::size_t k = 0; k < n; ++k)
+      std::memcpy(bytes + k * kSize + kOffset, gathered + k * kWidth, kWidth);
+  }
+  if constexpr (kOffset + kWidth < kSize)
+    permute_slices<kSize, kOffset + kWidth>(bytes, order, gathered);
+}
+
+}  // namespace
 
 void ParticleStore::reserve(std::size_t n) {
   for_each_column([n](auto& column) { column.reserve(n); });
@@ -19,12 +42,9 @@ std::size_t ParticleStore::add(const MaterialTable& materials, int material_inde
   const double mass = sphere_mass_kg(m.density_kg_per_m3, diameter_m);
 
   position_m.push_back(position);
-  velocity_m_per_s.push_back(velocity);
-  force_n.push_back({});
-  angular_velocity_rad_per_s.push_back(angular_velocity);
-  torque_n_m.push_back({});
-  previous_force_n.push_back({});
-  previous_torque_n_m.push_back({});
+  motion.push_back({velocity, angular_velocity});
+  load.push_back({});
+  previous_load.push_back({});
   radius_m.push_back(r);
   inv_mass_per_kg.push_back(1.0 / mass);
   inv_inertia_per_kg_m2.push_back(1.0 / (0.4 * mass * r * r));
@@ -59,12 +79,9 @@ void ParticleStore::permute(const std::vector<std::uint32_t>& order, std::vector
   for_each_column([&order, &scratch](auto& column) {
     using T = typename std::remove_reference_t<decltype(column)>::value_type;
     static_assert(std::is_trivially_copyable_v<T>);
-    const std::size_t scratch_size = (order.size() * sizeof(T) + sizeof(Vec3) - 1) / sizeof(Vec3);
-    scratch.resize(std::max(scratch.size(), scratch_size));
-    unsigned char* gathered = reinterpret_cast<unsigned char*>(scratch.data());
-    for (std::size_t k = 0; k < order.size(); ++k)
-      std::memcpy(gathered + k * sizeof(T), &column[order[k]], sizeof(T));
-    if (!order.empty()) std::memcpy(column.data(), gathered, order.size() * sizeof(T));
+    scratch.resize(std::max(scratch.size(), order.size()));
+    permute_slices<sizeof(T)>(reinterpret_cast<unsigned char*>(column.data()), order,
+                              reinterpret_cast<unsigned char*>(scratch.data()));
   });
   ++population_version;
 }

@@ -21,15 +21,25 @@ inline double sphere_mass_kg(double density_kg_per_m3, double diameter_m) {
   return density_kg_per_m3 * 4.0 / 3.0 * std::numbers::pi * r * r * r;
 }
 
+// Velocity and angular velocity of one particle, and force and torque on it: a contact reads the
+// first and adds to the second for both partners, and these are its scattered accesses, so each
+// pair of vectors is one 48-byte record (1.5 cache lines on average instead of 2).
+struct Motion {
+  Vec3 velocity_m_per_s;
+  Vec3 angular_velocity_rad_per_s;
+};
+struct Load {
+  Vec3 force_n;
+  Vec3 torque_n_m;
+};
+static_assert(sizeof(Motion) == 2 * sizeof(Vec3) && sizeof(Load) == 2 * sizeof(Vec3));
+
 struct ParticleStore {
   // hot: read or written every step
   std::vector<Vec3> position_m;
-  std::vector<Vec3> velocity_m_per_s;
-  std::vector<Vec3> force_n;
-  std::vector<Vec3> angular_velocity_rad_per_s;
-  std::vector<Vec3> torque_n_m;
-  std::vector<Vec3> previous_force_n;  // forces of the previous step (dem/integrator.h)
-  std::vector<Vec3> previous_torque_n_m;
+  std::vector<Motion> motion;
+  std::vector<Load> load;
+  std::vector<Load> previous_load;  // forces and torques of the previous step (dem/integrator.h)
   std::vector<double> radius_m;
   std::vector<double> inv_mass_per_kg;
   std::vector<double> inv_inertia_per_kg_m2;
@@ -66,8 +76,7 @@ struct ParticleStore {
   // and reordering share (a new field is added here, or it falls out of step).
   template <class F>
   void for_each_column(F&& f) {
-    f(position_m), f(velocity_m_per_s), f(force_n), f(angular_velocity_rad_per_s), f(torque_n_m);
-    f(previous_force_n), f(previous_torque_n_m);
+    f(position_m), f(motion), f(load), f(previous_load);
     f(radius_m), f(inv_mass_per_kg), f(inv_inertia_per_kg_m2);
     f(springs);
     f(normal_compliance), f(shear_compliance);
@@ -107,7 +116,8 @@ struct ParticleStore {
 
   // Reorders every column: new slot k holds the particle that was in slot order[k]. Used to keep
   // particles that are close in space close in memory. `scratch` is a work buffer (its contents
-  // are overwritten), so that repeated reorders do not allocate.
+  // are overwritten), so that repeated reorders do not allocate; it never grows past one Vec3 per
+  // particle, as wider records are moved in slices of at most that size.
   void permute(const std::vector<std::uint32_t>& order, std::vector<Vec3>& scratch);
 };
 

@@ -358,7 +358,7 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
   } else if (settings_.automatic_skin && settings_.step_s > 0.0) {
     // No interval observed for this population: predict it, skin/2 at the largest speed.
     double max_speed2 = 0.0;
-    for (const Vec3& v : p.velocity_m_per_s) max_speed2 = std::max(max_speed2, norm2(v));
+    for (const Motion& m : p.motion) max_speed2 = std::max(max_speed2, norm2(m.velocity_m_per_s));
     if (max_speed2 > 0.0)
       next_skin_m_ = steer_skin(p, 1.0 / (2.0 * std::sqrt(max_speed2) * settings_.step_s));
   }

@@ -459,8 +459,8 @@ std::optional<StepFailure> Simulation::step_once(bool may_defer) {
 
 double Simulation::particle_energy_j(std::size_t i) const {
   const ParticleStore& p = particles_;
-  return 0.5 * p.mass_kg[i] * norm2(p.velocity_m_per_s[i]) +
-         0.5 * norm2(p.angular_velocity_rad_per_s[i]) / p.inv_inertia_per_kg_m2[i] -
+  return 0.5 * p.mass_kg[i] * norm2(p.motion[i].velocity_m_per_s) +
+         0.5 * norm2(p.motion[i].angular_velocity_rad_per_s) / p.inv_inertia_per_kg_m2[i] -
          p.mass_kg[i] * dot(gravity_m_per_s2_, p.position_m[i]);
 }
 
@@ -508,8 +508,8 @@ void Simulation::process_population() {
         outlet_.add(2.0 * particles_.radius_m[i], m);
         outlet_mass_kg_[std::size_t(outlet)] += m;
         // With its force in flight (the next half-kick), as the breakage module does for dust.
-        outlet_momentum_ +=
-            particles_.velocity_m_per_s[i] * m + particles_.force_n[i] * (0.5 * time_.step_s);
+        outlet_momentum_ += particles_.motion[i].velocity_m_per_s * m +
+                            particles_.load[i].force_n * (0.5 * time_.step_s);
         removed(particles_, i);
         particles_.remove_swap(i);
       }
@@ -560,8 +560,8 @@ std::optional<StepFailure> Simulation::check_health() {
   const ParticleStore& p = particles_;
   const std::string dt_text = concat(time_.step_s, " s");
   for (std::size_t i = 0; i < p.size(); ++i) {
-    if (is_finite(p.position_m[i]) && is_finite(p.velocity_m_per_s[i]) &&
-        is_finite(p.angular_velocity_rad_per_s[i]))
+    if (is_finite(p.position_m[i]) && is_finite(p.motion[i].velocity_m_per_s) &&
+        is_finite(p.motion[i].angular_velocity_rad_per_s))
       continue;
     return StepFailure{step_index_, time_s(), p.id[i], "non_finite_state",
                        concat("particle ", p.id[i], " (d = ", 2 * p.radius_m[i],
@@ -574,14 +574,14 @@ std::optional<StepFailure> Simulation::check_health() {
       if (box_.periodic[a]) continue;
       const double x = p.position_m[i][a], r = p.radius_m[i];
       if (x < box_.min_m[a] - r || x > box_.max_m[a] + r)
-        return StepFailure{
-            step_index_, time_s(), p.id[i], "particle_escaped",
-            concat("particle ", p.id[i], " (d = ", 2 * r, " m, speed ", norm(p.velocity_m_per_s[i]),
-                   " m/s) left the domain through a "
-                   "wall on axis ",
-                   a, ": the impact was too fast for the step ", dt_text,
-                   "; raise /contact/max_impact_speed_m_per_s to at least "
-                   "that speed so the automatic step resolves it")};
+        return StepFailure{step_index_, time_s(), p.id[i], "particle_escaped",
+                           concat("particle ", p.id[i], " (d = ", 2 * r, " m, speed ",
+                                  norm(p.motion[i].velocity_m_per_s),
+                                  " m/s) left the domain through a "
+                                  "wall on axis ",
+                                  a, ": the impact was too fast for the step ", dt_text,
+                                  "; raise /contact/max_impact_speed_m_per_s to at least "
+                                  "that speed so the automatic step resolves it")};
     }
   const double overlap_guard = 2.0 * contact_.penetration_limit;
   if (contact_stats_.max_overlap_ratio > overlap_guard)
@@ -610,8 +610,9 @@ EnergyReport Simulation::energy() const {
   EnergyReport e;
   const ParticleStore& p = particles_;
   for (std::size_t i = 0; i < p.size(); ++i) {
-    e.kinetic_j += 0.5 * p.mass_kg[i] * norm2(p.velocity_m_per_s[i]);
-    e.rotational_j += 0.5 * norm2(p.angular_velocity_rad_per_s[i]) / p.inv_inertia_per_kg_m2[i];
+    e.kinetic_j += 0.5 * p.mass_kg[i] * norm2(p.motion[i].velocity_m_per_s);
+    e.rotational_j +=
+        0.5 * norm2(p.motion[i].angular_velocity_rad_per_s) / p.inv_inertia_per_kg_m2[i];
     e.potential_j -= p.mass_kg[i] * dot(gravity_m_per_s2_, p.position_m[i]);
   }
   e.elastic_j = contact_elastic_energy_j(contact_.model, materials_, box_, walls_, p, neighbors_);

@@ -91,7 +91,7 @@ TEST(Breakage, FatigueBreaksASurvivorAfterRepeatedImpacts) {
     const double capacity = sim.particles().remaining_capacity_j_per_kg[0];
     const double w = w_min + capacity / 3.4;
     ASSERT_LT(std::sqrt(2 * w), 12.0) << "capacity " << capacity;
-    sim.particles().velocity_m_per_s[0] = {0, 0, std::sqrt(2 * w)};
+    sim.particles().motion[0].velocity_m_per_s = {0, 0, std::sqrt(2 * w)};
     sim.refresh_forces();
     while (sim.step_index() < sim.total_steps() && sim.breakage()->stats().events == 0)
       ASSERT_TRUE(step_ok(sim));
@@ -137,9 +137,9 @@ TEST(Breakage, SpawningConservesMassMomentumAndCentreOfMass) {
   for (std::size_t i = 0; i < p.size(); ++i) {
     EXPECT_GE(2 * p.radius_m[i], 0.08 * parent_d);
     mass += p.mass_kg[i];
-    momentum += p.velocity_m_per_s[i] * p.mass_kg[i];
+    momentum += p.motion[i].velocity_m_per_s * p.mass_kg[i];
     moment += p.position_m[i] * p.mass_kg[i];
-    EXPECT_EQ(norm(p.angular_velocity_rad_per_s[i] - w), 0.0);
+    EXPECT_EQ(norm(p.motion[i].angular_velocity_rad_per_s - w), 0.0);
   }
   EXPECT_NEAR(mass / parent_mass, 1.0, 1e-14);
   EXPECT_LT(norm(momentum - v * parent_mass), 1e-14 * norm(v) * parent_mass);
@@ -174,12 +174,13 @@ TEST(Breakage, MassAndMomentumConservedThroughThousandsOfEvents) {
   // Velocity Verlet conserves Σ m v + ½ dt Σ F (the force in flight: each stored force still
   // owes half a kick); Σ F is zero except right after a breakage, where this test stops.
   Vec3 in_flight{};
-  for (const Vec3& f : sim.particles().force_n) in_flight += f * (0.5 * sim.time_step().step_s);
+  for (const Load& l : sim.particles().load)
+    in_flight += l.force_n * (0.5 * sim.time_step().step_s);
   const Vec3 p1 =
       test::total_momentum(sim.particles()) + in_flight + sim.removed_momentum_kg_m_per_s();
   double scale = 0.0;  // Σ m |v|: the momentum in play
   for (std::size_t i = 0; i < sim.particles().size(); ++i)
-    scale += sim.particles().mass_kg[i] * norm(sim.particles().velocity_m_per_s[i]);
+    scale += sim.particles().mass_kg[i] * norm(sim.particles().motion[i].velocity_m_per_s);
   EXPECT_LT(norm(p1 - p0), 1e-12 * scale);
   // Fragments below the threshold exist only in the dust table.
   for (double r : sim.particles().radius_m) EXPECT_GE(2 * r, threshold);

@@ -41,12 +41,11 @@ struct TwoSpheres {
 
   // Force on each particle by id (1, 2) from one force pass at rest (no time passes).
   std::array<Vec3, 2> forces_by_id() {
-    for (Vec3& f : p.force_n) f = {};
-    for (Vec3& t : p.torque_n_m) t = {};
+    for (Load& l : p.load) l = {};
     ContactStepStats stats;
     compute_pair_forces(ContactModel::SeriesSprings, table, box, 0.0, 1.0, p, nl, stats);
     std::array<Vec3, 2> by_id;
-    for (std::size_t i = 0; i < p.size(); ++i) by_id[p.id[i] - 1] = p.force_n[i];
+    for (std::size_t i = 0; i < p.size(); ++i) by_id[p.id[i] - 1] = p.load[i].force_n;
     return by_id;
   }
 

@@ -99,10 +99,10 @@ Settling settle(double d, double cache_threshold, DragCacheStore store) {
   Settling out{0, 0, 0};
   while (sim.step_index() < sim.total_steps()) {
     EXPECT_FALSE(sim.step());
-    const double speed = norm(sim.particles().velocity_m_per_s[0]);
+    const double speed = norm(sim.particles().motion[0].velocity_m_per_s);
     out.largest_speed = std::max(out.largest_speed, speed);
   }
-  out.final_speed = norm(sim.particles().velocity_m_per_s[0]);
+  out.final_speed = norm(sim.particles().motion[0].velocity_m_per_s);
   const CouplingStats& s = sim.gas()->stats();
   out.evaluations_per_step =
       double(s.drag_evaluations) / double(s.drag_evaluations + s.drag_reuses);
@@ -153,13 +153,13 @@ TEST(Coupling, MomentumExchangeBalancesToRounding) {
   const auto momentum = [&] {
     Vec3 p = test::total_momentum(sim.particles());
     for (std::size_t i = 0; i < sim.particles().size(); ++i)
-      p += sim.particles().force_n[i] * (0.5 * sim.time_step().step_s);
+      p += sim.particles().load[i].force_n * (0.5 * sim.time_step().step_s);
     return p;
   };
   const Vec3 before = momentum();
   double scale = 0.0;
   for (std::size_t i = 0; i < sim.particles().size(); ++i)
-    scale += sim.particles().mass_kg[i] * norm(sim.particles().velocity_m_per_s[i]);
+    scale += sim.particles().mass_kg[i] * norm(sim.particles().motion[i].velocity_m_per_s);
   while (sim.step_index() < sim.total_steps()) ASSERT_FALSE(sim.step());
   const CouplingStats& s = sim.gas()->stats();
   ASSERT_GT(s.cfd_steps, 3u);

@@ -42,7 +42,7 @@ TEST(Conservation, DampedFrictionalGasConservesMomentum) {
   const Vec3 p0 = test::total_momentum(sim.particles());
   double scale = 0.0;  // Σ m|v|, the size of the terms that round
   for (std::size_t i = 0; i < sim.particles().size(); ++i)
-    scale += sim.particles().mass_kg[i] * norm(sim.particles().velocity_m_per_s[i]);
+    scale += sim.particles().mass_kg[i] * norm(sim.particles().motion[i].velocity_m_per_s);
   const double e0 = sim.energy().kinetic_j;
   for (int step = 0; step < 3000; ++step) ASSERT_FALSE(sim.step().has_value());
   EXPECT_LT(sim.energy().kinetic_j, 0.9 * e0) << "collisions must have dissipated energy";

@@ -84,7 +84,7 @@ ImpactMeasurement two_sphere_impact(double restitution, double speed, double dt,
       },
       [](const Simulation& s) {
         const auto& p = s.particles();
-        return p.velocity_m_per_s[1].x - p.velocity_m_per_s[0].x;
+        return p.motion[1].velocity_m_per_s.x - p.motion[0].velocity_m_per_s.x;
       });
 }
 
@@ -96,7 +96,7 @@ ImpactMeasurement wall_impact(double restitution, double speed, double dt) {
   return measure(
       sim,
       [](const Simulation& s) { return s.particles().radius_m[0] - s.particles().position_m[0].z; },
-      [](const Simulation& s) { return s.particles().velocity_m_per_s[0].z; });
+      [](const Simulation& s) { return s.particles().motion[0].velocity_m_per_s.z; });
 }
 
 // Hertz for two equal spheres of Table 1: E* = E / (2(1−ν²)), R* = r/2, m* = m/2.
@@ -191,7 +191,7 @@ TEST(Impact, PeriodicImageCollidesLikeInterior) {
       },
       [](const Simulation& s) {
         const auto& p = s.particles();
-        return p.velocity_m_per_s[0].x - p.velocity_m_per_s[1].x;
+        return p.motion[0].velocity_m_per_s.x - p.motion[1].velocity_m_per_s.x;
       });
   const ImpactMeasurement interior = two_sphere_impact(e, v, 1e-9);
   EXPECT_GT(got.max_overlap_m, 0.0);

@@ -50,7 +50,7 @@ double relative_error(const Impact& c, DampingModel damping) {
   Simulation sim(impact_scene(c, damping));
   const ParticleStore& p = sim.particles();
   double max_overlap = 0.0;
-  while (p.velocity_m_per_s[0].z < 0.0 || max_overlap == 0.0) {
+  while (p.motion[0].velocity_m_per_s.z < 0.0 || max_overlap == 0.0) {
     if (const auto failure = sim.step()) {
       ADD_FAILURE() << failure->detail;
       return 1.0;

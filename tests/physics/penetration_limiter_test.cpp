@@ -29,15 +29,16 @@ TEST(PenetrationLimiter, ReversesClosingVelocityTimesRestitutionAndConservesMome
   ContactStepStats stats;
   stats.pairs_over_limit.push_back(0);
   const Vec3 momentum_before =
-      p.velocity_m_per_s[0] * p.mass_kg[0] + p.velocity_m_per_s[1] * p.mass_kg[1];
+      p.motion[0].velocity_m_per_s * p.mass_kg[0] + p.motion[1].velocity_m_per_s * p.mass_kg[1];
   const PeriodicBox box{{0, 0, 0}, {1, 1, 1}, {false, false, false}};
   EXPECT_EQ(apply_penetration_limiter(stats, table, box, {}, nl, p), 1u);
   // n = (x0 − x1)/|…| = −x̂; v_n = (v0 − v1)·n = −4 (closing) → +0.6·4 = 2.4.
-  EXPECT_NEAR(dot(p.velocity_m_per_s[0] - p.velocity_m_per_s[1], Vec3{-1, 0, 0}), 2.4, 1e-12);
+  EXPECT_NEAR(dot(p.motion[0].velocity_m_per_s - p.motion[1].velocity_m_per_s, Vec3{-1, 0, 0}), 2.4,
+              1e-12);
   const Vec3 momentum_after =
-      p.velocity_m_per_s[0] * p.mass_kg[0] + p.velocity_m_per_s[1] * p.mass_kg[1];
+      p.motion[0].velocity_m_per_s * p.mass_kg[0] + p.motion[1].velocity_m_per_s * p.mass_kg[1];
   EXPECT_NEAR(norm(momentum_after - momentum_before), 0.0, 1e-15);
-  EXPECT_DOUBLE_EQ(p.velocity_m_per_s[0].y, 1.0) << "tangential velocity untouched";
+  EXPECT_DOUBLE_EQ(p.motion[0].velocity_m_per_s.y, 1.0) << "tangential velocity untouched";
   // Already separating: nothing happens.
   EXPECT_EQ(apply_penetration_limiter(stats, table, box, {}, nl, p), 0u);
 }
@@ -63,7 +64,7 @@ TEST(PenetrationLimiter, TooSoftImpactIsStoppedNearTheLimitAndRebounds) {
   {
     Simulation sim(soft_impact(false));
     const ParticleStore& p = sim.particles();
-    while (p.velocity_m_per_s[0].z < 0.0 || unlimited_max == 0.0) {
+    while (p.motion[0].velocity_m_per_s.z < 0.0 || unlimited_max == 0.0) {
       ASSERT_FALSE(sim.step().has_value());
       unlimited_max = std::max(unlimited_max, p.radius_m[0] - p.position_m[0].z);
     }
@@ -74,11 +75,12 @@ TEST(PenetrationLimiter, TooSoftImpactIsStoppedNearTheLimitAndRebounds) {
   const ParticleStore& p = sim.particles();
   const double step_travel = v * sim.time_step().step_s / d;
   double max_ratio = 0.0, speed_after_firing = 0.0;
-  while (!(p.position_m[0].z > p.radius_m[0] && p.velocity_m_per_s[0].z > 0.0)) {
+  while (!(p.position_m[0].z > p.radius_m[0] && p.motion[0].velocity_m_per_s.z > 0.0)) {
     const std::uint64_t before = sim.penetration_limiter_events();
     ASSERT_FALSE(sim.step().has_value());
     max_ratio = std::max(max_ratio, (p.radius_m[0] - p.position_m[0].z) / d);
-    if (sim.penetration_limiter_events() > before) speed_after_firing = p.velocity_m_per_s[0].z;
+    if (sim.penetration_limiter_events() > before)
+      speed_after_firing = p.motion[0].velocity_m_per_s.z;
   }
   EXPECT_EQ(sim.penetration_limiter_events(), 1u);
   EXPECT_LT(max_ratio, 0.15 + step_travel);
@@ -89,7 +91,7 @@ TEST(PenetrationLimiter, TooSoftImpactIsStoppedNearTheLimitAndRebounds) {
   const double e_star = 1.0 / ((1 - 0.09) / (scale * 1e9) + (1 - 0.09) / 210e9);
   const double k = 4.0 / 3.0 * e_star * std::sqrt(r), delta = max_ratio * d;
   const double elastic = 0.4 * k * std::pow(delta, 2.5);
-  const double rebound = p.velocity_m_per_s[0].z;
+  const double rebound = p.motion[0].velocity_m_per_s.z;
   EXPECT_GE(rebound, speed_after_firing);
   EXPECT_LE(rebound, std::sqrt(e * e * v * v + 2.0 * elastic / mass));
   std::printf("too-soft impact: limiter fired at %.1f %% overlap; rebound %.2f m/s = %.3f e V\n",

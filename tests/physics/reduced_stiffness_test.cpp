@@ -85,7 +85,7 @@ TEST(ReducedStiffness, SimulatedPenetrationOfTheSmallestParticleIsTheLimit) {
   Simulation sim(salt_scene(0.1, 80.0));  // a tenth of the largest accepted step
   const ParticleStore& p = sim.particles();
   double max_overlap = 0.0;
-  while (p.velocity_m_per_s[0].z < 0.0 || max_overlap == 0.0) {
+  while (p.motion[0].velocity_m_per_s.z < 0.0 || max_overlap == 0.0) {
     ASSERT_FALSE(sim.step().has_value());
     max_overlap = std::max(max_overlap, p.radius_m[0] - p.position_m[0].z);
   }

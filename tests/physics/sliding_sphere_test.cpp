@@ -27,9 +27,10 @@ TEST_P(SlidingSphere, EndsRollingAtFiveSeventhsOfLaunchSpeed) {
   Simulation sim(s);
   while (sim.step_index() < sim.total_steps()) ASSERT_FALSE(sim.step().has_value());
   const ParticleStore& p = sim.particles();
-  EXPECT_NEAR(p.velocity_m_per_s[0].x, 5.0 / 7.0 * v0, 0.01 * v0);
+  EXPECT_NEAR(p.motion[0].velocity_m_per_s.x, 5.0 / 7.0 * v0, 0.01 * v0);
   // Rolling without slip: ω_y r = v_x (right-handed, rolling along +x means ω along +y).
-  EXPECT_NEAR(p.angular_velocity_rad_per_s[0].y * r, p.velocity_m_per_s[0].x, 0.01 * v0);
+  EXPECT_NEAR(p.motion[0].angular_velocity_rad_per_s.y * r, p.motion[0].velocity_m_per_s.x,
+              0.01 * v0);
   // Distance slid: x = v₀ t_r − ½ μ g t_r² during sliding, then 5/7 v₀ (t − t_r).
   const double x_expected = v0 * t_roll - 0.5 * mu * g * t_roll * t_roll + 5.0 / 7.0 * v0 * t_roll;
   EXPECT_NEAR(p.position_m[0].x, x_expected, 0.02 * x_expected);

@@ -43,7 +43,7 @@ TEST(StabilityCases, SizeRatioThousandRunsStablyAndFinesRebound) {
   run_to_end(sim);
   const ParticleStore& p = sim.particles();
   std::size_t rebounded = 0;
-  for (std::size_t i = 1; i < p.size(); ++i) rebounded += p.velocity_m_per_s[i].x > 0.0;
+  for (std::size_t i = 1; i < p.size(); ++i) rebounded += p.motion[i].velocity_m_per_s.x > 0.0;
   EXPECT_GT(rebounded, p.size() / 2) << "most fines must have bounced off the coarse particle";
   // No wall was touched, so momentum is conserved (to rounding of the fines' momenta).
   EXPECT_LT(norm(test::total_momentum(p) - p0), 1e-9 * norm(p0));
@@ -64,7 +64,8 @@ TEST(StabilityCases, PaperParallelTangentialSpringsAreStoppedAtSizeRatioThousand
 TEST(StabilityCases, ParticleIntoWallAtThreeHundredMetresPerSecondRebounds) {
   Simulation sim(load_case("wall_300mps"));
   run_to_end(sim);
-  EXPECT_NEAR(sim.particles().velocity_m_per_s[0].z / 300.0, 0.5, 0.02 * 0.5);  // e within 2 %
+  EXPECT_NEAR(sim.particles().motion[0].velocity_m_per_s.z / 300.0, 0.5,
+              0.02 * 0.5);  // e within 2 %
 }
 
 std::string build_error(const std::string& name) {

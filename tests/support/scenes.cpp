@@ -72,7 +72,7 @@ void add_particle(SceneConfig& scene, Vec3 position_m, Vec3 velocity_m_per_s, do
 
 Vec3 total_momentum(const ParticleStore& p) {
   Vec3 sum;
-  for (std::size_t i = 0; i < p.size(); ++i) sum += p.velocity_m_per_s[i] * p.mass_kg[i];
+  for (std::size_t i = 0; i < p.size(); ++i) sum += p.motion[i].velocity_m_per_s * p.mass_kg[i];
   return sum;
 }
 
