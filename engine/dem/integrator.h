@@ -19,19 +19,25 @@
 
 namespace millsim {
 
+// Both kick-drift passes also write the next force pass's starting forces (gravity m·g, no
+// torque) into previous_load, which begin_force_pass() then swaps in: the pass is already at
+// each particle, so clearing costs no pass over memory of its own.
+
 // Returns the largest drift speed |v½| of the step, which bounds every particle's displacement
 // (search/neighbor_list.h). Positions are not wrapped here: the neighbour list wraps them when it
 // rebuilds and keeps each pair's periodic image until then.
-inline double kick_drift(ParticleStore& p, double dt) {
+inline double kick_drift(ParticleStore& p, double dt, const Vec3& gravity) {
   const double half = 0.5 * dt;
   const std::size_t n = p.size();
   double max_speed2 = 0.0;
   Vec3* x = p.position_m.data();
   Motion* motion = p.motion.data();
   const Load* load = p.load.data();
+  Load* previous_load = p.previous_load.data();
   for (std::size_t i = 0; i < n; ++i) {
     const Motion m = motion[i];
     const Load l = load[i];
+    previous_load[i] = {gravity * p.mass_kg[i], {}};
     const Vec3 dv = l.force_n * (half * p.inv_mass_per_kg[i]);
     const Vec3 v_half = m.velocity_m_per_s + dv;
     max_speed2 = std::max(max_speed2, norm2(v_half));
@@ -61,17 +67,18 @@ inline void kick(ParticleStore& p, double dt) {
 // out rather than calling per-particle helpers shared with kick() and kick_drift(): through the
 // store's arrays the compiler then reloads v and ω between the halves, and the pass took 20 %
 // longer. tests/engine/determinism_test.cpp holds the two paths to the same bits.
-inline double kick_then_kick_drift(ParticleStore& p, double dt) {
+inline double kick_then_kick_drift(ParticleStore& p, double dt, const Vec3& gravity) {
   const double half = 0.5 * dt;
   const std::size_t n = p.size();
   double max_speed2 = 0.0;
   Vec3* x = p.position_m.data();
   Motion* motion = p.motion.data();
   const Load* load = p.load.data();
-  const Load* previous_load = p.previous_load.data();
+  Load* previous_load = p.previous_load.data();
   for (std::size_t i = 0; i < n; ++i) {
     const Motion m = motion[i];
     const Load l = load[i], l_old = previous_load[i];
+    previous_load[i] = {gravity * p.mass_kg[i], {}};
     const double half_inv_mass = half * p.inv_mass_per_kg[i];
     const Vec3 v_end = m.velocity_m_per_s + (l.force_n - l_old.force_n) * half_inv_mass;
     const Vec3 w_end = m.angular_velocity_rad_per_s +
@@ -85,8 +92,14 @@ inline double kick_then_kick_drift(ParticleStore& p, double dt) {
   return std::sqrt(max_speed2);
 }
 
-// Keeps the current forces as the previous ones, then clears forces and torques and adds
-// gravity, m·g.
+// After a kick-drift pass: keeps the current forces as the previous ones, and starts from the
+// forces that pass prepared (gravity only).
+inline void begin_force_pass(ParticleStore& p) {
+  std::swap(p.load, p.previous_load);
+}
+
+// Without a kick-drift pass before it (the first force pass, a refresh): keeps the current forces
+// as the previous ones, then clears forces and torques and adds gravity, m·g.
 inline void clear_forces(ParticleStore& p, const Vec3& gravity) {
   std::swap(p.load, p.previous_load);
   const std::size_t n = p.size();

@@ -383,7 +383,11 @@ std::string Simulation::describe_worst_overlap() const {
 }
 
 void Simulation::compute_forces() {
-  clear_forces(particles_, gravity_m_per_s2_);
+  if (forces_prepared_)
+    begin_force_pass(particles_);
+  else
+    clear_forces(particles_, gravity_m_per_s2_);
+  forces_prepared_ = false;
   contact_stats_.reset();
   compute_pair_forces(contact_.model, materials_, box_, time_.step_s, contact_.penetration_limit,
                       particles_, neighbors_, contact_stats_);
@@ -416,7 +420,9 @@ std::optional<StepFailure> Simulation::step_once(bool may_defer) {
   const double dt = time_.step_s;
   double max_speed = 0.0;
   profile_.time(Phase::KickDrift, [&] {
-    max_speed = kick_pending_ ? kick_then_kick_drift(particles_, dt) : kick_drift(particles_, dt);
+    max_speed = kick_pending_ ? kick_then_kick_drift(particles_, dt, gravity_m_per_s2_)
+                              : kick_drift(particles_, dt, gravity_m_per_s2_);
+    forces_prepared_ = true;
     kick_pending_ = false;
   });
   profile_.time(Phase::Neighbors, [&] {
