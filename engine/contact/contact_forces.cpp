@@ -34,7 +34,6 @@ inline Vec3 tangential_force(const PairSprings& s, double sqrt_overlap, double n
 template <class Law, bool kPeriodic>
 void pair_loop(const Law& law, const MaterialTable& materials, double dt, double limit,
                ParticleStore& p, NeighborList& nl, ContactStepStats& stats) {
-  const std::size_t count = nl.active_pair_count();
   const std::uint32_t* first = nl.pairs.first.data();
   const std::uint32_t* second = nl.pairs.second.data();
   std::uint32_t* history = nl.pair_history.data();
@@ -124,36 +123,38 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
   // only they go through the contact law.
   constexpr std::size_t kChunk = 256, kPrefetchAhead = 64;
   std::uint32_t kept[kChunk];
-  for (std::size_t chunk = 0; chunk < count; chunk += kChunk) {
-    const std::size_t chunk_end = std::min(count, chunk + kChunk);
-    std::size_t n = 0;
-    for (std::size_t k = chunk; k < chunk_end; ++k) {
-      if (k + kPrefetchAhead < count) {
-        __builtin_prefetch(&x[second[k + kPrefetchAhead]]);
-        __builtin_prefetch(&r[second[k + kPrefetchAhead]]);
+  for (const NeighborList::PairRange& range : nl.active_ranges())
+    for (std::size_t chunk = range.begin; chunk < range.end; chunk += kChunk) {
+      const std::size_t count = range.end;
+      const std::size_t chunk_end = std::min(count, chunk + kChunk);
+      std::size_t n = 0;
+      for (std::size_t k = chunk; k < chunk_end; ++k) {
+        if (k + kPrefetchAhead < count) {
+          __builtin_prefetch(&x[second[k + kPrefetchAhead]]);
+          __builtin_prefetch(&r[second[k + kPrefetchAhead]]);
+        }
+        const std::uint32_t i = first[k], j = second[k];
+        Vec3 d = x[i] - x[j];
+        if constexpr (kPeriodic) d -= nl.pair_shift(k);
+        const double rsum = r[i] + r[j];
+        kept[n] = std::uint32_t(k - chunk);
+        n += (norm2(d) < rsum * rsum) | (touching_flag[k] != kPairApart);
       }
-      const std::uint32_t i = first[k], j = second[k];
-      Vec3 d = x[i] - x[j];
-      if constexpr (kPeriodic) d -= nl.pair_shift(k);
-      const double rsum = r[i] + r[j];
-      kept[n] = std::uint32_t(k - chunk);
-      n += (norm2(d) < rsum * rsum) | (touching_flag[k] != kPairApart);
-    }
-    for (std::size_t h = 0; h < n; ++h) {
-      const std::size_t k = chunk + kept[h];
-      for (const std::uint32_t a : {first[k], second[k]}) {
-        // A 48-byte record may span two cache lines: fetch its first and last byte.
-        const char* m = reinterpret_cast<const char*>(&motion[a]);
-        const char* l = reinterpret_cast<const char*>(&load[a]);
-        law.prefetch(a);
-        __builtin_prefetch(m), __builtin_prefetch(m + sizeof(Motion) - 1);
-        __builtin_prefetch(l), __builtin_prefetch(l + sizeof(Load) - 1);
-        __builtin_prefetch(&mat[a]);
+      for (std::size_t h = 0; h < n; ++h) {
+        const std::size_t k = chunk + kept[h];
+        for (const std::uint32_t a : {first[k], second[k]}) {
+          // A 48-byte record may span two cache lines: fetch its first and last byte.
+          const char* m = reinterpret_cast<const char*>(&motion[a]);
+          const char* l = reinterpret_cast<const char*>(&load[a]);
+          law.prefetch(a);
+          __builtin_prefetch(m), __builtin_prefetch(m + sizeof(Motion) - 1);
+          __builtin_prefetch(l), __builtin_prefetch(l + sizeof(Load) - 1);
+          __builtin_prefetch(&mat[a]);
+        }
+        if (history[k] != kNoHistory) __builtin_prefetch(&pool[history[k]]);
       }
-      if (history[k] != kNoHistory) __builtin_prefetch(&pool[history[k]]);
+      for (std::size_t h = 0; h < n; ++h) visit(chunk + kept[h]);
     }
-    for (std::size_t h = 0; h < n; ++h) visit(chunk + kept[h]);
-  }
   stats.touching_pairs = touching;
   if (max_ratio > stats.max_overlap_ratio) {
     stats.max_overlap_ratio = max_ratio;

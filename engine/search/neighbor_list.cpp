@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "dem/integrator.h"
+
 namespace millsim {
 namespace {
 
@@ -121,8 +123,28 @@ void NeighborList::sort_pairs(const ParticleStore& p, const PeriodicBox& box) {
   image_scratch_.resize(sorted.size());
   band_scratch_.resize(sorted.size());
   std::size_t band_count[kGapBands] = {};
+  // Per slot block, the blocks its second partners lie in (itself first), collected in first
+  // order: `seen[b] == a` once block b is listed for block a.
+  const std::size_t blocks = (p.size() + kSpeedBlockSlots - 1) / kSpeedBlockSlots;
+  partner_block_start_.assign(blocks + 1, 0);
+  partner_blocks_.clear();
+  std::vector<std::uint32_t> seen(blocks, ~std::uint32_t(0));
+  std::uint32_t open = 0;  // the block whose list is being written
+  auto open_block = [&](std::uint32_t a) {
+    for (; open <= a && open < blocks; ++open) {
+      partner_block_start_[open] = std::uint32_t(partner_blocks_.size());
+      partner_blocks_.push_back(open);
+      seen[open] = open;
+    }
+  };
+  open_block(0);
+  for (int b = 0; b < kGapBands; ++b) band_block_start_[b].assign(blocks + 1, 0);
   for (std::size_t k = 0; k < sorted.size(); ++k) {
     const std::uint32_t i = sorted.first[k], j = sorted.second[k];
+    const std::uint32_t block_i = std::uint32_t(i / kSpeedBlockSlots);
+    const std::uint32_t block_j = std::uint32_t(j / kSpeedBlockSlots);
+    open_block(block_i);
+    if (seen[block_j] != block_i) seen[block_j] = block_i, partner_blocks_.push_back(block_j);
     const Vec3 d = p.position_m[i] - p.position_m[j];
     int image = 0, stride = 1;
     for (int a = 0; a < 3; ++a, stride *= 3) image += (box.image_of(d[a], a) + 1) * stride;
@@ -132,10 +154,15 @@ void NeighborList::sort_pairs(const ParticleStore& p, const PeriodicBox& box) {
     const int band = band_width > 0.0 ? std::clamp(int(gap / band_width), 0, kGapBands - 1) : 0;
     band_scratch_[k] = std::uint8_t(band | (dist2 < reach * reach ? kOverlappingBit : 0));
     ++band_count[band];
+    ++band_block_start_[band][block_i + 1];
   }
+  open_block(std::uint32_t(blocks));
+  partner_block_start_[blocks] = std::uint32_t(partner_blocks_.size());
   std::size_t at[kGapBands], sum = 0;
   for (int b = 0; b < kGapBands; ++b) {
     at[b] = sum;
+    band_block_start_[b][0] = sum;
+    for (std::size_t a = 0; a < blocks; ++a) band_block_start_[b][a + 1] += band_block_start_[b][a];
     sum += band_count[b];
     band_end_[b] = sum;
   }
@@ -153,14 +180,81 @@ void NeighborList::sort_pairs(const ParticleStore& p, const PeriodicBox& box) {
   std::sort(overlapping_.begin(), overlapping_.end());
 }
 
+void NeighborList::note_motion(const std::vector<double>& block_max_speed_m_per_s,
+                               double max_speed_m_per_s, double dt) {
+  motion_bound_m_ += max_speed_m_per_s * dt;
+  if (block_max_speed_m_per_s.size() != block_bound_m_.size()) {
+    block_bounds_valid_ = false;  // the population changed: the next update() rebuilds
+    return;
+  }
+  for (std::size_t a = 0; a < block_bound_m_.size(); ++a)
+    block_bound_m_[a] += block_max_speed_m_per_s[a] * dt;
+}
+
 void NeighborList::widen_active_bands() {
-  // Band b's gaps at the rebuild exceed b·skin/4, and two partners close at most twice the
-  // motion bound: until then none of its pairs can touch. Bands only ever join (the exact
+  // Band b's gaps at the rebuild exceed b·skin/4, and two partners close at most the sum of their
+  // motion bounds: until then none of its pairs can touch. Bands only ever join (the exact
   // displacement check may lower the bound, but a pair looked at once keeps being looked at, so
-  // its contact state stays current).
-  while (active_bands_ < kGapBands &&
-         double(active_bands_) * 0.25 * settings_.skin_m <= 2.0 * motion_bound_m_)
+  // its contact state stays current). The global bound holds for every block, and is the
+  // tighter one after an exact check.
+  const double quarter = 0.25 * settings_.skin_m;
+  const int before = active_bands_;
+  if (!block_bounds_valid_) {
+    while (active_bands_ < kGapBands && double(active_bands_) * quarter <= 2.0 * motion_bound_m_)
+      ++active_bands_;
+    if (active_bands_ != before) list_active_ranges();
+    return;
+  }
+  bool joined = false;
+  for (std::size_t a = 0; active_bands_ < kGapBands && a < block_bound_m_.size(); ++a) {
+    double partner = 0.0;
+    for (std::uint32_t s = partner_block_start_[a]; s < partner_block_start_[a + 1]; ++s)
+      partner = std::max(partner, block_bound_m_[partner_blocks_[s]]);
+    const double closing =
+        std::min(block_bound_m_[a], motion_bound_m_) + std::min(partner, motion_bound_m_);
+    for (int b = active_bands_; b < kGapBands && double(b) * quarter <= closing; ++b)
+      if (!block_active_[b][a]) block_active_[b][a] = 1, ++blocks_joined_[b], joined = true;
+  }
+  // A band every block has joined is active whole.
+  while (active_bands_ < kGapBands && blocks_joined_[active_bands_] == block_bound_m_.size())
     ++active_bands_;
+  if (joined) list_active_ranges();
+}
+
+void NeighborList::list_active_ranges() {
+  active_ranges_.clear();
+  auto add = [this](std::size_t begin, std::size_t end) {
+    if (begin == end) return;
+    if (!active_ranges_.empty() && active_ranges_.back().end == begin)
+      active_ranges_.back().end = end;
+    else
+      active_ranges_.push_back({begin, end});
+  };
+  for (int b = 0; b < kGapBands; ++b) {
+    if (b < active_bands_) {
+      add(b ? band_end_[b - 1] : 0, band_end_[b]);
+      continue;
+    }
+    const std::vector<std::size_t>& start = band_block_start_[b];
+    for (std::size_t a = 0; a < block_active_[b].size(); ++a)
+      if (block_active_[b][a]) add(start[a], start[a + 1]);
+  }
+}
+
+void NeighborList::reset_motion_bounds() {
+  motion_bound_m_ = 0.0;
+  active_bands_ = 1;
+  const std::size_t blocks = partner_block_start_.empty() ? 0 : partner_block_start_.size() - 1;
+  block_bound_m_.assign(blocks, 0.0);
+  block_bounds_valid_ = true;
+  for (int b = 0; b < kGapBands; ++b) block_active_[b].assign(blocks, 0), blocks_joined_[b] = 0;
+  list_active_ranges();
+}
+
+bool NeighborList::pair_active(std::size_t k) const {
+  auto it = std::upper_bound(active_ranges_.begin(), active_ranges_.end(), k,
+                             [](std::size_t v, const PairRange& r) { return v < r.end; });
+  return it != active_ranges_.end() && it->begin <= k;
 }
 
 double NeighborList::steer_skin(const ParticleStore& p, double steps_per_skin) const {
@@ -252,8 +346,7 @@ bool NeighborList::update(ParticleStore& p, const PeriodicBox& box,
     rebuild(p, box, walls, false);
   }
   motion_since_reorder_m_ += 0.5 * settings_.skin_m;  // what the new list lets anyone move
-  motion_bound_m_ = 0.0;
-  active_bands_ = 1;
+  reset_motion_bounds();
   steps_since_rebuild_ = 0;
   population_version_ = p.population_version;  // after any permute above
   return true;

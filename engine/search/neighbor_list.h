@@ -83,9 +83,13 @@ class NeighborList {
   NeighborList() = default;
   explicit NeighborList(const NeighborSettings& settings) : settings_(settings) {}
 
-  // Adds one step's largest displacement to the running bound. While the bound stays under
-  // skin/2 no particle can have moved that far, and update() skips the O(N) exact check.
-  void note_motion(double max_displacement_m) { motion_bound_m_ += max_displacement_m; }
+  // Adds one step's largest displacement, max_speed·dt, to the running bound. While the bound
+  // stays under skin/2 no particle can have moved that far, and update() skips the O(N) exact
+  // check. Each block of kSpeedBlockSlots slots (dem/integrator.h) keeps a bound of its own from
+  // its own largest speed, so that the gap bands open block by block: a few fast particles then
+  // open them only around themselves.
+  void note_motion(const std::vector<double>& block_max_speed_m_per_s, double max_speed_m_per_s,
+                   double dt);
 
   // Rebuilds when needed (or when `force`); returns true if it did. A rebuild first wraps the
   // positions into the periodic box; between rebuilds they may drift out by up to skin/2, and
@@ -97,10 +101,16 @@ class NeighborList {
   // come before any force pass.
   void mark_newborn(std::vector<Newborn> newborn, double penetration_limit);
 
-  // Candidates [0, active_pair_count()) may touch now; the rest are still too far apart to
-  // have closed their gap at the rebuild (candidates are sorted by that gap, in bands of a
-  // quarter skin), so the force loop need not look at them.
-  std::size_t active_pair_count() const { return active_bands_ ? band_end_[active_bands_ - 1] : 0; }
+  // Candidates in these ranges may touch now; the rest are still too far apart to have closed
+  // their gap at the rebuild, so the force loop need not look at them. Candidates are sorted by
+  // that gap, in bands of a quarter skin, and within a band by first slot, so each band is a run
+  // of slot blocks; a band joins block by block as the motion bounds of the block and of the
+  // blocks its partners lie in grow.
+  struct PairRange {
+    std::size_t begin, end;
+  };
+  const std::vector<PairRange>& active_ranges() const { return active_ranges_; }
+  bool pair_active(std::size_t k) const;
 
   // Separation of pair k's partners: x_i − x_j − pair_shift(k).
   const Vec3& pair_shift(std::size_t k) const { return image_shift_[pair_image[k]]; }
@@ -141,8 +151,12 @@ class NeighborList {
   // Sorts the candidates by gap band (gap at the rebuild in quarters of the skin), each band by
   // first slot, sets their periodic images, and lists those that overlap now (overlapping_).
   void sort_pairs(const ParticleStore& particles, const PeriodicBox& box);
-  // Lets in the bands whose pairs the motion since the rebuild may have closed.
+  // Lets in the bands, whole or block by block, whose pairs the motion since the rebuild may have
+  // closed, and lists the active ranges.
   void widen_active_bands();
+  void list_active_ranges();
+  // After a rebuild: no motion yet, the closest band active alone.
+  void reset_motion_bounds();
   // Whether particles may have strayed far enough from the last spatial reorder (half a mean
   // spacing) for memory order to lose its locality.
   bool reorder_due() const { return motion_since_reorder_m_ >= 0.5 * reorder_spacing_m_; }
@@ -173,7 +187,18 @@ class NeighborList {
   std::vector<std::uint32_t> overlapping_;               // candidates overlapping at the rebuild
   static constexpr int kGapBands = 4;
   std::size_t band_end_[kGapBands] = {0, 0, 0, 0};
-  int active_bands_ = kGapBands;         // bands [0, active_bands_) may hold touching pairs
+  int active_bands_ = kGapBands;  // bands [0, active_bands_) are active in every block
+  // Per slot block: the motion bound of its particles (false: unknown, use the global one), the
+  // blocks its candidates' second partners lie in (CSR, itself included), where each band's run
+  // of it begins (band_block_start_[b][block], one past the last block = the band's end), and
+  // which of the partly active bands it has joined.
+  std::vector<double> block_bound_m_;
+  bool block_bounds_valid_ = false;
+  std::vector<std::uint32_t> partner_block_start_, partner_blocks_;
+  std::vector<std::size_t> band_block_start_[kGapBands];
+  std::vector<std::uint8_t> block_active_[kGapBands];
+  std::size_t blocks_joined_[kGapBands] = {0, 0, 0, 0};
+  std::vector<PairRange> active_ranges_;
   double reorder_spacing_m_ = 0.0;       // mean particle spacing at the last reorder
   double motion_since_reorder_m_ = 0.0;  // bound on any particle's motion since then
   double newborn_ghost_ratio_ =

@@ -420,13 +420,14 @@ std::optional<StepFailure> Simulation::step_once(bool may_defer) {
   const double dt = time_.step_s;
   double max_speed = 0.0;
   profile_.time(Phase::KickDrift, [&] {
-    max_speed = kick_pending_ ? kick_then_kick_drift(particles_, dt, gravity_m_per_s2_)
-                              : kick_drift(particles_, dt, gravity_m_per_s2_);
+    max_speed = kick_pending_
+                    ? kick_then_kick_drift(particles_, dt, gravity_m_per_s2_, block_max_speed_)
+                    : kick_drift(particles_, dt, gravity_m_per_s2_, block_max_speed_);
     forces_prepared_ = true;
     kick_pending_ = false;
   });
   profile_.time(Phase::Neighbors, [&] {
-    neighbors_.note_motion(max_speed * dt);
+    neighbors_.note_motion(block_max_speed_, max_speed, dt);
     neighbors_.update(particles_, box_, walls_, false);
   });
   profile_.time(Phase::Forces, [&] { compute_forces(); });

@@ -159,9 +159,10 @@ class Simulation {
   ParticleId next_id_ = 1;
   double particle_steps_ = 0.0;
   std::uint64_t contact_steps_ = 0;
-  bool forces_prepared_ = false;  // previous_load holds gravity only (dem/integrator.h)
-  bool kick_pending_ = false;     // the last step's closing kick is still to do (advance())
-  double energy_added_j_ = 0.0;   // energy of particles added minus removed since the start
+  std::vector<double> block_max_speed_;  // per slot block, from the kick-drift pass
+  bool forces_prepared_ = false;         // previous_load holds gravity only (dem/integrator.h)
+  bool kick_pending_ = false;            // the last step's closing kick is still to do (advance())
+  double energy_added_j_ = 0.0;          // energy of particles added minus removed since the start
   std::optional<Breakage> breakage_;
   std::optional<GasCoupling> gas_;
   std::vector<OutletConfig> outlets_;

@@ -29,7 +29,7 @@ int touching_pairs_outside_the_force_pass(const Simulation& sim) {
     const Vec3 d = p.position_m[i] - p.position_m[j] - nl.pair_shift(k);
     const double reach = p.radius_m[i] + p.radius_m[j];
     if (norm2(d) >= reach * reach) continue;
-    if (k >= nl.active_pair_count() || nl.pair_touching[k] == kPairApart) ++missed;
+    if (!nl.pair_active(k) || nl.pair_touching[k] == kPairApart) ++missed;
   }
   return missed;
 }
