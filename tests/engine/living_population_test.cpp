@@ -112,5 +112,43 @@ TEST(LivingPopulation, ContactSetStaysExactThroughRemovalsAndAdditions) {
   EXPECT_EQ(sim.neighbors().stats().last_search.levels, expected.levels);
 }
 
+// One fast particle in a long slab of slow ones: the gap bands must open only in the slot blocks
+// around it (neighbor_list.h), and every touching pair must still be looked at. With one bound
+// for all, the fast particle would open every band everywhere before each rebuild.
+TEST(LivingPopulation, GapBandsOpenOnlyAroundAFastParticle) {
+  const double d = 60e-6;
+  SceneConfig scene = test::empty_scene({0, 0, 0}, {24e-3, 1e-3, 1e-3},
+                                        test::table1_material(0.5, 0.3), {true, true, true});
+  SourceConfig slow;
+  slow.kind = SourceKind::Random;
+  slow.count = 6 * 4096;  // six slot blocks, laid out along the slab by the spatial reorder
+  slow.region_min_m = {0, 0, 0};
+  slow.region_max_m = {24e-3, 1e-3, 1e-3};
+  slow.sizes = {SizeDistributionKind::Fixed, d};
+  slow.velocity_spread_m_per_s = 0.01;
+  scene.sources.push_back(slow);
+  test::add_particle(scene, {12.01e-3, 0.51e-3, 0.49e-3}, {10.0, 0.3, 0.2}, d);
+  scene.seed = 3;
+  Simulation sim(scene);
+  const std::uint64_t rebuilds_at_start = sim.neighbors().stats().rebuilds;
+  double most_looked_at = 0.0;  // largest share of candidates the force loop looked at
+  for (int step = 0; step < 200; ++step) {
+    sim.step();
+    const NeighborList& nl = sim.neighbors();
+    std::size_t looked_at = 0;
+    for (const NeighborList::PairRange& range : nl.active_ranges())
+      looked_at += range.end - range.begin;
+    most_looked_at = std::max(most_looked_at, double(looked_at) / double(nl.pairs.size()));
+    ASSERT_EQ(touching_pairs_outside_the_force_pass(sim), 0) << "step " << step;
+    if (step % 100 == 99) {
+      ASSERT_EQ(engine_contacts(sim), reference_contacts(sim)) << step;
+    }
+  }
+  EXPECT_GE(sim.neighbors().stats().rebuilds - rebuilds_at_start, 2u)
+      << "the fast particle must have forced rebuilds";
+  // One bound for all opens every band everywhere before each rebuild (a share of 1).
+  EXPECT_LT(most_looked_at, 0.75) << "bands opened far from the fast particle";
+}
+
 }  // namespace
 }  // namespace millsim
