@@ -27,6 +27,25 @@ namespace millsim {
 // Slots per block for the speed report of the kick-drift passes.
 inline constexpr std::size_t kSpeedBlockSlots = 4096;
 
+// Runs `kick_particle(i)`, which kicks and drifts particle i and returns |v½|², over every slot
+// in blocks of kSpeedBlockSlots; stores each block's largest drift speed and returns the largest
+// of all.
+template <class KickParticle>
+double kick_in_blocks(std::size_t n, std::vector<double>& block_max_speed_m_per_s,
+                      KickParticle&& kick_particle) {
+  block_max_speed_m_per_s.resize((n + kSpeedBlockSlots - 1) / kSpeedBlockSlots);
+  double max_speed2 = 0.0;
+  for (std::size_t block = 0, begin = 0; begin < n; ++block, begin += kSpeedBlockSlots) {
+    const std::size_t end = std::min(n, begin + kSpeedBlockSlots);
+    double block_speed2 = 0.0;
+    for (std::size_t i = begin; i < end; ++i)
+      block_speed2 = std::max(block_speed2, kick_particle(i));
+    block_max_speed_m_per_s[block] = std::sqrt(block_speed2);
+    max_speed2 = std::max(max_speed2, block_speed2);
+  }
+  return std::sqrt(max_speed2);
+}
+
 // Returns the largest drift speed |v½| of the step, which bounds every particle's displacement,
 // and the largest of each block of kSpeedBlockSlots slots in `block_max_speed_m_per_s`, which
 // bounds that block's (search/neighbor_list.h). Positions are not wrapped here: the neighbour list
@@ -34,31 +53,21 @@ inline constexpr std::size_t kSpeedBlockSlots = 4096;
 inline double kick_drift(ParticleStore& p, double dt, const Vec3& gravity,
                          std::vector<double>& block_max_speed_m_per_s) {
   const double half = 0.5 * dt;
-  const std::size_t n = p.size();
-  block_max_speed_m_per_s.resize((n + kSpeedBlockSlots - 1) / kSpeedBlockSlots);
-  double max_speed2 = 0.0;
   Vec3* x = p.position_m.data();
   Motion* motion = p.motion.data();
   const Load* load = p.load.data();
   Load* previous_load = p.previous_load.data();
-  for (std::size_t block = 0, begin = 0; begin < n; ++block, begin += kSpeedBlockSlots) {
-    const std::size_t end = std::min(n, begin + kSpeedBlockSlots);
-    double block_speed2 = 0.0;
-    for (std::size_t i = begin; i < end; ++i) {
-      const Motion m = motion[i];
-      const Load l = load[i];
-      previous_load[i] = {gravity * p.mass_kg[i], {}};
-      const Vec3 dv = l.force_n * (half * p.inv_mass_per_kg[i]);
-      const Vec3 v_half = m.velocity_m_per_s + dv;
-      block_speed2 = std::max(block_speed2, norm2(v_half));
-      x[i] += v_half * dt;
-      motion[i] = {v_half + dv,
-                   m.angular_velocity_rad_per_s + l.torque_n_m * (dt * p.inv_inertia_per_kg_m2[i])};
-    }
-    block_max_speed_m_per_s[block] = std::sqrt(block_speed2);
-    max_speed2 = std::max(max_speed2, block_speed2);
-  }
-  return std::sqrt(max_speed2);
+  return kick_in_blocks(p.size(), block_max_speed_m_per_s, [&](std::size_t i) {
+    const Motion m = motion[i];
+    const Load l = load[i];
+    previous_load[i] = {gravity * p.mass_kg[i], {}};
+    const Vec3 dv = l.force_n * (half * p.inv_mass_per_kg[i]);
+    const Vec3 v_half = m.velocity_m_per_s + dv;
+    x[i] += v_half * dt;
+    motion[i] = {v_half + dv,
+                 m.angular_velocity_rad_per_s + l.torque_n_m * (dt * p.inv_inertia_per_kg_m2[i])};
+    return norm2(v_half);
+  });
 }
 
 inline void kick(ParticleStore& p, double dt) {
@@ -83,34 +92,24 @@ inline void kick(ParticleStore& p, double dt) {
 inline double kick_then_kick_drift(ParticleStore& p, double dt, const Vec3& gravity,
                                    std::vector<double>& block_max_speed_m_per_s) {
   const double half = 0.5 * dt;
-  const std::size_t n = p.size();
-  block_max_speed_m_per_s.resize((n + kSpeedBlockSlots - 1) / kSpeedBlockSlots);
-  double max_speed2 = 0.0;
   Vec3* x = p.position_m.data();
   Motion* motion = p.motion.data();
   const Load* load = p.load.data();
   Load* previous_load = p.previous_load.data();
-  for (std::size_t block = 0, begin = 0; begin < n; ++block, begin += kSpeedBlockSlots) {
-    const std::size_t end = std::min(n, begin + kSpeedBlockSlots);
-    double block_speed2 = 0.0;
-    for (std::size_t i = begin; i < end; ++i) {
-      const Motion m = motion[i];
-      const Load l = load[i], l_old = previous_load[i];
-      previous_load[i] = {gravity * p.mass_kg[i], {}};
-      const double half_inv_mass = half * p.inv_mass_per_kg[i];
-      const Vec3 v_end = m.velocity_m_per_s + (l.force_n - l_old.force_n) * half_inv_mass;
-      const Vec3 w_end = m.angular_velocity_rad_per_s +
-                         (l.torque_n_m - l_old.torque_n_m) * (half * p.inv_inertia_per_kg_m2[i]);
-      const Vec3 dv = l.force_n * half_inv_mass;
-      const Vec3 v_half = v_end + dv;
-      block_speed2 = std::max(block_speed2, norm2(v_half));
-      x[i] += v_half * dt;
-      motion[i] = {v_half + dv, w_end + l.torque_n_m * (dt * p.inv_inertia_per_kg_m2[i])};
-    }
-    block_max_speed_m_per_s[block] = std::sqrt(block_speed2);
-    max_speed2 = std::max(max_speed2, block_speed2);
-  }
-  return std::sqrt(max_speed2);
+  return kick_in_blocks(p.size(), block_max_speed_m_per_s, [&](std::size_t i) {
+    const Motion m = motion[i];
+    const Load l = load[i], l_old = previous_load[i];
+    previous_load[i] = {gravity * p.mass_kg[i], {}};
+    const double half_inv_mass = half * p.inv_mass_per_kg[i];
+    const Vec3 v_end = m.velocity_m_per_s + (l.force_n - l_old.force_n) * half_inv_mass;
+    const Vec3 w_end = m.angular_velocity_rad_per_s +
+                       (l.torque_n_m - l_old.torque_n_m) * (half * p.inv_inertia_per_kg_m2[i]);
+    const Vec3 dv = l.force_n * half_inv_mass;
+    const Vec3 v_half = v_end + dv;
+    x[i] += v_half * dt;
+    motion[i] = {v_half + dv, w_end + l.torque_n_m * (dt * p.inv_inertia_per_kg_m2[i])};
+    return norm2(v_half);
+  });
 }
 
 // After a kick-drift pass: keeps the current forces as the previous ones, and starts from the
