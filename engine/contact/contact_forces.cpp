@@ -125,11 +125,10 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
   std::uint32_t kept[kChunk];
   for (const NeighborList::PairRange& range : nl.active_ranges())
     for (std::size_t chunk = range.begin; chunk < range.end; chunk += kChunk) {
-      const std::size_t count = range.end;
-      const std::size_t chunk_end = std::min(count, chunk + kChunk);
+      const std::size_t chunk_end = std::min(range.end, chunk + kChunk);
       std::size_t n = 0;
       for (std::size_t k = chunk; k < chunk_end; ++k) {
-        if (k + kPrefetchAhead < count) {
+        if (k + kPrefetchAhead < range.end) {
           __builtin_prefetch(&x[second[k + kPrefetchAhead]]);
           __builtin_prefetch(&r[second[k + kPrefetchAhead]]);
         }

@@ -128,7 +128,8 @@ void NeighborList::sort_pairs(const ParticleStore& p, const PeriodicBox& box) {
   const std::size_t blocks = (p.size() + kSpeedBlockSlots - 1) / kSpeedBlockSlots;
   partner_block_start_.assign(blocks + 1, 0);
   partner_blocks_.clear();
-  std::vector<std::uint32_t> seen(blocks, ~std::uint32_t(0));
+  std::vector<std::uint32_t>& seen = block_seen_;
+  seen.assign(blocks, ~std::uint32_t(0));
   std::uint32_t open = 0;  // the block whose list is being written
   auto open_block = [&](std::uint32_t a) {
     for (; open <= a && open < blocks; ++open) {

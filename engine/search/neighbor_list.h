@@ -195,6 +195,7 @@ class NeighborList {
   std::vector<double> block_bound_m_;
   bool block_bounds_valid_ = false;
   std::vector<std::uint32_t> partner_block_start_, partner_blocks_;
+  std::vector<std::uint32_t> block_seen_;  // work array of sort_pairs
   std::vector<std::size_t> band_block_start_[kGapBands];
   std::vector<std::uint8_t> block_active_[kGapBands];
   std::size_t blocks_joined_[kGapBands] = {0, 0, 0, 0};
