@@ -35,13 +35,13 @@ void Breakage::draw_strength(ParticleStore& p, std::size_t slot) {
 }
 
 double Breakage::impact_energy_j_per_kg(const Impact& impact, bool on_partner,
-                                        const std::vector<PlaneWall>& walls,
+                                        const std::vector<Wall>& walls,
                                         const ParticleStore& p) const {
   const std::uint32_t i = on_partner ? impact.partner : impact.particle;
   const double c_i = materials_->material(p.material[i]).normal_compliance;
   double u;
   if (impact.with_wall) {
-    const PlaneWall& wall = walls[impact.partner];
+    const Wall& wall = walls[impact.partner];
     const double c_wall =
         materials_->wall_pair(wall.pair_table, p.material[i]).wall_normal_compliance;
     u = equivalent_speed_wall(equivalence_, c_i, c_wall, impact.speed_m_per_s);
@@ -56,7 +56,7 @@ double Breakage::impact_energy_j_per_kg(const Impact& impact, bool on_partner,
 
 std::uint64_t Breakage::process(const std::vector<Impact>& impacts,
                                 const std::vector<std::uint32_t>& crushed, double dt_s,
-                                const std::vector<PlaneWall>& walls, ParticleStore& p,
+                                const std::vector<Wall>& walls, ParticleStore& p,
                                 ParticleId& next_id, std::vector<Newborn>& newborn,
                                 const ParticleHook& before_removal,
                                 const ParticleHook& after_addition) {
@@ -105,6 +105,12 @@ void Breakage::break_particle(std::size_t slot, double dt_s, ParticleStore& p, P
   const ParticleId parent_id = p.id[slot];
   const std::uint64_t family = ++stats_.events;
   stats_.broken_mass_kg += parent_mass;
+  const int parent_generation = p.generation[slot];
+  if (stats_.events_by_generation.size() <= std::size_t(parent_generation))
+    stats_.events_by_generation.resize(std::size_t(parent_generation) + 1, 0);
+  ++stats_.events_by_generation[std::size_t(parent_generation)];
+  const int generation = std::min(parent_generation + 1, 255);
+  stats_.max_generation = std::max(stats_.max_generation, generation);
 
   std::vector<double> kept_d;
   for (double ratio : m.sampler.draw_ratios(rng_)) {
@@ -126,6 +132,7 @@ void Breakage::break_particle(std::size_t slot, double dt_s, ParticleStore& p, P
     const ParticleId id = next_id++;
     const std::size_t s = p.add(*materials_, material, id, x + offset[k], v + cross(w, offset[k]),
                                 w, kept_d[k], scale);
+    p.generation[s] = std::uint8_t(generation);
     const double share = p.mass_kg[s] / parent_mass;
     p.load[s].force_n = force * share;
     p.load[s].torque_n_m = torque * share;

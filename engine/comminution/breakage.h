@@ -34,6 +34,10 @@ struct BreakageStats {
   std::uint64_t fragments = 0;        // fragments created as particles
   std::uint64_t dust_fragments = 0;   // fragments sent to the dust table
   double broken_mass_kg = 0.0;
+  // Breakage events by the broken particle's generation (0 = a fed or initial particle, 1 = a
+  // fragment, 2 = a fragment of a fragment, ...; generations stop counting at 255).
+  std::vector<std::uint64_t> events_by_generation;
+  int max_generation = 0;  // of the particles (and dust) the run made
 };
 
 class Breakage {
@@ -64,7 +68,7 @@ class Breakage {
   // coarse particle).
   std::uint64_t process(const std::vector<Impact>& impacts,
                         const std::vector<std::uint32_t>& crushed, double dt_s,
-                        const std::vector<PlaneWall>& walls, ParticleStore& particles,
+                        const std::vector<Wall>& walls, ParticleStore& particles,
                         ParticleId& next_id, std::vector<Newborn>& newborn,
                         const ParticleHook& before_removal, const ParticleHook& after_addition);
 
@@ -80,7 +84,7 @@ class Breakage {
 
   // Specific energy of the impact on `particle` (J/kg), by the scene's equivalence.
   double impact_energy_j_per_kg(const Impact& impact, bool on_partner,
-                                const std::vector<PlaneWall>& walls, const ParticleStore& p) const;
+                                const std::vector<Wall>& walls, const ParticleStore& p) const;
   void break_particle(std::size_t slot, double dt_s, ParticleStore& p, ParticleId& next_id,
                       std::vector<Newborn>& newborn, const ParticleHook& after_addition);
 

@@ -190,15 +190,16 @@ void compute_pair_forces(ContactModel model, const MaterialTable& materials, con
   }
 }
 
-void compute_wall_forces(const MaterialTable& materials, const std::vector<PlaneWall>& walls,
-                         double dt, double limit, ParticleStore& p, NeighborList& nl,
+void compute_wall_forces(const MaterialTable& materials, const std::vector<Wall>& walls, double dt,
+                         double limit, ParticleStore& p, NeighborList& nl,
                          ContactStepStats& stats) {
   std::uint64_t touching = 0;
   for (std::size_t k = 0; k < nl.wall_particle.size(); ++k) {
     const std::uint32_t i = nl.wall_particle[k];
-    const PlaneWall& wall = walls[nl.wall_index[k]];
+    const Wall& wall = walls[nl.wall_index[k]];
     const double r = p.radius_m[i];
-    double overlap = r - wall_distance_m(wall, p.position_m[i]);
+    Vec3 n;
+    double overlap = r - wall_gap_m(wall, p.position_m[i], n);
     if (overlap <= 0.0) {
       nl.wall_history_m[k] = {};
       nl.wall_touching[k] = kPairApart;
@@ -215,7 +216,6 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Plane
       nl.wall_touching[k] = kPairTouching;
     }
     ++touching;
-    const Vec3& n = wall.normal;
     const PairConstants& pc = materials.wall_pair(wall.pair_table, p.material[i]);
     const PairSprings s = wall_springs(p, i, pc);
     const double sqrt_overlap = std::sqrt(overlap);
@@ -249,7 +249,7 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Plane
 }
 
 double contact_elastic_energy_j(ContactModel model, const MaterialTable& materials,
-                                const PeriodicBox& box, const std::vector<PlaneWall>& walls,
+                                const PeriodicBox& box, const std::vector<Wall>& walls,
                                 const ParticleStore& p, const NeighborList& nl) {
   const SeriesSprings series_law(p);
   const PaperSprings paper_law(p);
@@ -272,10 +272,10 @@ double contact_elastic_energy_j(ContactModel model, const MaterialTable& materia
   }
   for (std::size_t k = 0; k < nl.wall_particle.size(); ++k) {
     const std::uint32_t i = nl.wall_particle[k];
-    const PlaneWall& wall = walls[nl.wall_index[k]];
+    const Wall& wall = walls[nl.wall_index[k]];
     const bool ghost = nl.wall_touching[k] == kPairGhost;
-    const double overlap = p.radius_m[i] - wall_distance_m(wall, p.position_m[i]) -
-                           (ghost ? nl.wall_history_m[k][0] : 0.0);
+    const double overlap =
+        p.radius_m[i] - wall_gap_m(wall, p.position_m[i]) - (ghost ? nl.wall_history_m[k][0] : 0.0);
     if (overlap <= 0.0) continue;
     const PairSprings s = wall_springs(p, i, materials.wall_pair(wall.pair_table, p.material[i]));
     energy += 0.4 * s.normal_stiffness * overlap * overlap * std::sqrt(overlap);

@@ -54,13 +54,13 @@ void compute_pair_forces(ContactModel model, const MaterialTable& materials, con
                          double dt_s, double penetration_limit, ParticleStore& particles,
                          NeighborList& neighbors, ContactStepStats& stats);
 
-void compute_wall_forces(const MaterialTable& materials, const std::vector<PlaneWall>& walls,
+void compute_wall_forces(const MaterialTable& materials, const std::vector<Wall>& walls,
                          double dt_s, double penetration_limit, ParticleStore& particles,
                          NeighborList& neighbors, ContactStepStats& stats);
 
 // Elastic energy stored in the touching contacts: Σ (2/5) kn δ^{5/2} + ½ kt δ^{1/2} |ξ|².
 double contact_elastic_energy_j(ContactModel model, const MaterialTable& materials,
-                                const PeriodicBox& box, const std::vector<PlaneWall>& walls,
+                                const PeriodicBox& box, const std::vector<Wall>& walls,
                                 const ParticleStore& particles, const NeighborList& neighbors);
 
 }  // namespace millsim

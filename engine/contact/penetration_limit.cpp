@@ -11,7 +11,7 @@ namespace millsim {
 
 std::uint64_t apply_penetration_limiter(const ContactStepStats& stats,
                                         const MaterialTable& materials, const PeriodicBox& box,
-                                        const std::vector<PlaneWall>& walls, const NeighborList& nl,
+                                        const std::vector<Wall>& walls, const NeighborList& nl,
                                         ParticleStore& p) {
   std::uint64_t events = 0;
   for (std::uint32_t k : stats.pairs_over_limit) {
@@ -29,11 +29,13 @@ std::uint64_t apply_penetration_limiter(const ContactStepStats& stats,
   }
   for (std::uint32_t k : stats.walls_over_limit) {
     const std::uint32_t i = nl.wall_particle[k];
-    const PlaneWall& wall = walls[nl.wall_index[k]];
-    const double vn = dot(p.motion[i].velocity_m_per_s, wall.normal);
+    const Wall& wall = walls[nl.wall_index[k]];
+    Vec3 normal;
+    wall_gap_m(wall, p.position_m[i], normal);
+    const double vn = dot(p.motion[i].velocity_m_per_s, normal);
     if (vn >= 0.0) continue;
     const double e = materials.wall_pair(wall.pair_table, p.material[i]).restitution;
-    p.motion[i].velocity_m_per_s -= wall.normal * ((1.0 + e) * vn);  // (§4, Eq. 8)
+    p.motion[i].velocity_m_per_s -= normal * ((1.0 + e) * vn);  // (§4, Eq. 8)
     ++events;
   }
   return events;

@@ -15,7 +15,7 @@ namespace millsim {
 // Applies Eq. 8 to the contacts listed in `stats`; returns how many it changed.
 std::uint64_t apply_penetration_limiter(const ContactStepStats& stats,
                                         const MaterialTable& materials, const PeriodicBox& box,
-                                        const std::vector<PlaneWall>& walls,
+                                        const std::vector<Wall>& walls,
                                         const NeighborList& neighbors, ParticleStore& particles);
 
 // Eq. 12: undamped maximum overlap, δ = (5 m* V² / (4 k))^{2/5}.

@@ -20,7 +20,7 @@ double hertz_contact_time_s(double m_eff, double k, double v) {
 }
 
 TimeStepBounds time_step_bounds(const ParticleStore& p, const MaterialTable& materials,
-                                const std::vector<PlaneWall>& walls, double speed,
+                                const std::vector<Wall>& walls, double speed,
                                 bool at_real_stiffness) {
   TimeStepBounds b;
   const int stiffest = stiffest_wall(materials, walls);

@@ -39,7 +39,7 @@ struct TimeStepBounds {
 // Bounds over all particles. Each particle's reduced-stiffness scale is read from its compliance
 // (s = c_material / c_particle); `at_real_stiffness` ignores it, for the time-step gain.
 TimeStepBounds time_step_bounds(const ParticleStore& p, const MaterialTable& materials,
-                                const std::vector<PlaneWall>& walls, double impact_speed_m_per_s,
+                                const std::vector<Wall>& walls, double impact_speed_m_per_s,
                                 bool at_real_stiffness = false);
 
 // Twice the fastest initial speed (a head-on pair) plus the free-fall speed over the domain's

@@ -38,19 +38,37 @@ struct GasBoundaryPatch {
 
 // Solid regions voxelised into the gas grid: a cell whose centre is inside is solid.
 enum class GasSolidShape {
-  Box,       // solid inside [min_m, max_m]
-  Cylinder,  // axis through center_m along `axis`; solid outside the radius (a chamber) or inside
-  HalfSpace  // solid behind the plane through point_m (against the normal)
+  Box,        // solid inside [min_m, max_m]
+  Cylinder,   // axis through center_m along `axis`; solid outside the radius (a chamber) or inside
+  HalfSpace,  // solid behind the plane through point_m (against the normal)
+  TubeShell,  // a cylindrical shell: |distance from the axis − radius| < half_thickness_m over
+              // the axial range [axial_min_m, axial_max_m] from center_m (an outlet tube)
 };
 
 struct GasSolidConfig {
   std::string name;
   GasSolidShape shape = GasSolidShape::Box;
-  Vec3 min_m, max_m;          // box
-  Vec3 center_m, axis;        // cylinder (axis normalised on load)
-  double radius_m = 0.0;      // cylinder
-  bool solid_inside = false;  // cylinder: true = a solid rod, false = a fluid chamber
-  Vec3 point_m, normal;       // half-space (normal normalised on load)
+  Vec3 min_m, max_m;              // box
+  Vec3 center_m, axis;            // cylinder (axis normalised on load)
+  double radius_m = 0.0;          // cylinder
+  bool solid_inside = false;      // cylinder: true = a solid rod, false = a fluid chamber
+  Vec3 point_m, normal;           // half-space (normal normalised on load)
+  double half_thickness_m = 0.0;  // tube shell
+  double axial_min_m = 0.0, axial_max_m = 0.0;  // tube shell, along the axis from center_m
+};
+
+// A gas jet entering through a voxelised solid wall (a mill's nozzle): the solid–fluid faces the
+// jet's cross-section covers near its exit carry the jet velocity's component along them, scaled
+// so that the faces together carry exactly π r² · speed (gas/gas_grid.cpp).
+struct GasJetConfig {
+  std::string name;
+  Vec3 exit_point_m;  // on the wall
+  Vec3 direction;     // unit, into the fluid
+  double radius_m = 0.0;
+  double speed_m_per_s = 0.0;
+  double volume_flow_m3_per_s() const {
+    return 3.141592653589793 * radius_m * radius_m * speed_m_per_s;
+  }
 };
 
 // Drag laws (gas/drag.h gives each formula and its source).
@@ -84,6 +102,7 @@ struct GasConfig {
   double smagorinsky_constant = 0.0;
   std::vector<GasBoundaryPatch> boundaries;  // applied in order over the default (wall)
   std::vector<GasSolidConfig> solids;
+  std::vector<GasJetConfig> jets;  // inflow through solid walls (a mill's nozzles)
   // coupling
   bool two_way = true;  // particles push on the gas; false = the gas ignores them
   DragLaw drag = DragLaw::SchillerNaumann;

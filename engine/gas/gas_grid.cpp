@@ -19,6 +19,12 @@ bool inside_gas_solid(const GasSolidConfig& s, const Vec3& x) {
     }
     case GasSolidShape::HalfSpace:
       return dot(x - s.point_m, s.normal) < 0.0;
+    case GasSolidShape::TubeShell: {
+      const Vec3 d = x - s.center_m;
+      const double axial = dot(d, s.axis);
+      if (axial < s.axial_min_m || axial > s.axial_max_m) return false;
+      return std::abs(norm(d - s.axis * axial) - s.radius_m) < s.half_thickness_m;
+    }
   }
   return false;
 }
@@ -147,6 +153,49 @@ void classify_face(GasGrid& g, int a, std::size_t f) {
   g.face[au][f] = s0 && s1 ? FaceKind::Solid : (s0 || s1 ? FaceKind::Fixed : FaceKind::Unknown);
 }
 
+// Turns the solid–fluid faces under each jet's cross-section into inflow faces. A face qualifies
+// when its centre lies within the jet's radius of the jet's axis (at least 0.6 of the largest
+// cell edge, so a nozzle narrower than a cell still finds the staircase), no more than two cells
+// behind the exit point or one cell in front of it along the jet, and the jet points from its
+// solid side into its fluid side. Each face holds the jet velocity's component along its axis;
+// then all of a jet's faces are scaled so they carry exactly the jet's volume flow.
+void apply_jets(GasGrid& g, const GasConfig& config) {
+  const double h_max = std::max({g.h_m.x, g.h_m.y, g.h_m.z});
+  for (std::size_t j = 0; j < config.jets.size(); ++j) {
+    const GasJetConfig& jet = config.jets[j];
+    const double reach = std::max(jet.radius_m, 0.6 * h_max);
+    std::vector<std::pair<int, std::size_t>> faces;
+    double flow = 0.0;
+    for (int a = 0; a < 3; ++a) {
+      const std::size_t au = std::size_t(a);
+      for (std::size_t f = 0; f < g.padded_size; ++f) {
+        if (g.face[au][f] != FaceKind::Fixed) continue;
+        const std::array<int, 3> ijk = g.coords(f);
+        const std::size_t c0 = f, c1 = f + g.stride[au];
+        // A face of the domain box (the chamber may touch it) or between a solid and a fluid
+        // cell; either way the jet must point into the fluid side.
+        const bool low = ijk[au] == 0, high = ijk[au] == g.n[au];
+        const double into_fluid = low || (!high && g.fluid[c1] && !g.fluid[c0]) ? 1.0 : -1.0;
+        if ((low || high) && g.ghost[low ? c0 : c1].kind != GasBoundaryKind::Wall) continue;
+        if (jet.direction[a] * into_fluid <= 0.0) continue;
+        Vec3 centre = g.cell_center(ijk[0], ijk[1], ijk[2]);
+        centre[a] += 0.5 * g.h_m[a];
+        const Vec3 d = centre - jet.exit_point_m;
+        const double along = dot(d, jet.direction);
+        if (along < -2.0 * h_max || along > h_max) continue;
+        if (norm2(d - jet.direction * along) > reach * reach) continue;
+        faces.push_back({a, f});
+        flow += g.face_area_m2(a) * std::abs(jet.direction[a]) * jet.speed_m_per_s;
+      }
+    }
+    const double scale = flow > 0.0 ? jet.volume_flow_m3_per_s() / flow : 0.0;
+    for (const auto& [a, f] : faces)
+      g.fixed_value[std::size_t(a)][f] = jet.speed_m_per_s * jet.direction[a] * scale;
+    g.jet_faces[j] = faces.size();
+    g.jet_flow_m3_per_s[j] = flow * scale;
+  }
+}
+
 }  // namespace
 
 GasGrid build_gas_grid(const GasConfig& config, const Vec3& lo, const Vec3& hi,
@@ -166,10 +215,13 @@ GasGrid build_gas_grid(const GasConfig& config, const Vec3& lo, const Vec3& hi,
   }
   g.patch_faces.assign(config.boundaries.size(), 0);
   g.patch_area_m2.assign(config.boundaries.size(), 0.0);
+  g.jet_faces.assign(config.jets.size(), 0);
+  g.jet_flow_m3_per_s.assign(config.jets.size(), 0.0);
   voxelise(g, config);
   assign_boundaries(g, config);
   for (int a = 0; a < 3; ++a)
     for (std::size_t f = 0; f < g.padded_size; ++f) classify_face(g, a, f);
+  apply_jets(g, config);
   return g;
 }
 

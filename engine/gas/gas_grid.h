@@ -53,6 +53,10 @@ struct GasGrid {
   // smaller than a cell may own none) and their area.
   std::vector<std::size_t> patch_faces;
   std::vector<double> patch_area_m2;
+  // Per jet of the config: the solid–fluid faces it blows through and the volume flow they carry
+  // (the jet's set flow, unless it found no face).
+  std::vector<std::size_t> jet_faces;
+  std::vector<double> jet_flow_m3_per_s;
 
   std::size_t index(int i, int j, int k) const {
     return std::size_t(i) + stride[1] * std::size_t(j) + stride[2] * std::size_t(k);

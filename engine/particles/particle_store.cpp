@@ -54,7 +54,7 @@ std::size_t ParticleStore::add(const MaterialTable& materials, int material_inde
   material.push_back(std::uint16_t(material_index));
   mass_kg.push_back(mass);
   id.push_back(particle_id);
-  if (has_breakage_state) remaining_capacity_j_per_kg.push_back(1e300);
+  if (has_breakage_state) remaining_capacity_j_per_kg.push_back(1e300), generation.push_back(0);
   if (has_fluid_state) {
     fluid_coefficient_kg_per_s.push_back(-1.0);
     fluid_cached_slip_m_per_s.push_back({});

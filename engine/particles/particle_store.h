@@ -55,6 +55,9 @@ struct ParticleStore {
   // breakage only (comminution/strength.h): mass-specific energy above W_min the particle can
   // still absorb before it breaks. Empty, and not a column, unless enable_breakage_state().
   std::vector<double> remaining_capacity_j_per_kg;
+  // How many breakages made the particle: 0 for fed or initial particles, a fragment's parent's
+  // generation + 1 (breakage only, like the capacity).
+  std::vector<std::uint8_t> generation;
   bool has_breakage_state = false;
   // gas coupling only (gas/coupling.h): the drag cache of §3.1 (Fig. 5) and the impulse the
   // particle took from the gas since the last CFD step (given back to the gas then). Empty, and
@@ -81,7 +84,7 @@ struct ParticleStore {
     f(springs);
     f(normal_compliance), f(shear_compliance);
     f(material), f(mass_kg), f(id);
-    if (has_breakage_state) f(remaining_capacity_j_per_kg);
+    if (has_breakage_state) f(remaining_capacity_j_per_kg), f(generation);
     if (has_fluid_state) {
       f(fluid_coefficient_kg_per_s), f(fluid_cached_slip_m_per_s), f(fluid_cached_fraction);
       f(fluid_cached_force_n);
@@ -93,6 +96,7 @@ struct ParticleStore {
   void enable_breakage_state() {
     has_breakage_state = true;
     remaining_capacity_j_per_kg.assign(size(), 1e300);
+    generation.assign(size(), 0);
   }
 
   // Adds the gas-coupling columns; every particle starts with no cached drag.

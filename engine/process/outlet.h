@@ -1,6 +1,6 @@
-// Outlets: a plane (particles whose centre is behind it, against its normal, have left) or a box
-// (particles whose centre is inside have left). The simulation removes such particles and bins
-// them into the outlet PSD (sim/simulation.cpp).
+// Outlets: a plane (particles whose centre is behind it, against its normal, have left), a box or
+// a finite cylinder (particles whose centre is inside have left; a mill's outlet tube). The
+// simulation removes such particles and bins them into the outlet PSD (sim/simulation.cpp).
 #pragma once
 
 #include <vector>
@@ -12,6 +12,12 @@ namespace millsim {
 
 inline bool outlet_contains(const OutletConfig& o, const Vec3& x) {
   if (o.kind == OutletKind::Plane) return dot(x - o.point_m, o.normal) < 0.0;
+  if (o.kind == OutletKind::Cylinder) {
+    const Vec3 d = x - o.point_m;
+    const double axial = dot(d, o.normal);
+    return axial >= o.axial_min_m && axial <= o.axial_max_m &&
+           norm2(d - o.normal * axial) < o.radius_m * o.radius_m;
+  }
   for (int a = 0; a < 3; ++a)
     if (x[a] < o.min_m[a] || x[a] > o.max_m[a]) return false;
   return true;

@@ -13,6 +13,7 @@
 
 #include "core/vec3.h"
 #include "gas/gas_config.h"
+#include "geometry/mill_config.h"
 
 namespace millsim {
 
@@ -156,6 +157,7 @@ struct ContactConfig {
 };
 
 struct SearchConfig {
+  bool conventional_nbs = false;         // "nbs": the dense Munjiza–Andrews baseline, no sub-grid
   std::optional<double> skin_m;          // Verlet skin; absent = automatic
   std::optional<double> cell_size_m;     // lower bound on the DEM-cell edge; absent = automatic
   std::optional<int> subcells_per_axis;  // sub-grid division k (§2.2); absent = automatic
@@ -185,14 +187,17 @@ struct PsdConfig {
   std::vector<double> edges_m;  // ascending; empty = automatic from the scene's sizes
 };
 
-enum class OutletKind { Plane, Box };
+enum class OutletKind { Plane, Box, Cylinder };
 
 // Particles whose centre crosses an outlet leave the run and are binned into the outlet PSD.
 struct OutletConfig {
   std::string name;
   OutletKind kind = OutletKind::Plane;
-  Vec3 point_m, normal;  // plane: removes centres behind the plane (against the normal)
-  Vec3 min_m, max_m;     // box: removes centres inside
+  Vec3 point_m, normal;   // plane: removes centres behind the plane (against the normal)
+                          // cylinder: a point of the axis and its unit direction
+  Vec3 min_m, max_m;      // box: removes centres inside
+  double radius_m = 0.0;  // cylinder: removes centres inside the radius
+  double axial_min_m = 0.0, axial_max_m = 0.0;  // cylinder: over this range along the axis
 };
 
 // Inserts particles at a mass rate into a region, so a mill runs in steady state.
@@ -233,6 +238,7 @@ struct SceneConfig {
   std::vector<OutletConfig> outlets;
   std::vector<FeedConfig> feeds;
   std::optional<GasConfig> gas;    // absent = no gas solver, no fluid fields
+  std::optional<MillConfig> mill;  // a cylindrical grinding chamber (geometry/mill.h)
   std::filesystem::path base_dir;  // directory of the scene file, for relative paths
 };
 

@@ -6,14 +6,12 @@
 
 #include "core/json_reader.h"
 #include "scene/gas_json.h"
+#include "scene/mill_json.h"
 #include "search/hashed_grid.h"
 
 namespace millsim {
-namespace {
 
 using nlohmann::json;
-
-const NumberRange kRestitution = NumberRange::closed(0.05, 1.0);
 
 int find_material(const std::vector<MaterialConfig>& materials, JsonObjectReader& reader,
                   std::string_view key, InputErrors& errors, bool required) {
@@ -33,6 +31,10 @@ int find_material(const std::vector<MaterialConfig>& materials, JsonObjectReader
                                       : "expected one of the material names: " + names});
   return 0;
 }
+
+namespace {
+
+const NumberRange kRestitution = NumberRange::closed(0.05, 1.0);
 
 StrengthConfig parse_strength(const json& v, const std::string& path, InputErrors& errors) {
   StrengthConfig s;
@@ -489,6 +491,7 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
   if (const json* v = top.child("contact")) scene.contact = parse_contact(*v, errors);
   if (const json* v = top.child("search")) {
     JsonObjectReader r(*v, "/search", errors);
+    scene.search.conventional_nbs = r.string("method", "hashed", {"hashed", "nbs"}) == "nbs";
     scene.search.skin_m = r.optional_number("skin_m", NumberRange::non_negative());
     scene.search.cell_size_m = r.optional_number("cell_size_m", NumberRange::positive());
     if (const json* k = r.child("subcells")) {
@@ -514,6 +517,11 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
                "expected \"auto\" or an integer in [1, " + std::to_string(kMaxGridLevels) + "]"});
       }
     }
+    if (scene.search.conventional_nbs && (scene.search.subcells_per_axis.value_or(1) > 1 ||
+                                          scene.search.grid_levels.value_or(1) > 1))
+      errors.push_back({"/search/method", "\"nbs\"",
+                        "the conventional NBS has no sub-grid: leave subcells and levels at "
+                        "\"auto\" or 1, or use method \"hashed\""});
     r.finish();
   }
   if (const json* v = top.child("breakage")) {
@@ -536,6 +544,8 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
   scene.outlets = parse_outlets(top, errors);
   scene.feeds = parse_feeds(top, scene.materials, errors);
   if (const json* v = top.child("gas")) scene.gas = parse_gas(*v, scene.domain, errors);
+  if (const json* v = top.child("mill"))
+    scene.mill = parse_mill(*v, scene.domain, scene.materials, errors);
   if (const json* v = top.child("output")) {
     JsonObjectReader r(*v, "/output", errors);
     scene.output.snapshot_interval_s =
@@ -577,6 +587,7 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
         break;
       }
   }
+  finish_mill_scene(scene, errors);
   return scene;
 }
 

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/errors.h"
+#include "core/json_reader.h"
 #include "scene/scene_config.h"
 
 namespace millsim {
@@ -16,5 +17,10 @@ SceneConfig load_scene(const std::filesystem::path& path);
 // Validates a parsed document; `base_dir` resolves relative particle-file paths.
 SceneConfig parse_scene(const nlohmann::json& doc, const std::filesystem::path& base_dir,
                         InputErrors& errors);
+
+// The index of the material named by `key` in `reader`'s object; reports an unknown name (and a
+// missing one when `required`) and returns 0 then. Shared by the scene's sections.
+int find_material(const std::vector<MaterialConfig>& materials, JsonObjectReader& reader,
+                  std::string_view key, InputErrors& errors, bool required);
 
 }  // namespace millsim

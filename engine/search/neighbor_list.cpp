@@ -316,8 +316,8 @@ GridDivision NeighborList::division(const ParticleStore& p, const PeriodicBox& b
   return division_;
 }
 
-bool NeighborList::update(ParticleStore& p, const PeriodicBox& box,
-                          const std::vector<PlaneWall>& walls, bool force) {
+bool NeighborList::update(ParticleStore& p, const PeriodicBox& box, const std::vector<Wall>& walls,
+                          bool force) {
   ++steps_since_rebuild_;
   const bool population_changed = p.population_version != population_version_;
   if (!force && !population_changed) {
@@ -354,7 +354,7 @@ bool NeighborList::update(ParticleStore& p, const PeriodicBox& box,
 }
 
 void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
-                           const std::vector<PlaneWall>& walls, bool population_changed) {
+                           const std::vector<Wall>& walls, bool population_changed) {
   // Keep the state of pairs that have any (touching ones), keyed by stable ids.
   std::vector<KeyedHistory> old_pairs, old_walls;
   for (std::size_t k = 0; k < pairs.size(); ++k)
@@ -378,12 +378,21 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
     settings_.skin_m = population_changed || !next_skin_m_
                            ? automatic_skin_m(p.radius_m, settings_.max_skin_m)
                            : *next_skin_m_;
-  const GridDivision split = division(p, box, population_changed);
-  grid_.find_pairs(p.position_m, p.radius_m, box,
-                   {settings_.skin_m, split.subcells_per_axis, split.levels, settings_.cell_size_m},
-                   pairs);
-  stats_.last_search = grid_.stats();
-  stats_.distance_tests += grid_.stats().distance_tests;
+  if (settings_.method == SearchMethod::Nbs) {
+    nbs_.find_pairs(p.position_m, p.radius_m, box, settings_.skin_m, pairs);
+    stats_.last_search = {};
+    stats_.last_search.distance_tests = nbs_.stats().distance_tests;
+    stats_.last_search.cells = nbs_.stats().cells;
+    stats_.last_search.cell_m = nbs_.stats().cell_m;
+    stats_.last_search.level_particles[0] = p.size();
+  } else {
+    const GridDivision split = division(p, box, population_changed);
+    grid_.find_pairs(
+        p.position_m, p.radius_m, box,
+        {settings_.skin_m, split.subcells_per_axis, split.levels, settings_.cell_size_m}, pairs);
+    stats_.last_search = grid_.stats();
+  }
+  stats_.distance_tests += stats_.last_search.distance_tests;
   sort_pairs(p, box);
   // A pair absent from the old list was apart at the last force pass (the rebuild rule keeps
   // every touching pair listed), except for newborn particles.
@@ -423,7 +432,7 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
   wall_particle.clear(), wall_index.clear();
   for (std::size_t i = 0; i < p.size(); ++i)
     for (std::size_t w = 0; w < walls.size(); ++w)
-      if (wall_distance_m(walls[w], p.position_m[i]) < p.radius_m[i] + settings_.skin_m)
+      if (wall_gap_m(walls[w], p.position_m[i]) < p.radius_m[i] + settings_.skin_m)
         wall_particle.push_back(std::uint32_t(i)), wall_index.push_back(std::uint32_t(w));
   wall_history_m.assign(wall_particle.size(), Vec3{});
   wall_touching.assign(wall_particle.size(), kPairApart);
@@ -434,8 +443,7 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
         wall_history_m[k] = h->history;
         wall_touching[k] = h->state;
       } else if (find_newborn(newborn_, p.id[i])) {
-        const double overlap =
-            p.radius_m[i] - wall_distance_m(walls[wall_index[k]], p.position_m[i]);
+        const double overlap = p.radius_m[i] - wall_gap_m(walls[wall_index[k]], p.position_m[i]);
         if (overlap > newborn_ghost_ratio_ * 2.0 * p.radius_m[i]) {
           wall_touching[k] = kPairGhost;  // born deep in the wall: overlap memory
           wall_history_m[k] = {overlap, 0.0, 0.0};

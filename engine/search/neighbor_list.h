@@ -12,6 +12,7 @@
 #include "contact/walls.h"
 #include "particles/particle_store.h"
 #include "search/hashed_grid.h"
+#include "search/nbs_grid.h"
 #include "search/pair_search.h"
 
 namespace millsim {
@@ -68,6 +69,12 @@ struct NeighborStats {
   HashedGridStats last_search;
 };
 
+// How candidates are found at a rebuild (the list itself is the same either way).
+enum class SearchMethod {
+  Hashed,  // hashed NBS grid with the sub-grid levels (§2.1–2.2, search/hashed_grid.h)
+  Nbs,     // the conventional dense NBS of Munjiza & Andrews (search/nbs_grid.h), a baseline
+};
+
 struct NeighborSettings {
   double skin_m = 0.0;
   bool automatic_skin = false;  // ¼ √(d_min d_max) when the population changes, then steered
@@ -76,6 +83,7 @@ struct NeighborSettings {
   std::optional<int> subcells_per_axis;  // absent = automatic (with the levels)
   std::optional<int> grid_levels;        // absent = automatic, or 2 when k is given
   double step_s = 0.0;  // DEM time step, to predict a new population's list lifetime; 0 = unknown
+  SearchMethod method = SearchMethod::Hashed;
 };
 
 class NeighborList {
@@ -94,7 +102,7 @@ class NeighborList {
   // Rebuilds when needed (or when `force`); returns true if it did. A rebuild first wraps the
   // positions into the periodic box; between rebuilds they may drift out by up to skin/2, and
   // each pair keeps the periodic image it had at the rebuild (pair_shift()).
-  bool update(ParticleStore& particles, const PeriodicBox& box, const std::vector<PlaneWall>& walls,
+  bool update(ParticleStore& particles, const PeriodicBox& box, const std::vector<Wall>& walls,
               bool force);
 
   // Particles added since the last rebuild; consumed by the next (forced) rebuild, which must
@@ -119,6 +127,7 @@ class NeighborList {
   bool rebuild_likely() const { return motion_bound_m_ > 0.5 * settings_.skin_m; }
 
   double skin_m() const { return settings_.skin_m; }
+  const NeighborSettings& settings() const { return settings_; }
   const NeighborStats& stats() const { return stats_; }
 
   // Particle–particle candidates, each listed from its higher slot (first > second), and their
@@ -144,7 +153,7 @@ class NeighborList {
   // Largest displacement since the last build; stops early once past skin/2.
   double max_displacement_m(const ParticleStore& particles, const PeriodicBox& box) const;
   void rebuild(const ParticleStore& particles, const PeriodicBox& box,
-               const std::vector<PlaneWall>& walls, bool population_changed);
+               const std::vector<Wall>& walls, bool population_changed);
   // The skin for the next list, from this list's candidate gaps and the last rebuild interval.
   // `steps_per_skin`: steps a list lasts per metre of skin (observed, or predicted from speeds).
   double steer_skin(const ParticleStore& particles, double steps_per_skin) const;
@@ -168,6 +177,7 @@ class NeighborList {
 
   NeighborSettings settings_;
   HashedGrid grid_;
+  NbsGrid nbs_;  // only with SearchMethod::Nbs
   GridDivision division_;
   double division_skin_m_ = -1.0;
   Vec3 image_shift_[27];

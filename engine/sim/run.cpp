@@ -66,6 +66,8 @@ void add_product_summary(const Simulation& sim, nlohmann::ordered_json& s) {
                      {"fatigue_impacts", st.fatigue_impacts},
                      {"events", st.events},
                      {"crush_events", st.crush_events},
+                     {"events_by_generation", st.events_by_generation},
+                     {"max_generation", st.max_generation},
                      {"fragments", st.fragments},
                      {"dust_fragments", st.dust_fragments},
                      {"broken_mass_kg", st.broken_mass_kg},
@@ -305,19 +307,21 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
                    {"max_overlap_ratio", c.max_overlap_ratio},
                    {"penetration_limiter_events", sim.penetration_limiter_events()}};
   const NeighborStats& n = sim.neighbors().stats();
-  s["search"] = {{"skin_m", sim.neighbors().skin_m()},
-                 {"rebuilds", n.rebuilds},
-                 {"distance_tests", n.distance_tests},
-                 {"candidate_pairs", sim.neighbors().pairs.size()},
-                 {"cell_m", n.last_search.cell_m},
-                 {"subcells_per_axis", n.last_search.subcells_per_axis},
-                 {"grid_levels", n.last_search.levels},
-                 {"level_particles",
-                  std::vector<std::uint64_t>(n.last_search.level_particles,
-                                             n.last_search.level_particles + n.last_search.levels)},
-                 {"occupied_cells", n.last_search.cells},
-                 {"occupied_subcells", n.last_search.subcells},
-                 {"fine_particles", n.last_search.fine_particles}};
+  s["search"] = {
+      {"method", sim.neighbors().settings().method == SearchMethod::Nbs ? "nbs" : "hashed"},
+      {"skin_m", sim.neighbors().skin_m()},
+      {"rebuilds", n.rebuilds},
+      {"distance_tests", n.distance_tests},
+      {"candidate_pairs", sim.neighbors().pairs.size()},
+      {"cell_m", n.last_search.cell_m},
+      {"subcells_per_axis", n.last_search.subcells_per_axis},
+      {"grid_levels", n.last_search.levels},
+      {"level_particles",
+       std::vector<std::uint64_t>(n.last_search.level_particles,
+                                  n.last_search.level_particles + n.last_search.levels)},
+      {"occupied_cells", n.last_search.cells},
+      {"occupied_subcells", n.last_search.subcells},
+      {"fine_particles", n.last_search.fine_particles}};
   s["energy"] = {{"initial", energy_json(initial_energy)},
                  {"final", energy_json(final_energy)},
                  {"dissipated_j", initial_energy.total_j() - final_energy.total_j()}};

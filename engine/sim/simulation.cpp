@@ -6,6 +6,7 @@
 #include "contact/penetration_limit.h"
 #include "contact/reduced_stiffness.h"
 #include "dem/integrator.h"
+#include "geometry/mill.h"
 #include "particles/particle_sources.h"
 #include "process/outlet.h"
 
@@ -62,6 +63,14 @@ void check_inside_domain(const SceneConfig& scene, ParticleStore& p, const Perio
                                  box.max_m[a], "] on this non-periodic axis")});
         return;
       }
+    }
+    if (scene.mill && !inside_mill(*scene.mill, p.position_m[i], 0.0)) {
+      errors.push_back({concat("particle ", p.id[i]),
+                        concat("x = [", p.position_m[i].x, ", ", p.position_m[i].y, ", ",
+                               p.position_m[i].z, "]"),
+                        "expected the centre inside the mill's chamber (within the mantle, "
+                        "between floor and top plate, outside the outlet tube)"});
+      return;
     }
   }
 }
@@ -265,10 +274,10 @@ Simulation::Simulation(const SceneConfig& scene)
   }
   if (!errors.empty()) throw InputErrorList(std::move(errors));
   const bool automatic_skin = !scene.search.skin_m.has_value();
-  neighbors_ =
-      NeighborList({std::clamp(scene.search.skin_m.value_or(0.0), 0.0, max_skin), automatic_skin,
-                    max_skin, scene.search.cell_size_m, scene.search.subcells_per_axis,
-                    scene.search.grid_levels, time_.step_s});
+  neighbors_ = NeighborList(
+      {std::clamp(scene.search.skin_m.value_or(0.0), 0.0, max_skin), automatic_skin, max_skin,
+       scene.search.cell_size_m, scene.search.subcells_per_axis, scene.search.grid_levels,
+       time_.step_s, scene.search.conventional_nbs ? SearchMethod::Nbs : SearchMethod::Hashed});
   neighbors_.update(particles_, box_, walls_, true);
   if (gas_)
     if (auto failure = gas_->advance(particles_, time_.step_s, 0))

@@ -92,7 +92,7 @@ class Simulation {
   const ParticleStore& particles() const { return particles_; }
   ParticleStore& particles() { return particles_; }  // tests and sources may edit state
   const PeriodicBox& box() const { return box_; }
-  const std::vector<PlaneWall>& walls() const { return walls_; }
+  const std::vector<Wall>& walls() const { return walls_; }
   const MaterialTable& materials() const { return materials_; }
   const NeighborList& neighbors() const { return neighbors_; }
   const ContactStepStats& contact_stats() const { return contact_stats_; }
@@ -142,7 +142,7 @@ class Simulation {
   MaterialTable materials_;
   ParticleStore particles_;
   PeriodicBox box_;
-  std::vector<PlaneWall> walls_;
+  std::vector<Wall> walls_;
   NeighborList neighbors_;
   ContactConfig contact_;
   Vec3 gravity_m_per_s2_;

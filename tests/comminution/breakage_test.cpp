@@ -115,7 +115,7 @@ TEST(Breakage, SpawningConservesMassMomentumAndCentreOfMass) {
   const double parent_d = 1e-3;
   enable_breakage(s, 0.08 * parent_d);
   MaterialTable materials(s);
-  std::vector<PlaneWall> walls = build_walls(s, materials);
+  std::vector<Wall> walls = build_walls(s, materials);
   ParticleStore p;
   p.enable_breakage_state();
   const Vec3 x{5e-3, 5e-3, 5e-3}, v{3.0, -2.0, 7.0}, w{1e3, -4e3, 2e3};

@@ -1,13 +1,16 @@
 // The hashed NBS grid with the sub-grid must return exactly the pair set of the O(N²) all-pairs
 // reference (compared as sorted sets, each pair once), for size ratios 1, 10, 100 and 1000,
 // dilute and clustered sets, walled and periodic boxes (including boxes of fewer than 3 cells),
-// every sub-cell division k from 1 to 8 with 2 to 4 grid levels, and with a skin.
+// every sub-cell division k from 1 to 8 with 2 to 4 grid levels, and with a skin. The
+// conventional dense NBS (search/nbs_grid.h), the baseline of the acceleration chain, is held to
+// the same reference on the same sets.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <random>
 
 #include "search/hashed_grid.h"
+#include "search/nbs_grid.h"
 
 namespace millsim {
 namespace {
@@ -73,6 +76,17 @@ void expect_same_pairs(const Cloud& c, double skin, int k, int levels = 2) {
       << ") vs all-pairs (" << diff.second->first << "," << diff.second->second << ")";
 }
 
+void expect_nbs_same_pairs(const Cloud& c, double skin) {
+  PairList reference, found_list;
+  find_pairs_all_pairs(c.x, c.r, c.box, skin, reference);
+  NbsGrid nbs;
+  nbs.find_pairs(c.x, c.r, c.box, skin, found_list);
+  const Pairs expected = sorted_pairs(reference), found = sorted_pairs(found_list);
+  EXPECT_EQ(std::adjacent_find(found.begin(), found.end()), found.end())
+      << "a pair was found twice";
+  EXPECT_EQ(found, expected) << "skin = " << skin << ", " << nbs.stats().cells << " cells";
+}
+
 class HashedGridMatchesAllPairs
     : public testing::TestWithParam<std::tuple<double, double, bool, bool, int>> {};
 
@@ -83,6 +97,33 @@ TEST_P(HashedGridMatchesAllPairs, SameContactSet) {
     expect_same_pairs(c, 0.0, k, levels);
     expect_same_pairs(c, 0.004, k, levels);
   }
+}
+
+class NbsMatchesAllPairs : public testing::TestWithParam<std::tuple<double, double, bool, bool>> {};
+
+TEST_P(NbsMatchesAllPairs, SameContactSet) {
+  const auto [size_ratio, box_length, periodic, clustered] = GetParam();
+  const Cloud c = random_cloud(1200, size_ratio, box_length, periodic, clustered, 11u);
+  expect_nbs_same_pairs(c, 0.0);
+  expect_nbs_same_pairs(c, 0.004);
+}
+
+INSTANTIATE_TEST_SUITE_P(Sets, NbsMatchesAllPairs,
+                         testing::Combine(testing::Values(1.0, 10.0, 100.0, 1000.0),
+                                          testing::Values(0.25, 1.5),  // 0.25: < 3 cells per axis
+                                          testing::Bool(), testing::Bool()));
+
+TEST(NbsGrid, StoresEveryCellOfTheBoxAndSizesThemByTheLargestParticle) {
+  // A dilute box: the dense array holds every cell, occupied or not, each 2 r_max + skin wide.
+  const Cloud dilute = random_cloud(500, 10.0, 20.0, true, false, 4);
+  NbsGrid nbs;
+  PairList out;
+  nbs.find_pairs(dilute.x, dilute.r, dilute.box, 0.01, out);
+  const double r_max = *std::max_element(dilute.r.begin(), dilute.r.end());
+  const long per_axis = long(20.0 / (2.0 * r_max + 0.01));
+  EXPECT_EQ(nbs.stats().cells, std::uint64_t(per_axis * per_axis * per_axis));
+  EXPECT_GE(nbs.stats().cell_m, 2.0 * r_max + 0.01);
+  expect_nbs_same_pairs(dilute, 0.0);
 }
 
 INSTANTIATE_TEST_SUITE_P(Sets, HashedGridMatchesAllPairs,

@@ -1,0 +1,283 @@
+// The mill's geometry (geometry/surface.h, geometry/mill.h) against independent expectations:
+//   - every surface's gap and normal against a brute-force nearest point on a dense sampling of
+//     the surface;
+//   - a sphere fired at the chamber's mantle against Hertz's maximum overlap (Eq. 12) and
+//     contact time, and restitution; a sphere circling inside the mantle against the static
+//     Hertz overlap under the centripetal load m v² / (R − r);
+//   - the gas grid's voxels against the DEM walls (one geometry), the nozzles' inflow against the
+//     set flow, and the gas leaving through the outlet against what the nozzles blow in;
+//   - the outlet tube's inside is the DEM outlet; bad geometry is an input error naming the key.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <random>
+
+#include "gas/gas_grid.h"
+#include "geometry/mill.h"
+#include "process/outlet.h"
+#include "scene/mill_json.h"
+#include "sim/simulation.h"
+#include "support/scenes.h"
+
+namespace millsim {
+namespace {
+
+using test::add_particle;
+using test::table1_material;
+
+// Brute force: the nearest of many points spread over the surface (within a bounding cylinder).
+double nearest_sampled_distance(const Surface& s, const Vec3& x, Vec3& direction) {
+  double best = 1e300;
+  const int na = 720, nb = 400;
+  auto consider = [&](const Vec3& q) {
+    const double d = norm(x - q);
+    if (d < best) best = d, direction = (x - q) * (1.0 / std::max(d, 1e-300));
+  };
+  const Vec3 e1{1, 0, 0}, e2{0, 1, 0};  // the tests use axis +z
+  for (int a = 0; a < na; ++a) {
+    const double phi = 2.0 * std::numbers::pi * a / na;
+    const Vec3 u = e1 * std::cos(phi) + e2 * std::sin(phi);
+    for (int b = 0; b <= nb; ++b) {
+      const double t = double(b) / nb;
+      if (s.kind == SurfaceKind::Tube)
+        consider(s.point_m + u * s.radius_m +
+                 s.normal * (s.axial_min_m + t * (s.axial_max_m - s.axial_min_m)));
+      else  // disc
+        consider(s.point_m + u * (s.inner_radius_m + t * (s.radius_m - s.inner_radius_m)) +
+                 s.normal * s.axial_min_m);
+    }
+  }
+  return best;
+}
+
+TEST(Surface, TubeAndDiscGapsAreTheDistanceToTheNearestPoint) {
+  Surface tube;
+  tube.kind = SurfaceKind::Tube;
+  tube.point_m = {0.01, -0.02, 0.0};
+  tube.normal = {0, 0, 1};
+  tube.radius_m = 0.004;
+  tube.axial_min_m = 0.002;
+  tube.axial_max_m = 0.006;
+  Surface disc = tube;
+  disc.kind = SurfaceKind::Disc;
+  disc.radius_m = 0.01;
+  disc.inner_radius_m = 0.003;
+  disc.axial_min_m = 0.004;
+  disc.facing = 1.0;
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(-0.012, 0.012), uz(-0.002, 0.01);
+  for (const Surface& s : {tube, disc})
+    for (int k = 0; k < 300; ++k) {
+      const Vec3 x = s.point_m + Vec3{u(rng), u(rng), uz(rng)};
+      Vec3 n, expected_direction;  // the direction is checked through the foot point
+      const double gap = surface_gap(s, x, n);
+      const double expected = nearest_sampled_distance(s, x, expected_direction);
+      // A disc over its face is one-sided: the gap carries the side.
+      const double d = x.z - s.point_m.z - s.axial_min_m;
+      const double rho = std::hypot(x.x - s.point_m.x, x.y - s.point_m.y);
+      const bool over_face =
+          s.kind == SurfaceKind::Disc && rho >= s.inner_radius_m && rho <= s.radius_m;
+      EXPECT_NEAR(over_face ? std::abs(gap) : gap, expected, 2e-5) << "point " << k;
+      if (over_face) {
+        EXPECT_EQ(gap < 0.0, d < 0.0);
+      }
+      // The foot of the normal, x − gap n, lies on the surface (within the sampling spacing).
+      Vec3 unused;
+      EXPECT_LT(nearest_sampled_distance(s, x - n * gap, unused), 5e-5) << "point " << k;
+      EXPECT_NEAR(norm(n), 1.0, 1e-12);
+    }
+}
+
+TEST(Surface, CylinderInsideIsSignedRadialDistance) {
+  Surface s;
+  s.kind = SurfaceKind::CylinderInside;
+  s.point_m = {1, 2, 3};
+  s.normal = {0, 0, 1};
+  s.radius_m = 0.5;
+  Vec3 n;
+  EXPECT_NEAR(surface_gap(s, {1.3, 2.4, 7}, n), 0.0, 1e-15);  // on the wall (0.3, 0.4 → 0.5)
+  EXPECT_NEAR(n.x, -0.6, 1e-15);
+  EXPECT_NEAR(n.y, -0.8, 1e-15);
+  EXPECT_NEAR(surface_gap(s, {1.0, 2.1, 0}, n), 0.4, 1e-15);
+  EXPECT_NEAR(surface_gap(s, {1.0, 2.7, 0}, n), -0.2, 1e-15);  // behind the wall
+}
+
+// A small spiral-jet-mill geometry for the tests: chamber R = 10 mm, 4 mm high.
+MillConfig test_mill() {
+  MillConfig m;
+  m.axis_point_m = {0.01, 0.01, 0.0};
+  m.radius_m = 0.01;
+  m.height_m = 0.004;
+  m.outlet.radius_m = 0.0025;
+  m.outlet.depth_m = 0.0015;
+  for (int k = 0; k < 4; ++k) {
+    NozzleConfig n;
+    n.name = "n";
+    n.name += std::to_string(k);
+    n.azimuth_rad = k * std::numbers::pi / 2.0;
+    n.height_m = 0.002;
+    n.diameter_m = 0.0008;
+    n.angle_to_tangent_rad = 40.0 * std::numbers::pi / 180.0;
+    n.speed_m_per_s = 20.0;
+    m.nozzles.push_back(n);
+  }
+  return m;
+}
+
+SceneConfig mill_scene(const MaterialConfig& material) {
+  SceneConfig s = test::empty_scene({0, 0, 0}, {0.02, 0.02, 0.004}, material);
+  s.mill = test_mill();
+  InputErrors errors;
+  finish_mill_scene(s, errors);
+  EXPECT_TRUE(errors.empty());
+  return s;
+}
+
+constexpr double kDiameter = 100e-6, kRadius = 0.5 * kDiameter;
+
+double eq12_max_overlap(double m, double k, double v) {
+  return std::pow(5.0 * m * v * v / (4.0 * k), 0.4);
+}
+
+TEST(MillWalls, SphereFiredAtTheMantleMatchesHertzAndRestitution) {
+  // Expectation: a sphere against a flat wall of the same material, E* = E/(2(1−ν²)), R* = r:
+  // the mantle's curvature changes Hertz's equivalent radius by r/(2R) = 0.25 %, within 1 %.
+  for (double e : {1.0, 0.5}) {
+    const MaterialConfig material = table1_material(e);
+    SceneConfig s = mill_scene(material);
+    const double v = 2.0, phi = 0.7;
+    const Vec3 radial{std::cos(phi), std::sin(phi), 0.0};
+    const Vec3 start = s.mill->axis_point_m + radial * (0.01 - 1.2 * kRadius) + Vec3{0, 0, 0.001};
+    add_particle(s, start, radial * v, kDiameter);
+    const double m = material.density_kg_per_m3 * std::numbers::pi / 6.0 * std::pow(kDiameter, 3);
+    const double k = 4.0 / 3.0 * (1e9 / (2.0 * (1.0 - 0.09))) * std::sqrt(kRadius);
+    const double expected = eq12_max_overlap(m, k, v);
+    s.time.step_s = 2e-9;
+    Simulation sim(s);
+    double max_overlap = 0.0;
+    for (int step = 0; step < 20000; ++step) {
+      ASSERT_FALSE(sim.step().has_value());
+      const Vec3 d = sim.particles().position_m[0] - s.mill->axis_point_m;
+      max_overlap = std::max(max_overlap, std::hypot(d.x, d.y) + kRadius - 0.01);
+    }
+    const Vec3 w = sim.particles().motion[0].velocity_m_per_s;
+    EXPECT_NEAR(dot(w, radial), -e * v, 0.02 * e * v) << "rebound at e = " << e;
+    EXPECT_NEAR(norm(w - radial * dot(w, radial)), 0.0, 1e-9 * v) << "a normal impact stays normal";
+    if (e == 1.0) {
+      EXPECT_NEAR(max_overlap, expected, 0.01 * expected);
+    }
+  }
+}
+
+TEST(MillWalls, SphereCirclingInsideTheMantleCarriesTheCentripetalLoad) {
+  // Frictionless, no gravity: the mantle pushes with m v² / (R − r + δ) ≈ m v²/(R − r), so the
+  // static Hertz overlap is δ = (F / k)^{2/3}, k = (4/3) E* √r. Damped so the radial
+  // oscillation of the start dies out.
+  const MaterialConfig material = table1_material(0.3, 0.0);
+  SceneConfig s = mill_scene(material);
+  const double v = 5.0;
+  const double m = material.density_kg_per_m3 * std::numbers::pi / 6.0 * std::pow(kDiameter, 3);
+  const double k = 4.0 / 3.0 * (1e9 / (2.0 * (1.0 - 0.09))) * std::sqrt(kRadius);
+  const double force = m * v * v / (0.01 - kRadius);
+  const double expected = std::pow(force / k, 2.0 / 3.0);
+  add_particle(s, s.mill->axis_point_m + Vec3{0.01 - kRadius + expected, 0, 0.001}, {0, v, 0},
+               kDiameter);
+  s.time.step_s = 5e-9;
+  Simulation sim(s);
+  for (int step = 0; step < 200000; ++step) ASSERT_FALSE(sim.step().has_value());
+  const Vec3 d = sim.particles().position_m[0] - s.mill->axis_point_m;
+  const double overlap = std::hypot(d.x, d.y) + kRadius - 0.01;
+  EXPECT_NEAR(overlap, expected, 0.03 * expected);
+  EXPECT_NEAR(norm(sim.particles().motion[0].velocity_m_per_s), v, 0.01 * v);
+  EXPECT_GT(std::abs(std::atan2(d.y, d.x)), 0.5) << "it went round";
+}
+
+TEST(MillWalls, OutletTubeInsideIsTheOutletAndItsShellIsAWall) {
+  const MillConfig mill = test_mill();
+  const OutletConfig outlet = mill_outlet(mill);
+  const Vec3 axis = mill.axis_point_m;
+  EXPECT_TRUE(inside_mill(mill, axis + Vec3{0.004, 0, 0.002}, 1e-4));
+  EXPECT_FALSE(inside_mill(mill, axis + Vec3{0.00259, 0, 0.003}, 1e-4)) << "touches the tube";
+  EXPECT_FALSE(inside_mill(mill, axis + Vec3{0.00995, 0, 0.002}, 1e-4)) << "touches the mantle";
+  EXPECT_TRUE(outlet_contains(outlet, axis + Vec3{0.001, 0.001, 0.003}));
+  EXPECT_FALSE(outlet_contains(outlet, axis + Vec3{0.001, 0.001, 0.0024}))
+      << "below the mouth (at 2.5 mm)";
+  EXPECT_FALSE(outlet_contains(outlet, axis + Vec3{0.003, 0, 0.003})) << "outside the tube";
+}
+
+TEST(MillGas, VoxelsAgreeWithTheDemWallsAndNozzlesCarryTheSetFlow) {
+  SceneConfig s = mill_scene(table1_material());
+  GasConfig gas;
+  gas.cells = {40, 40, 8};
+  InputErrors errors;
+  s.gas = gas;
+  s.outlets.clear();
+  finish_mill_scene(s, errors);
+  ASSERT_TRUE(errors.empty());
+  const GasGrid g = build_gas_grid(*s.gas, s.domain.min_m, s.domain.max_m, {false, false, false});
+  const double h = g.h_m.x;  // 0.5 mm
+  const std::vector<NamedSurface> walls = mill_surfaces(*s.mill);
+  std::size_t checked = 0;
+  for (int k = 1; k <= g.n[2]; ++k)
+    for (int j = 1; j <= g.n[1]; ++j)
+      for (int i = 1; i <= g.n[0]; ++i) {
+        const Vec3 x = g.cell_center(i, j, k);
+        double nearest = 1e300;
+        for (const NamedSurface& w : walls)
+          nearest = std::min(nearest, std::abs(surface_gap(w.surface, x)));
+        if (nearest < h) continue;  // the staircase may go either way within a cell of a wall
+        const Vec3 d = x - s.mill->axis_point_m;
+        const bool in_chamber = std::hypot(d.x, d.y) < s.mill->radius_m;
+        EXPECT_EQ(bool(g.fluid[g.index(i, j, k)]), in_chamber)
+            << "cell " << i << " " << j << " " << k;
+        ++checked;
+      }
+  EXPECT_GT(checked, 4000u);
+  double set_flow = 0.0;
+  for (std::size_t n = 0; n < s.gas->jets.size(); ++n) {
+    EXPECT_GT(g.jet_faces[n], 0u);
+    set_flow += s.gas->jets[n].volume_flow_m3_per_s();
+  }
+  // The inflow the faces hold, summed from the grid itself: fixed faces between solid and fluid
+  // cells, signed into the fluid.
+  double face_flow = 0.0;
+  for (int a = 0; a < 3; ++a)
+    for (std::size_t f = 0; f < g.padded_size; ++f) {
+      if (g.face[std::size_t(a)][f] != FaceKind::Fixed || g.fixed_value[std::size_t(a)][f] == 0.0)
+        continue;
+      const bool into_high = g.fluid[f + g.stride[std::size_t(a)]] && !g.fluid[f];
+      face_flow += g.fixed_value[std::size_t(a)][f] * (into_high ? 1.0 : -1.0) * g.face_area_m2(a);
+    }
+  EXPECT_NEAR(face_flow, set_flow, 1e-12 * set_flow);
+  EXPECT_NEAR(set_flow, 4 * std::numbers::pi * 0.0004 * 0.0004 * 20.0, 1e-15);
+}
+
+TEST(MillScene, InconsistentGeometryIsAnInputErrorNamingTheKey) {
+  nlohmann::json doc = {
+      {"domain", {{"min_m", {0, 0, 0}}, {"max_m", {0.02, 0.02, 0.004}}}},
+      {"materials",
+       {{{"name", "m"},
+         {"youngs_modulus_pa", 1e9},
+         {"poisson_ratio", 0.3},
+         {"density_kg_per_m3", 2000}}}},
+      {"time", {{"end_s", 1e-3}}},
+      {"mill",
+       {{"radius_m", 0.011},
+        {"outlet", {{"radius_m", 0.012}, {"depth_m", 0.005}}},
+        {"nozzles",
+         {{{"count", 2}, {"height_m", 0.0039}, {"diameter_m", 0.001}, {"speed_m_per_s", 50}}}}}},
+      {"feeds",
+       {{{"material", "m"},
+         {"mass_rate_kg_per_s", 1e-3},
+         {"region", {{"min_m", {0.0, 0.0, 0.001}}, {"max_m", {0.002, 0.002, 0.002}}}},
+         {"sizes", {{"distribution", "fixed"}, {"diameter_m", 1e-4}}}}}}};
+  std::string all;
+  for (const InputError& e : test::scene_errors(doc)) all += e.path + ": " + e.allowed + "\n";
+  for (const char* key : {"/mill/radius_m", "/mill/outlet/radius_m", "/mill/outlet/depth_m",
+                          "/mill/nozzles/0/height_m", "/feeds/0/region"})
+    EXPECT_NE(all.find(key), std::string::npos) << key << " not reported in:\n" << all;
+}
+
+}  // namespace
+}  // namespace millsim
