@@ -165,7 +165,9 @@ int cmd_study(const std::vector<std::string>& args) {
     else if (a.format == "csv")
       std::cout << results_csv(table);
     else
-      std::cout << results_text(table) << "results: " << (dir / "results.json").string() << "\n";
+      // Named as the user gave the output folder (relative stays relative).
+      std::cout << results_text(table) << "results: "
+                << (std::filesystem::path(a.out) / study_id / "results.json").string() << "\n";
     const Progress p = store.progress(study_id);
     return p.count(RunState::Complete) == p.total ? kOk : kUnstable;
   } catch (const DbError& e) {

@@ -17,6 +17,12 @@ std::uint64_t pack_cell(long i, long j, long k) {
          std::uint64_t(k + kCellBias);
 }
 
+// ⌊t⌋ without a call into libm (the baseline x86-64 target has no rounding instruction).
+inline long floor_to_long(double t) {
+  const long i = long(t);
+  return i - long(t < double(i));
+}
+
 std::uint64_t mix(std::uint64_t x) {  // splitmix64 finaliser
   x ^= x >> 30;
   x *= 0xbf58476d1ce4e5b9ULL;
@@ -70,7 +76,7 @@ Stencil make_stencil(const GasGrid& g, const Vec3& x, int face_axis, Accept&& ac
 }  // namespace
 
 DemCellFluidTable::DemCellFluidTable(double cell_m, const Vec3& origin_m)
-    : cell_m_(cell_m), origin_m_(origin_m) {
+    : cell_m_(cell_m), origin_m_(origin_m), inverse_cell_(1.0 / cell_m) {
   keys_.assign(1024, 0);
   slot_state_.assign(1024, 0);
 }
@@ -79,6 +85,7 @@ void DemCellFluidTable::clear() {
   if (states_.empty()) return;
   std::fill(keys_.begin(), keys_.end(), 0);
   states_.clear();
+  last_key_ = 0;
 }
 
 void DemCellFluidTable::grow() {
@@ -124,14 +131,19 @@ FluidCellState DemCellFluidTable::average(long i, long j, long k, const GasSolve
 
 const FluidCellState& DemCellFluidTable::at(const Vec3& x, const GasSolver& gas,
                                             bool with_vorticity) {
-  const long i = long(std::floor((x.x - origin_m_.x) / cell_m_));
-  const long j = long(std::floor((x.y - origin_m_.y) / cell_m_));
-  const long k = long(std::floor((x.z - origin_m_.z) / cell_m_));
+  const long i = floor_to_long((x.x - origin_m_.x) * inverse_cell_);
+  const long j = floor_to_long((x.y - origin_m_.y) * inverse_cell_);
+  const long k = floor_to_long((x.z - origin_m_.z) * inverse_cell_);
   const std::uint64_t key = pack_cell(i, j, k) + 1;
+  // Particles are kept in space-filling order, so the next one is mostly in the same cell.
+  if (key == last_key_) return states_[last_state_];
   const std::size_t mask = keys_.size() - 1;
   std::size_t h = mix(key) & mask;
   while (keys_[h]) {
-    if (keys_[h] == key) return states_[slot_state_[h]];
+    if (keys_[h] == key) {
+      last_key_ = key, last_state_ = slot_state_[h];
+      return states_[last_state_];
+    }
     h = (h + 1) & mask;
   }
   keys_[h] = key;
@@ -139,6 +151,7 @@ const FluidCellState& DemCellFluidTable::at(const Vec3& x, const GasSolver& gas,
   states_.push_back(average(i, j, k, gas, with_vorticity));
   ++fills_;
   const std::size_t slot = states_.size() - 1;
+  last_key_ = key, last_state_ = std::uint32_t(slot);
   if (2 * states_.size() > keys_.size()) grow();
   return states_[slot];
 }
@@ -304,6 +317,17 @@ std::optional<std::string> GasCoupling::advance(ParticleStore& p, double dem_ste
   stats_.max_steps_per_cfd = std::max(stats_.max_steps_per_cfd, steps);
   stats_.deposit_seconds += std::chrono::duration<double>(t1 - t0 + (Clock::now() - t2)).count();
   stats_.gas_seconds += std::chrono::duration<double>(t2 - t1).count();
+  return std::nullopt;
+}
+
+std::optional<std::string> GasCoupling::spin_up() {
+  double done_s = 0.0;
+  while (done_s < config_.spin_up_s) {
+    const double dt = std::min(gas_.stable_step_s(), config_.spin_up_s - done_s);
+    if (auto failure = gas_.advance(dt)) return failure;
+    done_s += dt;
+    ++stats_.spin_up_steps;
+  }
   return std::nullopt;
 }
 

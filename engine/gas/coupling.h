@@ -65,6 +65,9 @@ class DemCellFluidTable {
   std::vector<std::uint32_t> slot_state_;
   std::vector<FluidCellState> states_;
   std::uint64_t fills_ = 0;
+  double inverse_cell_ = 1.0;
+  std::uint64_t last_key_ = 0;  // the last cell looked up (0 = none) and its state
+  std::uint32_t last_state_ = 0;
 };
 
 // The grid nodes (cells or faces) a particle exchanges with, and their trilinear weights.
@@ -76,8 +79,9 @@ struct Stencil {
 
 struct CouplingStats {
   std::uint64_t cfd_steps = 0;
-  std::uint64_t gas_substeps = 0;  // > cfd_steps only when the gas needs a step below the DEM's
-  int steps_per_cfd = 1;           // DEM steps per CFD step (the latest)
+  std::uint64_t gas_substeps = 0;   // > cfd_steps only when the gas needs a step below the DEM's
+  std::uint64_t spin_up_steps = 0;  // gas steps solved alone before time 0 (spin_up_s)
+  int steps_per_cfd = 1;            // DEM steps per CFD step (the latest)
   int min_steps_per_cfd = 1 << 30, max_steps_per_cfd = 0;
   std::uint64_t drag_evaluations = 0;   // drag (and lift) computed
   std::uint64_t drag_reuses = 0;        // cached drag used
@@ -103,6 +107,9 @@ class GasCoupling {
   // drag response back, clears the DEM-cell table and chooses the next interval from the gas's
   // stability limit. Returns a message on failure.
   std::optional<std::string> advance(ParticleStore& p, double dem_step_s, std::int64_t step_index);
+  // Solves the gas alone for config().spin_up_s at its own stable step, before any particle
+  // exchange (the developed flow a run starts from). Returns a message when a step fails.
+  std::optional<std::string> spin_up();
   // Adds drag, lift and the pressure-gradient force to p.force_n. With `accumulate` the drag
   // and lift impulse (F dt) is kept for the gas; off for a force pass that is not a step's.
   void add_fluid_forces(ParticleStore& p, double dem_step_s, bool accumulate);

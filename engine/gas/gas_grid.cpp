@@ -189,10 +189,37 @@ void apply_jets(GasGrid& g, const GasConfig& config) {
       }
     }
     const double scale = flow > 0.0 ? jet.volume_flow_m3_per_s() / flow : 0.0;
-    for (const auto& [a, f] : faces)
-      g.fixed_value[std::size_t(a)][f] = jet.speed_m_per_s * jet.direction[a] * scale;
+    Vec3 entering;                   // momentum flux the faces carry in, per unit density
+    std::vector<std::size_t> cells;  // the fluid cells the jet blows into
+    for (const auto& [a, f] : faces) {
+      const double u = jet.speed_m_per_s * jet.direction[a] * scale;
+      g.fixed_value[std::size_t(a)][f] = u;
+      entering[a] += g.face_area_m2(a) * std::abs(u) * u;
+      const std::size_t up = f + g.stride[std::size_t(a)];
+      cells.push_back(u > 0.0 ? up : f);
+    }
     g.jet_faces[j] = faces.size();
     g.jet_flow_m3_per_s[j] = flow * scale;
+    if (faces.empty()) continue;
+    const Vec3 deficit =
+        (jet.direction * (jet.volume_flow_m3_per_s() * jet.speed_m_per_s) - entering) *
+        config.density_kg_per_m3;
+    g.jet_momentum_deficit_n[j] = deficit;
+    std::sort(cells.begin(), cells.end());
+    cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
+    for (int a = 0; a < 3; ++a) {
+      const std::size_t au = std::size_t(a);
+      std::vector<std::size_t> pushed;  // the solved a-faces of those cells, each once
+      for (std::size_t c : cells)
+        for (std::size_t f : {c - g.stride[au], c})
+          if (g.face[au][f] == FaceKind::Unknown) pushed.push_back(f);
+      std::sort(pushed.begin(), pushed.end());
+      pushed.erase(std::unique(pushed.begin(), pushed.end()), pushed.end());
+      if (pushed.empty()) continue;
+      // Each face's control volume is one cell: the faces together add exactly deficit[a].
+      const double density = deficit[a] / (double(pushed.size()) * g.cell_volume_m3());
+      for (std::size_t f : pushed) g.jet_force_n_per_m3[au][f] += density;
+    }
   }
 }
 
@@ -217,6 +244,9 @@ GasGrid build_gas_grid(const GasConfig& config, const Vec3& lo, const Vec3& hi,
   g.patch_area_m2.assign(config.boundaries.size(), 0.0);
   g.jet_faces.assign(config.jets.size(), 0);
   g.jet_flow_m3_per_s.assign(config.jets.size(), 0.0);
+  g.jet_momentum_deficit_n.assign(config.jets.size(), Vec3{});
+  if (!config.jets.empty())
+    for (int a = 0; a < 3; ++a) g.jet_force_n_per_m3[std::size_t(a)].assign(g.padded_size, 0.0);
   voxelise(g, config);
   assign_boundaries(g, config);
   for (int a = 0; a < 3; ++a)

@@ -57,6 +57,11 @@ struct GasGrid {
   // (the jet's set flow, unless it found no face).
   std::vector<std::size_t> jet_faces;
   std::vector<double> jet_flow_m3_per_s;
+  // A jet narrower than its faces enters slower than it should (same flow, more area): the
+  // momentum flux it lacks, ρ Q (speed · direction) − Σ ρ A u_f u_f e_a, is added as a body
+  // force (N/m³) on the faces of the fluid cells it blows into. Empty when there are no jets.
+  std::array<std::vector<double>, 3> jet_force_n_per_m3;
+  std::vector<Vec3> jet_momentum_deficit_n;  // per jet, what that force adds
 
   std::size_t index(int i, int j, int k) const {
     return std::size_t(i) + stride[1] * std::size_t(j) + stride[2] * std::size_t(k);

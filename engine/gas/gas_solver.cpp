@@ -194,12 +194,48 @@ void GasSolver::update_eddy_viscosity() {
   fill_copy_ghosts(eddy_viscosity_);
 }
 
+namespace {
+
+// Van Leer's limited slope from the two one-sided differences (harmonic mean, 0 at extrema).
+inline double van_leer(double a, double b) {
+  return a * b > 0.0 ? 2.0 * a * b / (a + b) : 0.0;
+}
+
+}  // namespace
+
+// True when the a-faces f ± s, f ± 2s along b exist and are ordinary faces (no solid mirror, no
+// ghost band): the TVD reconstruction's stencil.
+bool GasSolver::tvd_stencil(std::size_t f, int a, int b, std::size_t s) const {
+  const int i = grid_.coords(f)[std::size_t(b)];
+  if (i < 2 || i + 2 > grid_.n[std::size_t(b)] + 1) return false;
+  const std::vector<FaceKind>& kind = grid_.face[std::size_t(a)];
+  for (std::size_t g : {f - 2 * s, f - s, f + s, f + 2 * s})
+    if (kind[g] == FaceKind::Solid || kind[g] == FaceKind::None) return false;
+  return true;
+}
+
+// (u_{+½} − u_{−½}) along b, with the face values reconstructed from the upwind side with van
+// Leer's limiter (MUSCL); divided by h it is the advected gradient.
+double GasSolver::limited_upwind_slope(const std::vector<double>& u, std::size_t f, std::size_t s,
+                                       double carrier) const {
+  const double um2 = u[f - 2 * s], um1 = u[f - s], u0 = u[f], up1 = u[f + s], up2 = u[f + 2 * s];
+  if (carrier > 0.0) {
+    const double plus = u0 + 0.5 * van_leer(u0 - um1, up1 - u0);
+    const double minus = um1 + 0.5 * van_leer(um1 - um2, u0 - um1);
+    return plus - minus;
+  }
+  const double minus = u0 - 0.5 * van_leer(up1 - u0, u0 - um1);
+  const double plus = up1 - 0.5 * van_leer(up2 - up1, up1 - u0);
+  return plus - minus;
+}
+
 void GasSolver::predictor(double dt) {
   const GasGrid& g = grid_;
   const double rho = config_.density_kg_per_m3;
   const bool eddy = !eddy_viscosity_.empty();
   if (eddy) update_eddy_viscosity();
   const AdvectionScheme scheme = config_.advection;
+  const bool jets = !g.jet_force_n_per_m3[0].empty();
   for (int a = 0; a < 3; ++a) {
     const std::size_t au = std::size_t(a);
     const std::vector<double>& u = velocity_[au];
@@ -231,10 +267,13 @@ void GasSolver::predictor(double dt) {
           const std::vector<double>& ub = velocity_[bu];
           carrier = 0.25 * (ub[f] + ub[f + sa] + ub[f - s] + ub[f + sa - s]);
         }
-        const bool upwind = scheme == AdvectionScheme::Upwind ||
-                            (scheme == AdvectionScheme::Hybrid && std::abs(carrier) * h > 2.0 * nu);
+        const bool upwind =
+            scheme == AdvectionScheme::Upwind ||
+            (scheme != AdvectionScheme::Central && std::abs(carrier) * h > 2.0 * nu);
         double slope;
-        if (upwind)
+        if (upwind && scheme == AdvectionScheme::Tvd && tvd_stencil(f, a, b, s))
+          slope = limited_upwind_slope(u, f, s, carrier) / h;
+        else if (upwind)
           slope = carrier > 0.0 ? (uf - down) / h : (up - uf) / h;
         else
           slope = (up - down) / (2.0 * h);
@@ -246,7 +285,8 @@ void GasSolver::predictor(double dt) {
       const double inertia = face_fraction_[au][f] * rho;
       const double b = exchange_[au][f];
       const double relief = 1.0 / (1.0 + dt * b / inertia);
-      const double body = gravity_m_per_s2_[a] + (source_[au][f] + seen_[au][f]) / inertia;
+      const double jet = jets ? g.jet_force_n_per_m3[au][f] : 0.0;
+      const double body = gravity_m_per_s2_[a] + (source_[au][f] + seen_[au][f] + jet) / inertia;
       out[f] = (uf + dt * (-advection + nu * diffusion + body)) * relief;
       if (relief != relief_[au][f]) relief_[au][f] = relief, matrix_stale_ = true;
     }

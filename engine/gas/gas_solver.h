@@ -98,6 +98,9 @@ class GasSolver {
 
  private:
   void predictor(double dt);
+  bool tvd_stencil(std::size_t f, int a, int b, std::size_t s) const;
+  double limited_upwind_slope(const std::vector<double>& u, std::size_t f, std::size_t s,
+                              double carrier) const;
   void update_eddy_viscosity();
   void assemble_pressure_matrix();
   bool solve_pressure(double dt);

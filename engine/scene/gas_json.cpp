@@ -142,12 +142,15 @@ GasConfig parse_gas(const json& v, const DomainConfig& domain, InputErrors& erro
       if (auto s = read_number(*step, "/gas/step_s", NumberRange::positive(), errors)) g.step_s = s;
     }
   }
+  g.spin_up_s = r.number("spin_up_s", 0.0, NumberRange::closed(0.0, 10.0));
   g.courant = r.number("courant", 0.5, NumberRange::open_closed(0.0, 1.0));
   g.drag_courant = r.number("drag_courant", 20.0, NumberRange::open_closed(0.0, 100.0));
   g.smagorinsky_constant = r.number("smagorinsky_constant", 0.0, NumberRange::closed(0.0, 0.5));
-  const std::string scheme = r.string("advection", "hybrid", {"hybrid", "central", "upwind"});
+  const std::string scheme =
+      r.string("advection", "hybrid", {"hybrid", "central", "upwind", "tvd"});
   g.advection = scheme == "central"  ? AdvectionScheme::Central
                 : scheme == "upwind" ? AdvectionScheme::Upwind
+                : scheme == "tvd"    ? AdvectionScheme::Tvd
                                      : AdvectionScheme::Hybrid;
   if (const json* list = r.array("boundaries"))
     for (std::size_t i = 0; i < list->size(); ++i)

@@ -348,7 +348,12 @@ ContactConfig parse_contact(const json& v, InputErrors& errors) {
       r.optional_number("max_impact_speed_m_per_s", NumberRange::open_closed(0.0, 1e4));
   c.penetration_limit = r.number("penetration_limit", 0.15, NumberRange::open(0.0, 0.5));
   c.penetration_limiter = r.boolean("penetration_limiter", true);
-  if (const json* rs = r.child("reduced_stiffness")) {
+  const json* rs = r.child("reduced_stiffness");
+  // false switches it off explicitly (a study can then toggle it); true = all defaults.
+  if (rs && rs->is_boolean() && !rs->get<bool>()) rs = nullptr;
+  const json empty_object = json::object();
+  if (rs && rs->is_boolean()) rs = &empty_object;
+  if (rs) {
     JsonObjectReader rr(*rs, r.path_of("reduced_stiffness"), errors);
     ReducedStiffnessConfig config;
     if (const json* t = rr.child("threshold_diameter_m")) {

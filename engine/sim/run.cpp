@@ -6,6 +6,7 @@
 #include <memory>
 
 #include "io/h5_writer.h"
+#include "process/classification.h"
 
 namespace millsim {
 namespace {
@@ -111,6 +112,56 @@ void write_psd_h5(const Simulation& sim, H5Writer& h5) {
 
 // The gas solver and the coupling, for result.json: where the coupled run's time went and how
 // often the drag cache saved an evaluation.
+// The mill's classification: the grade efficiency of the run and the cut size the simulated
+// vortex gives at the outlet radius (process/classification.h).
+void add_mill_summary(const Simulation& sim, nlohmann::ordered_json& s) {
+  const MillConfig& mill = *sim.mill();
+  PsdTally retained(sim.outlet_tally().edges_m);
+  const ParticleStore& p = sim.particles();
+  for (std::size_t i = 0; i < p.size(); ++i) retained.add(2.0 * p.radius_m[i], p.mass_kg[i]);
+  const GradeEfficiency g = grade_efficiency(sim.outlet_tally(), retained);
+  nlohmann::ordered_json m = {{"grade_efficiency",
+                               {{"size_m", g.size_m},
+                                {"outlet_kg", g.outlet_kg},
+                                {"retained_kg", g.retained_kg},
+                                {"share_to_outlet", g.share_to_outlet}}},
+                              {"cut_size_m", g.cut_size_m ? nlohmann::ordered_json(*g.cut_size_m)
+                                                          : nlohmann::ordered_json()}};
+  if (const GasCoupling* gas = sim.gas()) {
+    const VortexSample v = sample_vortex(gas->gas(), mill, mill.outlet.radius_m, 0.0,
+                                         mill.height_m - mill.outlet.depth_m);
+    const int material = sim.feeders().empty() ? 0 : sim.feeders().front().config().material;
+    const double rho_p = sim.materials().material(material).density_kg_per_m3;
+    const double x_c = force_balance_cut_size_m(gas->config().viscosity_pa_s, rho_p,
+                                                gas->config().density_kg_per_m3, v);
+    m["force_balance"] = {{"radius_m", v.radius_m},
+                          {"tangential_gas_m_per_s", v.tangential_m_per_s},
+                          {"radial_gas_m_per_s", v.radial_m_per_s},
+                          {"particle_density_kg_per_m3", rho_p},
+                          {"cut_size_m", x_c}};
+    if (g.cut_size_m && x_c > 0.0) m["cut_size_ratio"] = *g.cut_size_m / x_c;
+    // The vortex from the outlet radius out to the mantle.
+    nlohmann::ordered_json profile = nlohmann::ordered_json::array();
+    for (int k = 0; k <= 8; ++k) {
+      const double r = mill.outlet.radius_m + (mill.radius_m - mill.outlet.radius_m) * k / 8.5;
+      const VortexSample p = sample_vortex(gas->gas(), mill, r, 0.0, mill.height_m);
+      profile.push_back({{"radius_m", r},
+                         {"tangential_gas_m_per_s", p.tangential_m_per_s},
+                         {"radial_gas_m_per_s", p.radial_m_per_s}});
+    }
+    m["vortex_profile"] = profile;
+    nlohmann::ordered_json jets = nlohmann::ordered_json::array();
+    const GasGrid& grid = gas->gas().grid();
+    for (std::size_t k = 0; k < gas->config().jets.size(); ++k)
+      jets.push_back({{"name", gas->config().jets[k].name},
+                      {"faces", grid.jet_faces[k]},
+                      {"set_flow_m3_per_s", gas->config().jets[k].volume_flow_m3_per_s()},
+                      {"grid_flow_m3_per_s", grid.jet_flow_m3_per_s[k]}});
+    m["nozzles"] = jets;
+  }
+  s["mill"] = m;
+}
+
 void add_gas_summary(const Simulation& sim, nlohmann::ordered_json& s) {
   const GasCoupling& g = *sim.gas();
   const CouplingStats& c = g.stats();
@@ -137,6 +188,7 @@ void add_gas_summary(const Simulation& sim, nlohmann::ordered_json& s) {
       {"fluid_cells", g.gas().grid().fluid_cells},
       {"cfd_steps", c.cfd_steps},
       {"gas_substeps", c.gas_substeps},
+      {"spin_up_steps", c.spin_up_steps},
       {"dem_steps_per_cfd_step",
        {{"last", c.steps_per_cfd}, {"min", c.min_steps_per_cfd}, {"max", c.max_steps_per_cfd}}},
       {"pressure_iterations_mean",
@@ -327,6 +379,7 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
                  {"dissipated_j", initial_energy.total_j() - final_energy.total_j()}};
   if (has_product(sim)) add_product_summary(sim, s);
   if (sim.gas()) add_gas_summary(sim, s);
+  if (sim.mill() && has_product(sim)) add_mill_summary(sim, s);
 
   if (write_files) {
     nlohmann::ordered_json outputs = nlohmann::ordered_json::object();

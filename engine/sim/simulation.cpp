@@ -203,6 +203,7 @@ Simulation::Simulation(const SceneConfig& scene)
         scene.seed ^ 0x9e3779b97f4a7c15ULL, psd_edges);
   }
   outlets_ = scene.outlets;
+  mill_ = scene.mill;
   outlet_ = PsdTally(psd_edges);
   outlet_mass_kg_.assign(outlets_.size(), 0.0);
   for (std::size_t f = 0; f < scene.feeds.size(); ++f)
@@ -279,6 +280,10 @@ Simulation::Simulation(const SceneConfig& scene)
        scene.search.cell_size_m, scene.search.subcells_per_axis, scene.search.grid_levels,
        time_.step_s, scene.search.conventional_nbs ? SearchMethod::Nbs : SearchMethod::Hashed});
   neighbors_.update(particles_, box_, walls_, true);
+  if (gas_)
+    if (auto failure = gas_->spin_up())
+      throw InputErrorList({{"/gas/spin_up_s", concat(scene.gas->spin_up_s),
+                             "the gas failed while spinning up alone: " + *failure}});
   if (gas_)
     if (auto failure = gas_->advance(particles_, time_.step_s, 0))
       throw InputErrorList({{"/gas", "", "the first gas step failed: " + *failure}});

@@ -106,6 +106,7 @@ class Simulation {
   const GasCoupling* gas() const { return gas_ ? &*gas_ : nullptr; }
   GasCoupling* gas() { return gas_ ? &*gas_ : nullptr; }
   const std::vector<Feeder>& feeders() const { return feeders_; }
+  const std::optional<MillConfig>& mill() const { return mill_; }
   const PsdTally& outlet_tally() const { return outlet_; }  // particles that left by an outlet
   const std::vector<double>& outlet_mass_by_outlet_kg() const { return outlet_mass_kg_; }
   // Outlet particles + dust table: the run's product.
@@ -166,6 +167,7 @@ class Simulation {
   std::optional<Breakage> breakage_;
   std::optional<GasCoupling> gas_;
   std::vector<OutletConfig> outlets_;
+  std::optional<MillConfig> mill_;
   std::vector<Feeder> feeders_;
   PsdTally outlet_;
   std::vector<double> outlet_mass_kg_;

@@ -14,7 +14,9 @@
 #include <random>
 
 #include "gas/gas_grid.h"
+#include "gas/gas_solver.h"
 #include "geometry/mill.h"
+#include "process/classification.h"
 #include "process/outlet.h"
 #include "scene/mill_json.h"
 #include "sim/simulation.h"
@@ -251,6 +253,57 @@ TEST(MillGas, VoxelsAgreeWithTheDemWallsAndNozzlesCarryTheSetFlow) {
     }
   EXPECT_NEAR(face_flow, set_flow, 1e-12 * set_flow);
   EXPECT_NEAR(set_flow, 4 * std::numbers::pi * 0.0004 * 0.0004 * 20.0, 1e-15);
+}
+
+TEST(MillGas, WhatTheNozzlesBlowInLeavesThroughTheOutletAndTheGasTurns) {
+  // Continuity on the real solve: after some steps the outlet's outflow equals the nozzles' set
+  // flows (to the pressure tolerance), and the jets, all turning counter-clockwise, spin the gas
+  // that way at every radius.
+  SceneConfig s = mill_scene(table1_material());
+  GasConfig gas;
+  gas.cells = {20, 20, 4};
+  gas.advection = AdvectionScheme::Tvd;
+  gas.pressure_tolerance = 1e-10;
+  s.gas = gas;
+  s.outlets.clear();
+  InputErrors errors;
+  finish_mill_scene(s, errors);
+  ASSERT_TRUE(errors.empty());
+  GasSolver solver(*s.gas,
+                   build_gas_grid(*s.gas, s.domain.min_m, s.domain.max_m, {false, false, false}),
+                   {0, 0, 0});
+  for (int step = 0; step < 400; ++step)
+    ASSERT_FALSE(solver.advance(solver.stable_step_s()).has_value());
+  const GasGrid& g = solver.grid();
+  double outflow = 0.0, set_flow = 0.0;
+  for (std::size_t f = 0; f < g.padded_size; ++f)
+    if (g.face[2][f] == FaceKind::Outflow) outflow += solver.velocity()[2][f] * g.face_area_m2(2);
+  for (const GasJetConfig& jet : s.gas->jets) set_flow += jet.volume_flow_m3_per_s();
+  EXPECT_NEAR(outflow, set_flow, 1e-6 * set_flow);
+  for (double r : {0.004, 0.006, 0.008}) {
+    const VortexSample v = sample_vortex(solver, *s.mill, r, 0.0, 0.0025);
+    EXPECT_GT(v.tangential_m_per_s, 0.0) << "r = " << r;
+    EXPECT_LT(v.radial_m_per_s, 0.0) << "r = " << r << ": the gas drains inwards to the outlet";
+  }
+}
+
+TEST(Classification, CutSizesFromTheForceBalanceAndFromAGradeCurve) {
+  // x_c = √(18 μ |u_r| r / (Δρ u_t²)): 18 · 1.8e-5 · 2 · 0.005 / (2000 · 100) = 1.62e-11.
+  VortexSample v;
+  v.radius_m = 0.005, v.tangential_m_per_s = 10.0, v.radial_m_per_s = -2.0;
+  EXPECT_NEAR(force_balance_cut_size_m(1.8e-5, 2001.2, 1.2, v), std::sqrt(1.62e-11), 1e-18);
+  // A grade curve 1, 0.8, 0.2, 0 over classes [0.7, 1.4, 2.8, 5.6, 11.2] µm: the share falls
+  // through 1/2 half-way (in log size) between the centres √(1.4 · 2.8) and √(2.8 · 5.6) µm,
+  // that is at 2.8 µm.
+  PsdTally out({0.7e-6, 1.4e-6, 2.8e-6, 5.6e-6, 11.2e-6}), kept(out.edges_m);
+  const double centres[4] = {1e-6, 2e-6, 4e-6, 8e-6}, share[4] = {1.0, 0.8, 0.2, 0.0};
+  for (int k = 0; k < 4; ++k) {
+    out.add(centres[k], share[k]);
+    kept.add(centres[k], 1.0 - share[k]);
+  }
+  const GradeEfficiency g = grade_efficiency(out, kept);
+  ASSERT_TRUE(g.cut_size_m.has_value());
+  EXPECT_NEAR(*g.cut_size_m, 2.8e-6, 1e-9 * 2.8e-6);
 }
 
 TEST(MillScene, InconsistentGeometryIsAnInputErrorNamingTheKey) {
