@@ -56,9 +56,9 @@ double Breakage::impact_energy_j_per_kg(const Impact& impact, bool on_partner,
 
 std::uint64_t Breakage::process(const std::vector<Impact>& impacts,
                                 const std::vector<std::uint32_t>& crushed, double dt_s,
-                                const std::vector<Wall>& walls, ParticleStore& p,
-                                ParticleId& next_id, std::vector<Newborn>& newborn,
-                                const ParticleHook& before_removal,
+                                const std::vector<Wall>& walls, const PeriodicBox& box,
+                                ParticleStore& p, ParticleId& next_id,
+                                std::vector<Newborn>& newborn, const ParticleHook& before_removal,
                                 const ParticleHook& after_addition) {
   std::vector<std::uint32_t> broken;
   for (std::uint32_t slot : crushed)
@@ -81,6 +81,18 @@ std::uint64_t Breakage::process(const std::vector<Impact>& impacts,
     }
   }
   if (broken.empty()) return 0;
+  // A particle breaks at the onset of its impact, one step into the contact. Its fragments leave
+  // the impact as it would have: the normal approach is turned into the rebound the pair's (or
+  // wall's) restitution gives. Without this the fragments would carry on into the wall or the
+  // partner at the full approach speed and break again next step, a cascade of spurious
+  // generations within one impact.
+  for (const Impact& impact : impacts) {
+    const bool breaks_here =
+        std::find(broken.begin(), broken.end(), impact.particle) != broken.end() ||
+        (!impact.with_wall &&
+         std::find(broken.begin(), broken.end(), impact.partner) != broken.end());
+    if (breaks_here) complete_impact(impact, walls, box, p);
+  }
   for (std::uint32_t slot : broken) break_particle(slot, dt_s, p, next_id, newborn, after_addition);
   // Remove the parents from the highest slot down: each swap then moves in a particle that is
   // not a parent still to be removed.
@@ -90,6 +102,37 @@ std::uint64_t Breakage::process(const std::vector<Impact>& impacts,
     p.remove_swap(slot);
   }
   return broken.size();
+}
+
+void Breakage::complete_impact(const Impact& impact, const std::vector<Wall>& walls,
+                               const PeriodicBox& box, ParticleStore& p) {
+  const std::uint32_t i = impact.particle;
+  Vec3& vi = p.motion[i].velocity_m_per_s;
+  if (impact.with_wall) {
+    const Wall& wall = walls[impact.partner];
+    Vec3 n;
+    wall_gap_m(wall, p.position_m[i], n);
+    const double vn = dot(vi, n);
+    if (vn >= 0.0) return;
+    const double e = materials_->wall_pair(wall.pair_table, p.material[i]).restitution;
+    vi -= n * ((1.0 + e) * vn);
+    stats_.completed_impacts += 1;
+    return;
+  }
+  const std::uint32_t j = impact.partner;
+  Vec3& vj = p.motion[j].velocity_m_per_s;
+  const Vec3 d = box.minimum_image(p.position_m[i] - p.position_m[j]);
+  const double dist = norm(d);
+  if (dist <= 0.0) return;
+  const Vec3 n = d * (1.0 / dist);
+  const double vn = dot(vi - vj, n);
+  if (vn >= 0.0) return;
+  const double e = materials_->pair(p.material[i], p.material[j]).restitution;
+  const double reduced_mass = p.mass_kg[i] * p.mass_kg[j] / (p.mass_kg[i] + p.mass_kg[j]);
+  const Vec3 impulse = n * (-(1.0 + e) * vn * reduced_mass);
+  vi += impulse * p.inv_mass_per_kg[i];
+  vj -= impulse * p.inv_mass_per_kg[j];
+  stats_.completed_impacts += 1;
 }
 
 void Breakage::break_particle(std::size_t slot, double dt_s, ParticleStore& p, ParticleId& next_id,

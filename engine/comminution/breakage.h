@@ -34,6 +34,7 @@ struct BreakageStats {
   std::uint64_t fragments = 0;        // fragments created as particles
   std::uint64_t dust_fragments = 0;   // fragments sent to the dust table
   double broken_mass_kg = 0.0;
+  std::uint64_t completed_impacts = 0;  // breaking impacts turned into their rebound
   // Breakage events by the broken particle's generation (0 = a fed or initial particle, 1 = a
   // fragment, 2 = a fragment of a fragment, ...; generations stop counting at 255).
   std::vector<std::uint64_t> events_by_generation;
@@ -65,12 +66,13 @@ class Breakage {
   // `crushed`: slots of particles squeezed past the penetration limit this step. A breakable one
   // breaks: Hertz contact is meaningless there and the real particle would have fractured; an
   // impact-energy criterion misses such slow squeezes (a fine caught between a wall and a
-  // coarse particle).
+  // coarse particle). An impact that breaks a particle is completed first (complete_impact).
   std::uint64_t process(const std::vector<Impact>& impacts,
                         const std::vector<std::uint32_t>& crushed, double dt_s,
-                        const std::vector<Wall>& walls, ParticleStore& particles,
-                        ParticleId& next_id, std::vector<Newborn>& newborn,
-                        const ParticleHook& before_removal, const ParticleHook& after_addition);
+                        const std::vector<Wall>& walls, const PeriodicBox& box,
+                        ParticleStore& particles, ParticleId& next_id,
+                        std::vector<Newborn>& newborn, const ParticleHook& before_removal,
+                        const ParticleHook& after_addition);
 
   const BreakageStats& stats() const { return stats_; }
   const PsdTally& dust() const { return dust_; }
@@ -85,6 +87,10 @@ class Breakage {
   // Specific energy of the impact on `particle` (J/kg), by the scene's equivalence.
   double impact_energy_j_per_kg(const Impact& impact, bool on_partner,
                                 const std::vector<Wall>& walls, const ParticleStore& p) const;
+  // Turns an impact's normal approach into its restitution rebound (momentum-conserving
+  // between two particles; the wall takes its impulse), before the fragments are spawned.
+  void complete_impact(const Impact& impact, const std::vector<Wall>& walls, const PeriodicBox& box,
+                       ParticleStore& p);
   void break_particle(std::size_t slot, double dt_s, ParticleStore& p, ParticleId& next_id,
                       std::vector<Newborn>& newborn, const ParticleHook& after_addition);
 

@@ -72,6 +72,7 @@ void add_product_summary(const Simulation& sim, nlohmann::ordered_json& s) {
                      {"fragments", st.fragments},
                      {"dust_fragments", st.dust_fragments},
                      {"broken_mass_kg", st.broken_mass_kg},
+                     {"completed_impacts", st.completed_impacts},
                      {"dust_count", b->dust().total_count()},
                      {"dust_mass_kg", b->dust().total_mass_kg()}};
   }

@@ -505,8 +505,8 @@ void Simulation::process_population() {
         crushed.push_back(particles_.radius_m[i] <= particles_.radius_m[j] ? i : j);
       }
       for (std::uint32_t k : c.walls_over_limit) crushed.push_back(neighbors_.wall_particle[k]);
-      breakage_->process(c.impacts, crushed, time_.step_s, walls_, particles_, next_id_, newborn,
-                         removed, added);
+      breakage_->process(c.impacts, crushed, time_.step_s, walls_, box_, particles_, next_id_,
+                         newborn, removed, added);
       contact_stats_.impacts.clear();  // slots are stale now
       contact_stats_.pairs_over_limit.clear();
       contact_stats_.walls_over_limit.clear();

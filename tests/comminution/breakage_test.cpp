@@ -72,6 +72,32 @@ TEST(Breakage, WallImpactsBreakTheSelectionFraction) {
   EXPECT_EQ(sim.particles().size(), std::size_t(n - b.events));
 }
 
+// A sphere that breaks as it hits the floor at v: its fragments leave the impact as the sphere
+// would have, rebounding at about e·v (one step of the contact has already slowed it, 20 steps
+// per contact time here), and none of them meets the floor again. Without completing the impact
+// the fragments carried on into the floor at −v and broke again, generation after generation.
+TEST(Breakage, FragmentsOfAWallImpactLeaveWithTheRebound) {
+  const double d = 1e-4, v = 10.0;
+  SceneConfig s = test::empty_scene({0, 0, 0}, {1e-3, 1e-3, 1e-3},
+                                    breakable_material(1e6, 1e-6, equal_fragments(8)));
+  enable_breakage(s, 0.1 * d);  // the 0.5 d fragments are particles
+  test::add_particle(s, {5e-4, 5e-4, 0.55 * d}, {0, 0, -v}, d);
+  s.time.end_s = 1e-4;
+  Simulation sim(s);
+  while (sim.breakage()->stats().events == 0 && sim.step_index() < 100000)
+    ASSERT_TRUE(step_ok(sim));
+  ASSERT_EQ(sim.breakage()->stats().events, 1u);
+  EXPECT_EQ(sim.breakage()->stats().completed_impacts, 1u);
+  const ParticleStore& p = sim.particles();
+  double mass = 0.0, momentum_z = 0.0;
+  for (std::size_t i = 0; i < p.size(); ++i)
+    mass += p.mass_kg[i], momentum_z += p.mass_kg[i] * p.motion[i].velocity_m_per_s.z;
+  const double e = s.materials[0].restitution;
+  EXPECT_NEAR(momentum_z / mass, e * v, 0.1 * e * v);
+  for (int k = 0; k < 20000; ++k) ASSERT_TRUE(step_ok(sim));
+  EXPECT_EQ(sim.breakage()->stats().events, 1u) << "a fragment broke again on the floor";
+}
+
 // One sphere bouncing between two walls (e = 1, no gravity): with fatigue it breaks at the
 // predicted impact; without, never.
 TEST(Breakage, FatigueBreaksASurvivorAfterRepeatedImpacts) {
@@ -126,8 +152,9 @@ TEST(Breakage, SpawningConservesMassMomentumAndCentreOfMass) {
   ParticleId next_id = 2;
   std::vector<Newborn> newborn;
   const auto ignore = [](const ParticleStore&, std::size_t) {};
-  const std::uint64_t events =
-      breakage.process({{0, 0, true, 20.0}}, {}, 1e-8, walls, p, next_id, newborn, ignore, ignore);
+  const std::uint64_t events = breakage.process({{0, 0, true, 20.0}}, {}, 1e-8, walls,
+                                                PeriodicBox{s.domain.min_m, s.domain.max_m, {}}, p,
+                                                next_id, newborn, ignore, ignore);
   ASSERT_EQ(events, 1u);
   ASSERT_GT(p.size(), 1u);
   EXPECT_EQ(newborn.size(), p.size());
