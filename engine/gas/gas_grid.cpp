@@ -153,73 +153,84 @@ void classify_face(GasGrid& g, int a, std::size_t f) {
   g.face[au][f] = s0 && s1 ? FaceKind::Solid : (s0 || s1 ? FaceKind::Fixed : FaceKind::Unknown);
 }
 
-// Turns the solid–fluid faces under each jet's cross-section into inflow faces. A face qualifies
-// when its centre lies within the jet's radius of the jet's axis (at least 0.6 of the largest
-// cell edge, so a nozzle narrower than a cell still finds the staircase), no more than two cells
-// behind the exit point or one cell in front of it along the jet, and the jet points from its
-// solid side into its fluid side. Each face holds the jet velocity's component along its axis;
-// then all of a jet's faces are scaled so they carry exactly the jet's volume flow.
-void apply_jets(GasGrid& g, const GasConfig& config) {
+// The solid–fluid faces (or walled domain faces) a jet blows through: within the jet's radius of
+// its axis (at least 0.6 of the largest cell edge, so a nozzle narrower than a cell still finds
+// the staircase), no more than two cells behind its exit point or one in front of it along the
+// jet, and with the jet pointing from the face's solid side into its fluid side. Returns the
+// faces as (axis, index) and adds up the flow they would carry at the jet's own speed.
+std::vector<std::pair<int, std::size_t>> jet_faces(const GasGrid& g, const GasJetConfig& jet,
+                                                   double& flow_m3_per_s) {
   const double h_max = std::max({g.h_m.x, g.h_m.y, g.h_m.z});
+  const double reach = std::max(jet.radius_m, 0.6 * h_max);
+  std::vector<std::pair<int, std::size_t>> faces;
+  flow_m3_per_s = 0.0;
+  for (int a = 0; a < 3; ++a) {
+    const std::size_t au = std::size_t(a);
+    for (std::size_t f = 0; f < g.padded_size; ++f) {
+      if (g.face[au][f] != FaceKind::Fixed) continue;
+      const std::array<int, 3> ijk = g.coords(f);
+      const std::size_t c0 = f, c1 = f + g.stride[au];
+      const bool low = ijk[au] == 0, high = ijk[au] == g.n[au];
+      const double into_fluid = low || (!high && g.fluid[c1] && !g.fluid[c0]) ? 1.0 : -1.0;
+      if ((low || high) && g.ghost[low ? c0 : c1].kind != GasBoundaryKind::Wall) continue;
+      if (jet.direction[a] * into_fluid <= 0.0) continue;
+      Vec3 centre = g.cell_center(ijk[0], ijk[1], ijk[2]);
+      centre[a] += 0.5 * g.h_m[a];
+      const Vec3 d = centre - jet.exit_point_m;
+      const double along = dot(d, jet.direction);
+      if (along < -2.0 * h_max || along > h_max) continue;
+      if (norm2(d - jet.direction * along) > reach * reach) continue;
+      faces.push_back({a, f});
+      flow_m3_per_s += g.face_area_m2(a) * std::abs(jet.direction[a]) * jet.speed_m_per_s;
+    }
+  }
+  return faces;
+}
+
+// Spreads a jet's missing momentum flux (N) as a body force over the solved faces of the fluid
+// cells it blows into; each face's control volume is one cell, so together they add exactly
+// `deficit`.
+void add_jet_force(GasGrid& g, std::vector<std::size_t> cells, const Vec3& deficit) {
+  std::sort(cells.begin(), cells.end());
+  cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
+  for (int a = 0; a < 3; ++a) {
+    const std::size_t au = std::size_t(a);
+    std::vector<std::size_t> pushed;  // the solved a-faces of those cells, each once
+    for (std::size_t c : cells)
+      for (std::size_t f : {c - g.stride[au], c})
+        if (g.face[au][f] == FaceKind::Unknown) pushed.push_back(f);
+    std::sort(pushed.begin(), pushed.end());
+    pushed.erase(std::unique(pushed.begin(), pushed.end()), pushed.end());
+    if (pushed.empty()) continue;
+    const double density = deficit[a] / (double(pushed.size()) * g.cell_volume_m3());
+    for (std::size_t f : pushed) g.jet_force_n_per_m3[au][f] += density;
+  }
+}
+
+// Turns each jet's faces into inflow faces: each holds the jet velocity's component along its
+// axis, all scaled so together they carry exactly the jet's volume flow; the momentum flux the
+// wider, slower inflow lacks becomes a body force (gas_grid.h).
+void apply_jets(GasGrid& g, const GasConfig& config) {
   for (std::size_t j = 0; j < config.jets.size(); ++j) {
     const GasJetConfig& jet = config.jets[j];
-    const double reach = std::max(jet.radius_m, 0.6 * h_max);
-    std::vector<std::pair<int, std::size_t>> faces;
     double flow = 0.0;
-    for (int a = 0; a < 3; ++a) {
-      const std::size_t au = std::size_t(a);
-      for (std::size_t f = 0; f < g.padded_size; ++f) {
-        if (g.face[au][f] != FaceKind::Fixed) continue;
-        const std::array<int, 3> ijk = g.coords(f);
-        const std::size_t c0 = f, c1 = f + g.stride[au];
-        // A face of the domain box (the chamber may touch it) or between a solid and a fluid
-        // cell; either way the jet must point into the fluid side.
-        const bool low = ijk[au] == 0, high = ijk[au] == g.n[au];
-        const double into_fluid = low || (!high && g.fluid[c1] && !g.fluid[c0]) ? 1.0 : -1.0;
-        if ((low || high) && g.ghost[low ? c0 : c1].kind != GasBoundaryKind::Wall) continue;
-        if (jet.direction[a] * into_fluid <= 0.0) continue;
-        Vec3 centre = g.cell_center(ijk[0], ijk[1], ijk[2]);
-        centre[a] += 0.5 * g.h_m[a];
-        const Vec3 d = centre - jet.exit_point_m;
-        const double along = dot(d, jet.direction);
-        if (along < -2.0 * h_max || along > h_max) continue;
-        if (norm2(d - jet.direction * along) > reach * reach) continue;
-        faces.push_back({a, f});
-        flow += g.face_area_m2(a) * std::abs(jet.direction[a]) * jet.speed_m_per_s;
-      }
-    }
-    const double scale = flow > 0.0 ? jet.volume_flow_m3_per_s() / flow : 0.0;
+    const std::vector<std::pair<int, std::size_t>> faces = jet_faces(g, jet, flow);
+    g.jet_faces[j] = faces.size();
+    if (faces.empty()) continue;
+    const double scale = jet.volume_flow_m3_per_s() / flow;
     Vec3 entering;                   // momentum flux the faces carry in, per unit density
     std::vector<std::size_t> cells;  // the fluid cells the jet blows into
     for (const auto& [a, f] : faces) {
       const double u = jet.speed_m_per_s * jet.direction[a] * scale;
       g.fixed_value[std::size_t(a)][f] = u;
       entering[a] += g.face_area_m2(a) * std::abs(u) * u;
-      const std::size_t up = f + g.stride[std::size_t(a)];
-      cells.push_back(u > 0.0 ? up : f);
+      cells.push_back(u > 0.0 ? f + g.stride[std::size_t(a)] : f);
     }
-    g.jet_faces[j] = faces.size();
     g.jet_flow_m3_per_s[j] = flow * scale;
-    if (faces.empty()) continue;
-    const Vec3 deficit =
+    g.jet_momentum_deficit_n[j] =
         (jet.direction * (jet.volume_flow_m3_per_s() * jet.speed_m_per_s) - entering) *
         config.density_kg_per_m3;
-    g.jet_momentum_deficit_n[j] = deficit;
-    std::sort(cells.begin(), cells.end());
-    cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
-    for (int a = 0; a < 3; ++a) {
-      const std::size_t au = std::size_t(a);
-      std::vector<std::size_t> pushed;  // the solved a-faces of those cells, each once
-      for (std::size_t c : cells)
-        for (std::size_t f : {c - g.stride[au], c})
-          if (g.face[au][f] == FaceKind::Unknown) pushed.push_back(f);
-      std::sort(pushed.begin(), pushed.end());
-      pushed.erase(std::unique(pushed.begin(), pushed.end()), pushed.end());
-      if (pushed.empty()) continue;
-      // Each face's control volume is one cell: the faces together add exactly deficit[a].
-      const double density = deficit[a] / (double(pushed.size()) * g.cell_volume_m3());
-      for (std::size_t f : pushed) g.jet_force_n_per_m3[au][f] += density;
-    }
+    add_jet_force(g, std::move(cells), g.jet_momentum_deficit_n[j]);
   }
 }
 

@@ -259,6 +259,11 @@ Simulation::Simulation(const SceneConfig& scene)
                                    "(cells are ",
                                    grid.h_m.x, " x ", grid.h_m.y, " x ", grid.h_m.z,
                                    " m): enlarge it or refine /gas/cells")});
+      for (std::size_t k = 0; k < gas.jets.size(); ++k)
+        if (grid.jet_faces[k] == 0)
+          errors.push_back({"/mill/nozzles", gas.jets[k].name,
+                            "the nozzle's jet points into no solid-fluid face of the gas grid "
+                            "near its exit: check its angle, or refine /gas/cells"});
     }
   }
 

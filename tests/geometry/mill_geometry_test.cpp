@@ -252,6 +252,26 @@ TEST(MillGas, VoxelsAgreeWithTheDemWallsAndNozzlesCarryTheSetFlow) {
       face_flow += g.fixed_value[std::size_t(a)][f] * (into_high ? 1.0 : -1.0) * g.face_area_m2(a);
     }
   EXPECT_NEAR(face_flow, set_flow, 1e-12 * set_flow);
+  // Momentum, one nozzle at a time (the four together cancel): what its faces carry in
+  // (ρ A u |u| along each face's axis) plus the body force over its control volumes is exactly
+  // what it blows in, ρ Q speed · direction.
+  for (std::size_t n = 0; n < s.gas->jets.size(); ++n) {
+    GasConfig one = *s.gas;
+    one.jets = {s.gas->jets[n]};
+    const GasGrid gj = build_gas_grid(one, s.domain.min_m, s.domain.max_m, {false, false, false});
+    const GasJetConfig& jet = one.jets[0];
+    const Vec3 set_momentum =
+        jet.direction * (one.density_kg_per_m3 * jet.volume_flow_m3_per_s() * jet.speed_m_per_s);
+    Vec3 grid_momentum;
+    for (int a = 0; a < 3; ++a)
+      for (std::size_t f = 0; f < gj.padded_size; ++f) {
+        const double u = gj.fixed_value[std::size_t(a)][f];
+        if (gj.face[std::size_t(a)][f] == FaceKind::Fixed && u != 0.0)
+          grid_momentum[a] += one.density_kg_per_m3 * gj.face_area_m2(a) * u * std::abs(u);
+        grid_momentum[a] += gj.jet_force_n_per_m3[std::size_t(a)][f] * gj.cell_volume_m3();
+      }
+    EXPECT_LT(norm(grid_momentum - set_momentum), 1e-12 * norm(set_momentum)) << "nozzle " << n;
+  }
   EXPECT_NEAR(set_flow, 4 * std::numbers::pi * 0.0004 * 0.0004 * 20.0, 1e-15);
 }
 

@@ -1,0 +1,73 @@
+#!/usr/bin/env python3
+"""Stage table of a study run with `millsim study --local` (the acceleration chain, a dust scan).
+
+For each run, in study order: its label (from --labels, or its parameters), the time-stepping
+wall time, steps, time step, particle-steps, particles at the end, breakage events and
+generations, the product's d10/d50/d90 (outlet + dust), the study's error against its
+reference, and the speed-up against the reference run and against the run before.
+
+    python3 bench/study_stages.py OUT/studies/SXXXXXX [--labels "a,b,c"] [--markdown]
+"""
+import argparse
+import json
+import os
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("study_dir")
+    ap.add_argument("--labels", default="")
+    ap.add_argument("--markdown", action="store_true")
+    args = ap.parse_args()
+    table = json.load(open(os.path.join(args.study_dir, "results.json")))
+    labels = [s for s in args.labels.split(",") if s]
+    rows = []
+    for k, run in enumerate(table["runs"]):
+        path = os.path.join(args.study_dir, run["run"], "result.json")
+        r = json.load(open(path)) if os.path.exists(path) else None
+        label = labels[k] if k < len(labels) else " ".join(f"{p.split('.')[-1]}={v}" for p, v in run["params"].items())
+        if r is None:
+            rows.append({"label": label, "state": run["state"]})
+            continue
+        b = r.get("breakage", {})
+        rows.append({
+            "label": label, "state": run["state"], "wall_s": r["wall_time_s"], "steps": r["steps"],
+            "dt_s": r["time_step_s"],
+            "psteps": r["particle_steps_per_second"] * r["wall_time_s"],
+            "particles": r["particles"]["final"], "events": b.get("events", 0),
+            "generations": len(b.get("events_by_generation", [])),
+            "d10": r["outlet_psd"]["d10_m"] * 1e6, "d50": r["outlet_psd"]["d50_m"] * 1e6,
+            "d90": r["outlet_psd"]["d90_m"] * 1e6, "error": run.get("error"),
+        })
+    ref = next((i for i, run in enumerate(table["runs"]) if run.get("reference")), 0)
+    head = ["stage", "wall s", "steps", "dt s", "particle-steps", "particles", "events", "gen",
+            "d10 um", "d50 um", "d90 um", "error", "x vs ref", "x vs prev"]
+    out = []
+    for k, row in enumerate(rows):
+        if "wall_s" not in row:
+            out.append([row["label"], row["state"]] + [""] * (len(head) - 2))
+            continue
+        ref_wall = rows[ref].get("wall_s")
+        prev_wall = rows[k - 1].get("wall_s") if k > 0 else None
+        out.append([
+            row["label"], f"{row['wall_s']:.2f}", str(row["steps"]), f"{row['dt_s']:.3g}",
+            f"{row['psteps']:.3g}", str(row["particles"]), str(row["events"]), str(row["generations"]),
+            f"{row['d10']:.2f}", f"{row['d50']:.2f}", f"{row['d90']:.2f}",
+            "" if row["error"] is None else f"{row['error']:.4f}",
+            f"{ref_wall / row['wall_s']:.1f}" if ref_wall else "",
+            f"{prev_wall / row['wall_s']:.2f}" if prev_wall else "",
+        ])
+    if args.markdown:
+        print("| " + " | ".join(head) + " |")
+        print("| " + " | ".join("---" for _ in head) + " |")
+        for line in out:
+            print("| " + " | ".join(line) + " |")
+    else:
+        widths = [max(len(h), *(len(line[i]) for line in out)) for i, h in enumerate(head)]
+        print("  ".join(h.ljust(w) for h, w in zip(head, widths)))
+        for line in out:
+            print("  ".join(c.ljust(w) for c, w in zip(line, widths)))
+
+
+if __name__ == "__main__":
+    main()
