@@ -49,16 +49,30 @@ TEST(StabilityCases, SizeRatioThousandRunsStablyAndFinesRebound) {
   EXPECT_LT(norm(test::total_momentum(p) - p0), 1e-9 * norm(p0));
 }
 
-TEST(StabilityCases, PaperParallelTangentialSpringsAreStoppedAtSizeRatioThousand) {
-  // Eq. 3's parallel tangential sum is 11.5× too stiff for a 1 µm fine on a 1 mm particle;
-  // the guard must stop the run (energy growth) instead of letting it produce garbage.
+TEST(StabilityCases, PaperParallelTangentialSpringsAtSizeRatioThousandDoNotProduceGarbage) {
+  // Eq. 3's parallel tangential sum is 11.5× too stiff for a 1 µm fine on a 1 mm particle. The
+  // fines slide on the coarse particle, and a sliding spring is held at μ F_n with no damping
+  // (contact_forces.cpp), so the stiffness no longer feeds an instability here; before that law
+  // the guard had to stop this run on energy growth. Either way no garbage may come out: the run
+  // is stopped by the guard, or it ends with no energy gained, momentum conserved and the fines
+  // rebounding, as with the series springs.
   SceneConfig scene = load_case("size_ratio_1000");
   scene.contact.model = ContactModel::PaperSprings;
   Simulation sim(scene);
+  const Vec3 p0 = test::total_momentum(sim.particles());
+  const EnergyReport start = sim.energy();
   std::optional<StepFailure> failure;
   while (!failure && sim.step_index() < sim.total_steps()) failure = sim.step();
-  ASSERT_TRUE(failure.has_value());
-  EXPECT_EQ(failure->cause, "energy_growth");
+  if (failure) {
+    EXPECT_EQ(failure->cause, "energy_growth");
+    return;
+  }
+  const ParticleStore& p = sim.particles();
+  EXPECT_LT(sim.energy().total_j(), start.total_j());
+  std::size_t rebounded = 0;
+  for (std::size_t i = 1; i < p.size(); ++i) rebounded += p.motion[i].velocity_m_per_s.x > 0.0;
+  EXPECT_GT(rebounded, p.size() / 2);
+  EXPECT_LT(norm(test::total_momentum(p) - p0), 1e-9 * norm(p0));
 }
 
 TEST(StabilityCases, ParticleIntoWallAtThreeHundredMetresPerSecondRebounds) {
