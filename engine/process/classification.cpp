@@ -1,5 +1,6 @@
 #include "process/classification.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -35,6 +36,23 @@ double force_balance_cut_size_m(double viscosity_pa_s, double particle_density_k
   return std::sqrt(18.0 * viscosity_pa_s * std::abs(v.radial_m_per_s) * v.radius_m / (drho * ut2));
 }
 
+namespace {
+
+// The size where `share` first falls through `level` from the fine end, interpolated in log size.
+std::optional<double> falls_through(const std::vector<double>& size_m,
+                                    const std::vector<double>& share, double level) {
+  for (std::size_t k = 0; k + 1 < size_m.size(); ++k) {
+    const double a = share[k], b = share[k + 1];
+    if (a >= level && b < level) {
+      const double t = (a - level) / (a - b);
+      return std::exp(std::log(size_m[k]) + t * std::log(size_m[k + 1] / size_m[k]));
+    }
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
 GradeEfficiency grade_efficiency(const PsdTally& outlet, const PsdTally& retained) {
   GradeEfficiency g;
   for (std::size_t b = 0; b + 1 < outlet.edges_m.size(); ++b) {
@@ -45,15 +63,10 @@ GradeEfficiency grade_efficiency(const PsdTally& outlet, const PsdTally& retaine
     g.retained_kg.push_back(kept);
     g.share_to_outlet.push_back(out / (out + kept));
   }
-  // The first fall through 1/2 from the fine end.
-  for (std::size_t k = 0; k + 1 < g.size_m.size(); ++k) {
-    const double a = g.share_to_outlet[k], b = g.share_to_outlet[k + 1];
-    if (a >= 0.5 && b < 0.5) {
-      const double t = (a - 0.5) / (a - b);
-      g.cut_size_m = std::exp(std::log(g.size_m[k]) + t * std::log(g.size_m[k + 1] / g.size_m[k]));
-      break;
-    }
-  }
+  g.cut_size_m = falls_through(g.size_m, g.share_to_outlet, 0.5);
+  for (double t : g.share_to_outlet) g.max_share = std::max(g.max_share, t);
+  if (g.max_share > 0.0)
+    g.reduced_cut_size_m = falls_through(g.size_m, g.share_to_outlet, 0.5 * g.max_share);
   return g;
 }
 

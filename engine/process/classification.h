@@ -44,6 +44,11 @@ struct GradeEfficiency {
   std::vector<double> size_m;  // class centres (geometric means of the edges), classes with mass
   std::vector<double> outlet_kg, retained_kg, share_to_outlet;
   std::optional<double> cut_size_m;  // where the share falls through 1/2
+  // Where the share falls through half its largest value (the reduced grade efficiency T/T_max):
+  // in a window shorter than the fines' residence time, T never reaches 1/2 for any size,
+  // since fines still on their way to the outlet count as held up.
+  std::optional<double> reduced_cut_size_m;
+  double max_share = 0.0;
 };
 
 // `outlet` and `retained` share their edges.

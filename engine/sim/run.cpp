@@ -121,13 +121,17 @@ void add_mill_summary(const Simulation& sim, nlohmann::ordered_json& s) {
   const ParticleStore& p = sim.particles();
   for (std::size_t i = 0; i < p.size(); ++i) retained.add(2.0 * p.radius_m[i], p.mass_kg[i]);
   const GradeEfficiency g = grade_efficiency(sim.outlet_tally(), retained);
-  nlohmann::ordered_json m = {{"grade_efficiency",
-                               {{"size_m", g.size_m},
-                                {"outlet_kg", g.outlet_kg},
-                                {"retained_kg", g.retained_kg},
-                                {"share_to_outlet", g.share_to_outlet}}},
-                              {"cut_size_m", g.cut_size_m ? nlohmann::ordered_json(*g.cut_size_m)
-                                                          : nlohmann::ordered_json()}};
+  nlohmann::ordered_json m = {
+      {"grade_efficiency",
+       {{"size_m", g.size_m},
+        {"outlet_kg", g.outlet_kg},
+        {"retained_kg", g.retained_kg},
+        {"share_to_outlet", g.share_to_outlet}}},
+      {"cut_size_m",
+       g.cut_size_m ? nlohmann::ordered_json(*g.cut_size_m) : nlohmann::ordered_json()},
+      {"largest_share_to_outlet", g.max_share},
+      {"reduced_cut_size_m", g.reduced_cut_size_m ? nlohmann::ordered_json(*g.reduced_cut_size_m)
+                                                  : nlohmann::ordered_json()}};
   if (const GasCoupling* gas = sim.gas()) {
     const VortexSample v = sample_vortex(gas->gas(), mill, mill.outlet.radius_m, 0.0,
                                          mill.height_m - mill.outlet.depth_m);
@@ -141,6 +145,8 @@ void add_mill_summary(const Simulation& sim, nlohmann::ordered_json& s) {
                           {"particle_density_kg_per_m3", rho_p},
                           {"cut_size_m", x_c}};
     if (g.cut_size_m && x_c > 0.0) m["cut_size_ratio"] = *g.cut_size_m / x_c;
+    if (g.reduced_cut_size_m && x_c > 0.0)
+      m["reduced_cut_size_ratio"] = *g.reduced_cut_size_m / x_c;
     // The vortex from the outlet radius out to the mantle.
     nlohmann::ordered_json profile = nlohmann::ordered_json::array();
     for (int k = 0; k <= 8; ++k) {
@@ -148,7 +154,10 @@ void add_mill_summary(const Simulation& sim, nlohmann::ordered_json& s) {
       const VortexSample p = sample_vortex(gas->gas(), mill, r, 0.0, mill.height_m);
       profile.push_back({{"radius_m", r},
                          {"tangential_gas_m_per_s", p.tangential_m_per_s},
-                         {"radial_gas_m_per_s", p.radial_m_per_s}});
+                         {"radial_gas_m_per_s", p.radial_m_per_s},
+                         {"force_balance_cut_size_m",
+                          force_balance_cut_size_m(gas->config().viscosity_pa_s, rho_p,
+                                                   gas->config().density_kg_per_m3, p)}});
     }
     m["vortex_profile"] = profile;
     nlohmann::ordered_json jets = nlohmann::ordered_json::array();

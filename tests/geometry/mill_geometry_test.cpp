@@ -324,6 +324,18 @@ TEST(Classification, CutSizesFromTheForceBalanceAndFromAGradeCurve) {
   const GradeEfficiency g = grade_efficiency(out, kept);
   ASSERT_TRUE(g.cut_size_m.has_value());
   EXPECT_NEAR(*g.cut_size_m, 2.8e-6, 1e-9 * 2.8e-6);
+  // A fifth of those shares (most fines still in transit): no size reaches 1/2, and the reduced
+  // curve T / T_max falls through 1/2 at the same 2.8 µm.
+  PsdTally out5(out.edges_m), kept5(out.edges_m);
+  for (int k = 0; k < 4; ++k) {
+    out5.add(centres[k], 0.2 * share[k]);
+    kept5.add(centres[k], 1.0 - 0.2 * share[k]);
+  }
+  const GradeEfficiency g5 = grade_efficiency(out5, kept5);
+  EXPECT_FALSE(g5.cut_size_m.has_value());
+  EXPECT_NEAR(g5.max_share, 0.2, 1e-12);
+  ASSERT_TRUE(g5.reduced_cut_size_m.has_value());
+  EXPECT_NEAR(*g5.reduced_cut_size_m, 2.8e-6, 1e-9 * 2.8e-6);
 }
 
 TEST(MillScene, InconsistentGeometryIsAnInputErrorNamingTheKey) {
