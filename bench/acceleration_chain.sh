@@ -11,4 +11,4 @@ mkdir -p "$out"
   --db "$out/chain.db" --out "$out/studies"
 study=$(ls -d "$out"/studies/s* | tail -n 1)
 python3 bench/study_stages.py "$study" --markdown \
-  --labels "(a) conventional NBS,(b) + hashed grid,(c) + sub-grid and levels,(d) + reduced stiffness,(e) + drag cache 5 %,(f) + dust threshold 10 um"
+  --labels "(f) + dust threshold 10 um,(e) + drag cache 5 %,(d) + reduced stiffness,(c) + sub-grid and levels,(b) hashed grid,(a) conventional NBS" --reverse

@@ -18,6 +18,7 @@ def main():
     ap.add_argument("study_dir")
     ap.add_argument("--labels", default="")
     ap.add_argument("--markdown", action="store_true")
+    ap.add_argument("--reverse", action="store_true", help="list the runs last to first")
     args = ap.parse_args()
     table = json.load(open(os.path.join(args.study_dir, "results.json")))
     labels = [s for s in args.labels.split(",") if s]
@@ -39,9 +40,13 @@ def main():
             "d10": r["outlet_psd"]["d10_m"] * 1e6, "d50": r["outlet_psd"]["d50_m"] * 1e6,
             "d90": r["outlet_psd"]["d90_m"] * 1e6, "error": run.get("error"),
         })
-    ref = next((i for i, run in enumerate(table["runs"]) if run.get("reference")), 0)
+    runs = table["runs"]
+    if args.reverse:
+        rows.reverse()
+        runs = list(reversed(runs))
+    ref = next((i for i, run in enumerate(runs) if run.get("reference")), 0)
     head = ["stage", "wall s", "steps", "dt s", "particle-steps", "particles", "events", "gen",
-            "d10 um", "d50 um", "d90 um", "error", "x vs ref", "x vs prev"]
+            "d10 um", "d50 um", "d90 um", "error", "x vs ref", "x vs prev"]  # speed-ups: wall time of the reference / previous row over this row's
     out = []
     for k, row in enumerate(rows):
         if "wall_s" not in row:

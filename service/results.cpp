@@ -24,6 +24,19 @@ std::optional<PsdSummary> outlet_psd(const json& result) {
   return s;
 }
 
+// Everything the run made (product + hold-up), on the outlet PSD's classes: `total_psd` carries
+// the cumulative distribution at the same edges. Short windows compare fairly on it.
+std::optional<PsdSummary> total_psd(const json& result) {
+  auto s = outlet_psd(result);
+  if (!s || !result.contains("total_psd")) return std::nullopt;
+  const json& t = result["total_psd"];
+  s->cumulative_mass = t.value("cumulative_mass", std::vector<double>{});
+  s->d50_m = t.value("d50_m", 0.0);
+  s->total_mass_kg = t.value("total_mass_kg", 0.0);
+  if (s->cumulative_mass.size() != s->edges_m.size()) return std::nullopt;
+  return s;
+}
+
 std::optional<double> number_at(const json& result, const std::string& pointer) {
   try {
     const json& v = result.at(json::json_pointer(pointer));
@@ -31,21 +44,6 @@ std::optional<double> number_at(const json& result, const std::string& pointer) 
   } catch (const std::exception&) {
   }
   return std::nullopt;
-}
-
-// The run's error against the reference by `metric`; nullopt when it cannot be measured.
-std::optional<double> error_against(const json& run, const json& reference,
-                                    const std::string& metric) {
-  if (metric == "psd_ks" || metric == "psd_l1" || metric == "d50") {
-    const auto a = outlet_psd(run), b = outlet_psd(reference);
-    if (!a || !b || a->edges_m != b->edges_m || a->total_mass_kg <= 0 || b->total_mass_kg <= 0)
-      return std::nullopt;
-    const PsdDistance d = compare_psd(*a, *b);
-    return metric == "psd_ks" ? d.ks : metric == "psd_l1" ? d.l1 : std::abs(d.d50_relative_error);
-  }
-  const auto a = number_at(run, metric), b = number_at(reference, metric);
-  if (!a || !b || *b == 0.0) return std::nullopt;
-  return std::abs(*a - *b) / std::abs(*b);
 }
 
 json parse_or_null(const std::string& text) {
@@ -65,6 +63,28 @@ std::string number_text(const ordered_json& v, const char* format) {
 }
 
 }  // namespace
+
+// The run's error against the reference by `metric`; nullopt when it cannot be measured.
+std::optional<double> error_against(const json& run, const json& reference,
+                                    const std::string& metric) {
+  if (metric == "total_psd_ks" || metric == "total_psd_l1") {
+    const auto a = total_psd(run), b = total_psd(reference);
+    if (!a || !b || a->edges_m != b->edges_m || a->total_mass_kg <= 0 || b->total_mass_kg <= 0)
+      return std::nullopt;
+    const PsdDistance d = compare_psd(*a, *b);
+    return metric == "total_psd_ks" ? d.ks : d.l1;
+  }
+  if (metric == "psd_ks" || metric == "psd_l1" || metric == "d50") {
+    const auto a = outlet_psd(run), b = outlet_psd(reference);
+    if (!a || !b || a->edges_m != b->edges_m || a->total_mass_kg <= 0 || b->total_mass_kg <= 0)
+      return std::nullopt;
+    const PsdDistance d = compare_psd(*a, *b);
+    return metric == "psd_ks" ? d.ks : metric == "psd_l1" ? d.l1 : std::abs(d.d50_relative_error);
+  }
+  const auto a = number_at(run, metric), b = number_at(reference, metric);
+  if (!a || !b || *b == 0.0) return std::nullopt;
+  return std::abs(*a - *b) / std::abs(*b);
+}
 
 ordered_json results_table(Store& store, const std::string& study_id) {
   const std::optional<StudyRecord> study = store.study(study_id);

@@ -3,12 +3,14 @@
 // run, by the study's metric:
 //   psd_ks / psd_l1 — the KS or L1 distance between the cumulative mass distributions of the
 //                     outlet PSDs (process/psd.h); d50 — |d50 − d50_ref| / d50_ref;
+//   total_psd_ks / total_psd_l1 — the same on everything the run made (outlet + dust + hold-up);
 //   a JSON pointer  — |x − x_ref| / |x_ref| of that number in result.json.
 // Default metric: psd_ks when the reference has an outlet PSD, else the final kinetic energy.
 // Rendered as JSON, CSV, a text table, or an SVG plot of error against wall time.
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 
 #include "store.h"
@@ -16,6 +18,11 @@
 namespace millsim {
 
 nlohmann::ordered_json results_table(Store& store, const std::string& study_id);
+
+// One run's error against the reference by `metric` (above), from their result.json
+// documents; nullopt when it cannot be measured (a missing PSD, different classes, no mass).
+std::optional<double> error_against(const nlohmann::json& run, const nlohmann::json& reference,
+                                    const std::string& metric);
 
 std::string results_csv(const nlohmann::ordered_json& table);
 std::string results_text(const nlohmann::ordered_json& table);

@@ -195,10 +195,11 @@ Study expand_study(const json& spec, const std::filesystem::path& base_dir, int 
   study.error_metric = top.string("error", "");
   if (!study.error_metric.empty() && study.error_metric[0] != '/' &&
       study.error_metric != "psd_ks" && study.error_metric != "psd_l1" &&
-      study.error_metric != "d50")
+      study.error_metric != "d50" && study.error_metric != "total_psd_ks" &&
+      study.error_metric != "total_psd_l1")
     errors.push_back({"/error", "\"" + study.error_metric + "\"",
-                      "expected psd_ks, psd_l1, d50 or a JSON pointer into result.json (e.g. "
-                      "/energy/final/kinetic_j)"});
+                      "expected psd_ks, psd_l1, d50, total_psd_ks, total_psd_l1 or a JSON "
+                      "pointer into result.json (e.g. /energy/final/kinetic_j)"});
   if (const json* l = top.child("limits")) {
     JsonObjectReader r(*l, "/limits", errors);
     study.limits.wall_time_s = r.number("wall_time_s", 3600.0, NumberRange::open_closed(0, 1e7));

@@ -2,6 +2,7 @@
 // every run's scene is validated and a bad path or value names the parameter and the point;
 // over-large studies are refused before anything is queued.
 #include "study.h"
+#include "results.h"
 
 #include <gtest/gtest.h>
 
@@ -124,6 +125,38 @@ TEST(Study, ParameterPathsSplitOnDotsOrSlashes) {
             (std::vector<std::string>{"dust", "threshold_diameter_m"}));
   EXPECT_EQ(parameter_keys("/materials/0/restitution"),
             (std::vector<std::string>{"materials", "0", "restitution"}));
+}
+
+}  // namespace
+}  // namespace millsim
+
+namespace millsim {
+namespace {
+
+TEST(StudyError, TotalPsdDistancesCompareEverythingTheRunsMade) {
+  // Two runs on classes [1, 10, 100] µm: the product alone differs (all of one run's product is
+  // fine, none of the other's), but counting the hold-up both made 30 % of their mass below
+  // 10 µm: the total distances are 0 where the product's KS is 1.
+  auto result = [](double product_fine_share, double total_fine_share) {
+    nlohmann::json r;
+    r["outlet_psd"] = {{"edges_m", {1e-6, 1e-5, 1e-4}},
+                       {"cumulative_mass", {0.0, product_fine_share, 1.0}},
+                       {"d50_m", 1e-5},
+                       {"total_mass_kg", 1e-9}};
+    r["total_psd"] = {{"cumulative_mass", {0.0, total_fine_share, 1.0}},
+                      {"d50_m", 2e-5},
+                      {"total_mass_kg", 1e-6}};
+    return r;
+  };
+  const nlohmann::json a = result(1.0, 0.3), b = result(0.0, 0.3), c = result(0.0, 0.8);
+  EXPECT_DOUBLE_EQ(*error_against(a, b, "psd_ks"), 1.0);
+  EXPECT_DOUBLE_EQ(*error_against(a, b, "total_psd_ks"), 0.0);
+  EXPECT_DOUBLE_EQ(*error_against(a, c, "total_psd_ks"), 0.5);
+  // L1: the gap 0.5 spans one of the two decades: mean 0.25.
+  EXPECT_DOUBLE_EQ(*error_against(a, c, "total_psd_l1"), 0.25);
+  nlohmann::json no_total = a;
+  no_total.erase("total_psd");
+  EXPECT_FALSE(error_against(no_total, c, "total_psd_ks").has_value());
 }
 
 }  // namespace
