@@ -28,8 +28,9 @@ int main(int argc, char** argv) {
   SceneConfig scene;
   scene.materials.push_back({"table1", 1e9, 0.3, 2000.0, 0.5, 0.0, 0.0, {}});
   const MaterialTable table(scene);
-  PlotSeries k_series{"series (Eq. 2)", {}, {}, "#d62728"},
-      k_mean{"mean properties (Eq. 1)", {}, {}, "#1f77b4"};
+  PlotSeries k_series, k_mean;
+  k_series.name = "series (Eq. 2)", k_series.color = "#d62728";
+  k_mean.name = "mean properties (Eq. 1)", k_mean.color = "#1f77b4";
   PlotSeries eta_series = k_series, eta_mean = k_mean;
   std::printf(
       "| partner d (µm) | k_n series (N/m^1.5) | k_n mean (N/m^1.5) | ratio | η_n series (N "
@@ -51,14 +52,14 @@ int main(int argc, char** argv) {
     eta_series.y.push_back(series.normal_damping);
     eta_mean.y.push_back(mean.normal_damping);
   }
-  const std::vector<PlotPanel> panels = {{"Fig. 7: normal stiffness, 30 µm particle",
-                                          "partner diameter (µm)",
-                                          "k_n (N/m^1.5)",
-                                          {k_series, k_mean}},
-                                         {"Fig. 8: normal damper, 30 µm particle",
-                                          "partner diameter (µm)",
-                                          "η_n (N s/m^1.25)",
-                                          {eta_series, eta_mean}}};
+  std::vector<PlotPanel> panels(2);
+  panels[0].title = "Fig. 7: normal stiffness, 30 µm particle";
+  panels[0].y_label = "k_n (N/m^1.5)";
+  panels[0].series = {k_series, k_mean};
+  panels[1].title = "Fig. 8: normal damper, 30 µm particle";
+  panels[1].y_label = "η_n (N s/m^1.25)";
+  panels[1].series = {eta_series, eta_mean};
+  for (PlotPanel& panel : panels) panel.x_label = "partner diameter (µm)";
   std::ofstream(svg_path) << render_svg(panels);
   std::printf("\nplot written to %s\n", svg_path.c_str());
   return 0;

@@ -200,14 +200,37 @@ std::string error_vs_time_svg(const ordered_json& table) {
   panel.title = "study " + table["study"].get<std::string>() + ": error against run time";
   panel.x_label = "wall time (s)";
   panel.y_label = "error (" + table["error_metric"].get<std::string>() + ")";
-  PlotSeries series{"runs", {}, {}, "#1f77b4", false, true};
-  for (const ordered_json& r : table["runs"])
-    if (r["wall_time_s"].is_number() && r["error"].is_number()) {
-      series.x.push_back(r["wall_time_s"].get<double>());
-      series.y.push_back(r["error"].get<double>());
+  PlotSeries runs, reference;
+  runs.name = "runs", runs.color = "#1f77b4", runs.line = false;
+  reference.name = "reference run", reference.color = "#d62728", reference.line = false;
+  reference.hollow = true;
+  double fastest = 1e300, slowest = 0.0;
+  for (const ordered_json& r : table["runs"]) {
+    if (!(r["wall_time_s"].is_number() && r["error"].is_number())) continue;
+    const double t = r["wall_time_s"].get<double>();
+    const std::string id = r["run"].get<std::string>();
+    const std::string label = id.substr(id.find_last_of('-') + 1);  // "r3"
+    PlotSeries& into = r["reference"].get<bool>() ? reference : runs;
+    into.x.push_back(t);
+    into.y.push_back(r["error"].get<double>());
+    into.labels.push_back(label);
+    fastest = std::min(fastest, t), slowest = std::max(slowest, t);
+    // What each label stands for: its parameters.
+    std::string note = label + ":";
+    for (const auto& [key, value] : r["params"].items()) {
+      note += ' ';
+      note += key.substr(key.find_last_of("./") + 1);
+      note += '=';
+      note += value.dump();
     }
-  panel.series.push_back(series);
-  return render_svg({panel});
+    if (panel.notes.size() < 16) panel.notes.push_back(note);
+  }
+  // Wall times spanning more than a decade read on a log axis.
+  panel.log_x = fastest > 0.0 && slowest > 10.0 * fastest;
+  if (panel.log_x) panel.x_label = "wall time (s, log scale)";
+  panel.series.push_back(runs);
+  if (!reference.x.empty()) panel.series.push_back(reference);
+  return render_svg({panel}, 760, 400);
 }
 
 }  // namespace millsim

@@ -33,11 +33,18 @@ struct Axis {
   std::vector<double> ticks() const {
     std::vector<double> out;
     if (log) {
-      for (double p = std::floor(std::log10(lo)); p <= std::ceil(std::log10(hi)); ++p) {
-        const double v = std::pow(10.0, p);
-        if (v >= lo * 0.999 && v <= hi * 1.001) out.push_back(v);
-      }
-      if (out.size() >= 2) return out;
+      // Decades, with 2 and 5 between them while that gives no more than eight ticks.
+      std::vector<double> decades, fine;
+      for (double p = std::floor(std::log10(lo)); p <= std::ceil(std::log10(hi)); ++p)
+        for (double m : {1.0, 2.0, 5.0}) {
+          const double v = m * std::pow(10.0, p);
+          if (v < lo * 0.999 || v > hi * 1.001) continue;
+          fine.push_back(v);
+          if (m == 1.0) decades.push_back(v);
+        }
+      if (fine.size() >= 2 && fine.size() <= 8) return fine;
+      if (decades.size() >= 2) return decades;
+      if (fine.size() >= 2) return fine;
     }
     const double span = hi - lo, raw = span / 5.0;
     const double magnitude = std::pow(10.0, std::floor(std::log10(raw)));
@@ -70,7 +77,10 @@ Axis fit_axis(const std::vector<PlotSeries>& series, bool use_x, bool log) {
   return {lo, hi, log};
 }
 
-std::string tick_text(double v) {
+// A tick value as text; `span` is the axis range, so rounding noise next to zero prints "0"
+// (not "-0" or "1e-17").
+std::string tick_text(double v, double span) {
+  if (std::abs(v) < 1e-9 * span) v = 0.0;
   std::ostringstream out;
   out.precision(3);
   out << v;
@@ -79,16 +89,19 @@ std::string tick_text(double v) {
 
 }  // namespace
 
-std::string render_svg(const std::vector<PlotPanel>& panels, int w, int h) {
+std::string render_svg(const std::vector<PlotPanel>& panels, int w, int plot_h) {
   std::ostringstream svg;
   const int width = w * int(panels.size());
+  std::size_t most_notes = 0;
+  for (const PlotPanel& p : panels) most_notes = std::max(most_notes, p.notes.size());
+  const int h = plot_h + 16 * int(most_notes);
   svg << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << width << "\" height=\"" << h
       << "\" font-family=\"sans-serif\" font-size=\"12\">\n"
       << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
   for (std::size_t k = 0; k < panels.size(); ++k) {
     const PlotPanel& panel = panels[k];
-    const double left = double(k) * w + 70, right = double(k + 1) * w - 20, top = 40,
-                 bottom = h - 50;
+    const double left = double(k) * w + 70, right = double(k + 1) * w - 20, top = 56,
+                 bottom = plot_h - 50;
     const Axis ax = fit_axis(panel.series, true, panel.log_x);
     const Axis ay = fit_axis(panel.series, false, panel.log_y);
     svg << "<text x=\"" << (left + right) / 2
@@ -100,16 +113,19 @@ std::string render_svg(const std::vector<PlotPanel>& panels, int w, int h) {
       const double x = ax.map(t, left, right);
       svg << "<line x1=\"" << x << "\" y1=\"" << bottom << "\" x2=\"" << x << "\" y2=\""
           << bottom + 5 << "\" stroke=\"black\"/><text x=\"" << x << "\" y=\"" << bottom + 18
-          << "\" text-anchor=\"middle\">" << tick_text(t) << "</text>\n";
+          << "\" text-anchor=\"middle\">" << tick_text(t, ax.hi - ax.lo) << "</text>\n";
     }
     for (double t : ay.ticks()) {
       const double y = ay.map(t, bottom, top);
       svg << "<line x1=\"" << left - 5 << "\" y1=\"" << y << "\" x2=\"" << left << "\" y2=\"" << y
           << "\" stroke=\"black\"/><text x=\"" << left - 8 << "\" y=\"" << y + 4
-          << "\" text-anchor=\"end\">" << tick_text(t) << "</text>\n";
+          << "\" text-anchor=\"end\">" << tick_text(t, ay.hi - ay.lo) << "</text>\n";
     }
-    svg << "<text x=\"" << (left + right) / 2 << "\" y=\"" << h - 12 << "\" text-anchor=\"middle\">"
-        << escape(panel.x_label) << "</text>\n";
+    svg << "<text x=\"" << (left + right) / 2 << "\" y=\"" << plot_h - 12
+        << "\" text-anchor=\"middle\">" << escape(panel.x_label) << "</text>\n";
+    for (std::size_t n = 0; n < panel.notes.size(); ++n)
+      svg << "<text x=\"" << double(k) * w + 16 << "\" y=\"" << plot_h + 4 + 16 * double(n)
+          << "\" font-size=\"11\">" << escape(panel.notes[n]) << "</text>\n";
     svg << "<text transform=\"translate(" << double(k) * w + 16 << "," << (top + bottom) / 2
         << ") rotate(-90)\" text-anchor=\"middle\">" << escape(panel.y_label) << "</text>\n";
     for (std::size_t s = 0; s < panel.series.size(); ++s) {
@@ -124,13 +140,18 @@ std::string render_svg(const std::vector<PlotPanel>& panels, int w, int h) {
       if (series.markers)
         for (std::size_t i = 0; i < series.x.size(); ++i)
           svg << "<circle cx=\"" << ax.map(series.x[i], left, right) << "\" cy=\""
-              << ay.map(series.y[i], bottom, top) << "\" r=\"3\" fill=\"" << series.color
-              << "\"/>\n";
-      const double ly = top + 16 + 16 * double(s);
-      svg << "<line x1=\"" << left + 10 << "\" y1=\"" << ly - 4 << "\" x2=\"" << left + 30
-          << "\" y2=\"" << ly - 4 << "\" stroke=\"" << series.color
-          << "\" stroke-width=\"2\"/><text x=\"" << left + 36 << "\" y=\"" << ly << "\">"
-          << escape(series.name) << "</text>\n";
+              << ay.map(series.y[i], bottom, top) << "\" r=\"" << (series.hollow ? 5 : 3)
+              << "\" fill=\"" << (series.hollow ? "none" : series.color) << "\" stroke=\""
+              << series.color << "\" stroke-width=\"1.5\"/>\n";
+      for (std::size_t i = 0; i < series.labels.size() && i < series.x.size(); ++i)
+        svg << "<text x=\"" << ax.map(series.x[i], left, right) + 6 << "\" y=\""
+            << ay.map(series.y[i], bottom, top) - 6 << "\" font-size=\"11\" fill=\"#333\">"
+            << escape(series.labels[i]) << "</text>\n";
+      // The legend: a row above the plot area, one entry per series.
+      const double lx = left + 140.0 * double(s), ly = top - 8;
+      svg << "<line x1=\"" << lx << "\" y1=\"" << ly - 4 << "\" x2=\"" << lx + 20 << "\" y2=\""
+          << ly - 4 << "\" stroke=\"" << series.color << "\" stroke-width=\"2\"/><text x=\""
+          << lx + 26 << "\" y=\"" << ly << "\">" << escape(series.name) << "</text>\n";
     }
   }
   svg << "</svg>\n";

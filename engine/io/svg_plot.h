@@ -12,8 +12,10 @@ struct PlotSeries {
   std::string name;
   std::vector<double> x, y;
   std::string color = "#1f77b4";
-  bool line = true;     // connect the points
-  bool markers = true;  // draw a circle at each point
+  bool line = true;                 // connect the points
+  bool markers = true;              // draw a circle at each point
+  std::vector<std::string> labels;  // optional text beside each point
+  bool hollow = false;              // markers as rings (e.g. the reference)
 };
 
 struct PlotPanel {
@@ -21,9 +23,11 @@ struct PlotPanel {
   std::string x_label, y_label;
   std::vector<PlotSeries> series;
   bool log_x = false, log_y = false;
+  std::vector<std::string> notes;  // lines printed under the panel (e.g. what each label means)
 };
 
-// Panels are laid out side by side. Returns the SVG document.
+// Panels are laid out side by side. The legend sits in a row above the plot area, so it never
+// covers data; notes go below the x label. Returns the SVG document.
 std::string render_svg(const std::vector<PlotPanel>& panels, int panel_width = 480,
                        int panel_height = 360);
 
