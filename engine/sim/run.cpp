@@ -111,67 +111,73 @@ void write_psd_h5(const Simulation& sim, H5Writer& h5) {
                     product.cumulative_mass});
 }
 
-// The gas solver and the coupling, for result.json: where the coupled run's time went and how
-// often the drag cache saved an evaluation.
-// The mill's classification: the grade efficiency of the run and the cut size the simulated
-// vortex gives at the outlet radius (process/classification.h).
+// What the simulated vortex says about classification: the force-balance cut size at the outlet
+// radius (between floor and tube mouth) and at nine radii out to the mantle, and the nozzles'
+// flows (process/classification.h).
+nlohmann::ordered_json mill_gas_json(const GasCoupling& gas, const MillConfig& mill,
+                                     double particle_density_kg_per_m3, const GradeEfficiency& g) {
+  const double mu = gas.config().viscosity_pa_s, rho_g = gas.config().density_kg_per_m3;
+  const VortexSample v = sample_vortex(gas.gas(), mill, mill.outlet.radius_m, 0.0,
+                                       mill.height_m - mill.outlet.depth_m);
+  const double x_c = force_balance_cut_size_m(mu, particle_density_kg_per_m3, rho_g, v);
+  nlohmann::ordered_json m;
+  m["force_balance"] = {{"radius_m", v.radius_m},
+                        {"tangential_gas_m_per_s", v.tangential_m_per_s},
+                        {"radial_gas_m_per_s", v.radial_m_per_s},
+                        {"particle_density_kg_per_m3", particle_density_kg_per_m3},
+                        {"cut_size_m", x_c}};
+  if (g.cut_size_m && x_c > 0.0) m["cut_size_ratio"] = *g.cut_size_m / x_c;
+  if (g.reduced_cut_size_m && x_c > 0.0) m["reduced_cut_size_ratio"] = *g.reduced_cut_size_m / x_c;
+  nlohmann::ordered_json profile = nlohmann::ordered_json::array();
+  for (int k = 0; k <= 8; ++k) {
+    const double r = mill.outlet.radius_m + (mill.radius_m - mill.outlet.radius_m) * k / 8.5;
+    const VortexSample p = sample_vortex(gas.gas(), mill, r, 0.0, mill.height_m);
+    profile.push_back({{"radius_m", r},
+                       {"tangential_gas_m_per_s", p.tangential_m_per_s},
+                       {"radial_gas_m_per_s", p.radial_m_per_s},
+                       {"force_balance_cut_size_m",
+                        force_balance_cut_size_m(mu, particle_density_kg_per_m3, rho_g, p)}});
+  }
+  m["vortex_profile"] = profile;
+  nlohmann::ordered_json jets = nlohmann::ordered_json::array();
+  const GasGrid& grid = gas.gas().grid();
+  for (std::size_t k = 0; k < gas.config().jets.size(); ++k)
+    jets.push_back({{"name", gas.config().jets[k].name},
+                    {"faces", grid.jet_faces[k]},
+                    {"set_flow_m3_per_s", gas.config().jets[k].volume_flow_m3_per_s()},
+                    {"grid_flow_m3_per_s", grid.jet_flow_m3_per_s[k]}});
+  m["nozzles"] = jets;
+  return m;
+}
+
+// The mill's classification: the grade efficiency of the run (outlet against hold-up) and, with
+// gas, the cut sizes the simulated vortex gives.
 void add_mill_summary(const Simulation& sim, nlohmann::ordered_json& s) {
-  const MillConfig& mill = *sim.mill();
   PsdTally retained(sim.outlet_tally().edges_m);
   const ParticleStore& p = sim.particles();
   for (std::size_t i = 0; i < p.size(); ++i) retained.add(2.0 * p.radius_m[i], p.mass_kg[i]);
   const GradeEfficiency g = grade_efficiency(sim.outlet_tally(), retained);
-  nlohmann::ordered_json m = {
-      {"grade_efficiency",
-       {{"size_m", g.size_m},
-        {"outlet_kg", g.outlet_kg},
-        {"retained_kg", g.retained_kg},
-        {"share_to_outlet", g.share_to_outlet}}},
-      {"cut_size_m",
-       g.cut_size_m ? nlohmann::ordered_json(*g.cut_size_m) : nlohmann::ordered_json()},
-      {"largest_share_to_outlet", g.max_share},
-      {"reduced_cut_size_m", g.reduced_cut_size_m ? nlohmann::ordered_json(*g.reduced_cut_size_m)
-                                                  : nlohmann::ordered_json()}};
+  const auto optional_json = [](const std::optional<double>& v) {
+    return v ? nlohmann::ordered_json(*v) : nlohmann::ordered_json();
+  };
+  nlohmann::ordered_json m = {{"grade_efficiency",
+                               {{"size_m", g.size_m},
+                                {"outlet_kg", g.outlet_kg},
+                                {"retained_kg", g.retained_kg},
+                                {"share_to_outlet", g.share_to_outlet}}},
+                              {"cut_size_m", optional_json(g.cut_size_m)},
+                              {"largest_share_to_outlet", g.max_share},
+                              {"reduced_cut_size_m", optional_json(g.reduced_cut_size_m)}};
   if (const GasCoupling* gas = sim.gas()) {
-    const VortexSample v = sample_vortex(gas->gas(), mill, mill.outlet.radius_m, 0.0,
-                                         mill.height_m - mill.outlet.depth_m);
     const int material = sim.feeders().empty() ? 0 : sim.feeders().front().config().material;
-    const double rho_p = sim.materials().material(material).density_kg_per_m3;
-    const double x_c = force_balance_cut_size_m(gas->config().viscosity_pa_s, rho_p,
-                                                gas->config().density_kg_per_m3, v);
-    m["force_balance"] = {{"radius_m", v.radius_m},
-                          {"tangential_gas_m_per_s", v.tangential_m_per_s},
-                          {"radial_gas_m_per_s", v.radial_m_per_s},
-                          {"particle_density_kg_per_m3", rho_p},
-                          {"cut_size_m", x_c}};
-    if (g.cut_size_m && x_c > 0.0) m["cut_size_ratio"] = *g.cut_size_m / x_c;
-    if (g.reduced_cut_size_m && x_c > 0.0)
-      m["reduced_cut_size_ratio"] = *g.reduced_cut_size_m / x_c;
-    // The vortex from the outlet radius out to the mantle.
-    nlohmann::ordered_json profile = nlohmann::ordered_json::array();
-    for (int k = 0; k <= 8; ++k) {
-      const double r = mill.outlet.radius_m + (mill.radius_m - mill.outlet.radius_m) * k / 8.5;
-      const VortexSample p = sample_vortex(gas->gas(), mill, r, 0.0, mill.height_m);
-      profile.push_back({{"radius_m", r},
-                         {"tangential_gas_m_per_s", p.tangential_m_per_s},
-                         {"radial_gas_m_per_s", p.radial_m_per_s},
-                         {"force_balance_cut_size_m",
-                          force_balance_cut_size_m(gas->config().viscosity_pa_s, rho_p,
-                                                   gas->config().density_kg_per_m3, p)}});
-    }
-    m["vortex_profile"] = profile;
-    nlohmann::ordered_json jets = nlohmann::ordered_json::array();
-    const GasGrid& grid = gas->gas().grid();
-    for (std::size_t k = 0; k < gas->config().jets.size(); ++k)
-      jets.push_back({{"name", gas->config().jets[k].name},
-                      {"faces", grid.jet_faces[k]},
-                      {"set_flow_m3_per_s", gas->config().jets[k].volume_flow_m3_per_s()},
-                      {"grid_flow_m3_per_s", grid.jet_flow_m3_per_s[k]}});
-    m["nozzles"] = jets;
+    m.update(
+        mill_gas_json(*gas, *sim.mill(), sim.materials().material(material).density_kg_per_m3, g));
   }
   s["mill"] = m;
 }
 
+// The gas solver and the coupling, for result.json: where the coupled run's time went and how
+// often the drag cache saved an evaluation.
 void add_gas_summary(const Simulation& sim, nlohmann::ordered_json& s) {
   const GasCoupling& g = *sim.gas();
   const CouplingStats& c = g.stats();
