@@ -1,5 +1,6 @@
 #include "sim/run.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <fstream>
@@ -261,9 +262,11 @@ void write_text_atomically(const std::filesystem::path& path, const std::string&
   std::filesystem::rename(partial, path);
 }
 
+// Steps between outputs; an interval longer than any run (1e300 s) means "never" (the first and
+// last states are written anyway), not an overflowed count.
 std::int64_t steps_per_interval(std::optional<double> interval_s, double fallback_s, double dt) {
-  return std::max<std::int64_t>(1,
-                                std::int64_t(std::llround(interval_s.value_or(fallback_s) / dt)));
+  const double steps = std::round(interval_s.value_or(fallback_s) / dt);
+  return std::int64_t(std::clamp(steps, 1.0, 4e18));
 }
 
 }  // namespace

@@ -385,11 +385,14 @@ void Simulation::choose_time_step(const SceneConfig& scene, const ParticleStore&
   } else {
     time_.step_s = automatic;
   }
-  total_steps_ =
-      std::max<std::int64_t>(1, std::int64_t(std::ceil(scene.time.end_s / time_.step_s - 1e-9)));
-  if (total_steps_ > 2'000'000'000LL)
+  // Counted in double first: end / step can exceed any integer (1e6 s at 1e-13 s), and a cast
+  // of that would wrap to one step.
+  const double steps = std::ceil(scene.time.end_s / time_.step_s - 1e-9);
+  if (!(steps <= 2e9))
     errors.push_back({"/time/end_s", concat(scene.time.end_s),
-                      concat("expected at most 2e9 steps of ", time_.step_s, " s")});
+                      concat("expected at most 2e9 steps of ", time_.step_s, " s (this is ", steps,
+                             "): shorten the run or use a larger step")});
+  total_steps_ = std::max<std::int64_t>(1, std::int64_t(std::min(steps, 2e9)));
 }
 
 std::string Simulation::describe_worst_overlap() const {

@@ -52,6 +52,27 @@ TEST(CliRun, BadSceneExitsTwoNamesTheKeyAndWritesNothing) {
   EXPECT_FALSE(std::filesystem::exists(dir.path() / "out"));
 }
 
+TEST(CliRun, HugeStepCountsAndOutputIntervalsDoNotOverflow) {
+  // 1e6 s at 1e-13 s is 1e19 steps: an input error naming the key, not a one-step run.
+  test::TempDir dir;
+  std::ifstream in(MILLSIM_SOURCE_DIR "/cases/impact_two_spheres.json");
+  const nlohmann::json base = nlohmann::json::parse(in);
+  nlohmann::json long_run = base;
+  long_run["time"] = {{"end_s", 1e6}, {"step_s", 1e-13}};
+  write_file(dir.path() / "long.json", long_run.dump());
+  const CommandResult r = run_millsim("run long.json --out long", dir.path());
+  EXPECT_EQ(r.exit_code, 2) << r.out;
+  EXPECT_NE(r.err.find("/time/end_s"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("at most 2e9 steps"), std::string::npos) << r.err;
+  // A snapshot interval longer than the run writes the first and last state only.
+  nlohmann::json sparse = base;
+  sparse["output"]["snapshot_interval_s"] = 1e300;
+  write_file(dir.path() / "sparse.json", sparse.dump());
+  const CommandResult s = run_millsim("run sparse.json --out sparse", dir.path());
+  ASSERT_EQ(s.exit_code, 0) << s.err;
+  EXPECT_EQ(nlohmann::json::parse(s.out)["outputs"]["snapshots"], 2);
+}
+
 TEST(CliRun, MalformedJsonAndMissingFileAreBadInput) {
   test::TempDir dir;
   write_file(dir.path() / "broken.json", "{\"name\": ");
