@@ -67,7 +67,7 @@ bool parse_body(const Request& req, Response& res, json& out) {
   try {
     out = json::parse(req.body);
     return true;
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // syntax, or a number beyond a double (1e999)
     send_error(res, 400, "invalid_json", std::string("the body is not valid JSON: ") + e.what());
     return false;
   }

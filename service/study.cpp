@@ -127,7 +127,7 @@ json read_json_file(const std::filesystem::path& path, const std::string& what) 
   text << in.rdbuf();
   try {
     return json::parse(text.str());
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // syntax, or a number beyond a double (1e999)
     throw InputErrorList({{what, path.string(), std::string("not valid JSON: ") + e.what()}});
   }
 }

@@ -283,10 +283,12 @@ std::vector<SourceConfig> parse_sources(JsonObjectReader& top,
       const std::string file = r.required_string("path");
       s.file_path =
           std::filesystem::path(file).is_absolute() ? std::filesystem::path(file) : base_dir / file;
-      if (!file.empty() && !std::filesystem::exists(s.file_path))
+      std::error_code status_error;  // a name too long for the filesystem, say
+      if (!file.empty() && !std::filesystem::is_regular_file(s.file_path, status_error))
         errors.push_back(
-            {r.path_of("path"), "\"" + file + "\"",
-             "expected a readable particle file (looked at " + s.file_path.string() + ")"});
+            {r.path_of("path"), "\"" + file.substr(0, 200) + (file.size() > 200 ? "…\"" : "\""),
+             "expected a readable particle file" +
+                 (status_error ? " (" + status_error.message() + ")" : std::string())});
     } else if (type == "random") {
       s.kind = SourceKind::Random;
       s.count = r.integer("count", 0, 1, 100'000'000);
@@ -606,7 +608,7 @@ SceneConfig load_scene(const std::filesystem::path& path) {
   json doc;
   try {
     doc = json::parse(text.str());
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // syntax, or a number beyond a double (1e999)
     throw InputErrorList({{"", "", std::string("not valid JSON: ") + e.what()}});
   }
   InputErrors errors;

@@ -73,6 +73,27 @@ TEST(CliRun, HugeStepCountsAndOutputIntervalsDoNotOverflow) {
   EXPECT_EQ(nlohmann::json::parse(s.out)["outputs"]["snapshots"], 2);
 }
 
+TEST(CliRun, NumbersBeyondADoubleAndOverlongPathsAreBadInput) {
+  // Exit 2 naming what is wrong, not 1 (a bug) or 4 (the environment).
+  test::TempDir dir;
+  std::ifstream in(MILLSIM_SOURCE_DIR "/cases/impact_two_spheres.json");
+  nlohmann::json scene = nlohmann::json::parse(in);
+  std::string text = scene.dump();
+  text.replace(text.find("\"end_s\":") + 8, 0, "1e999, \"_\":");
+  write_file(dir.path() / "huge.json", text);
+  const CommandResult huge = run_millsim("run huge.json --out a", dir.path());
+  EXPECT_EQ(huge.exit_code, 2) << huge.err;
+  EXPECT_NE(huge.err.find("not valid JSON"), std::string::npos) << huge.err;
+  scene["sources"] = {{{"type", "file"},
+                       {"material", scene["materials"][0]["name"]},
+                       {"path", std::string(5000, 'x')}}};
+  write_file(dir.path() / "long_path.json", scene.dump());
+  const CommandResult path = run_millsim("run long_path.json --out b", dir.path());
+  EXPECT_EQ(path.exit_code, 2) << path.err;
+  EXPECT_NE(path.err.find("/sources/0/path"), std::string::npos) << path.err;
+  EXPECT_LT(path.err.size(), 2000u) << "the 5000-character path is not echoed whole";
+}
+
 TEST(CliRun, MalformedJsonAndMissingFileAreBadInput) {
   test::TempDir dir;
   write_file(dir.path() / "broken.json", "{\"name\": ");
