@@ -35,6 +35,10 @@ int find_material(const std::vector<MaterialConfig>& materials, JsonObjectReader
 namespace {
 
 const NumberRange kRestitution = NumberRange::closed(0.05, 1.0);
+// Speeds a DEM run can resolve at all: far beyond any mill (1e5 m/s), yet far from overflowing
+// the energies (a velocity of 1e308 m/s gives an infinite kinetic energy).
+const NumberRange kVelocity = NumberRange::closed(-1e5, 1e5);
+const NumberRange kAngularVelocity = NumberRange::closed(-1e9, 1e9);
 
 StrengthConfig parse_strength(const json& v, const std::string& path, InputErrors& errors) {
   StrengthConfig s;
@@ -231,8 +235,8 @@ ParticleSpec parse_particle(const json& v, const std::string& path, InputErrors&
   p.position_m = r.vec3("position_m", {});
   if (r.is_object() && !r.has("position_m"))
     errors.push_back({r.path_of("position_m"), "", "missing; expected an array of 3 numbers"});
-  p.velocity_m_per_s = r.vec3("velocity_m_per_s", {});
-  p.angular_velocity_rad_per_s = r.vec3("angular_velocity_rad_per_s", {});
+  p.velocity_m_per_s = r.vec3("velocity_m_per_s", {}, kVelocity);
+  p.angular_velocity_rad_per_s = r.vec3("angular_velocity_rad_per_s", {}, kAngularVelocity);
   p.diameter_m = r.required_number("diameter_m", NumberRange::open_closed(0.0, 10.0));
   r.finish();
   return p;
@@ -303,7 +307,7 @@ std::vector<SourceConfig> parse_sources(JsonObjectReader& top,
         s.sizes = parse_sizes(*sizes, r.path_of("sizes"), errors);
       else
         errors.push_back({r.path_of("sizes"), "", "missing; expected a size distribution"});
-      s.velocity_m_per_s = r.vec3("velocity_m_per_s", {});
+      s.velocity_m_per_s = r.vec3("velocity_m_per_s", {}, kVelocity);
       s.velocity_spread_m_per_s =
           r.number("velocity_spread_m_per_s", 0.0, NumberRange::closed(0.0, 1e4));
     }
@@ -431,7 +435,7 @@ std::vector<FeedConfig> parse_feeds(JsonObjectReader& top,
     else if (r.is_object())
       errors.push_back({r.path_of("sizes"), "", "missing; expected a size distribution"});
     f.mass_rate_kg_per_s = r.required_number("mass_rate_kg_per_s", NumberRange::positive());
-    f.velocity_m_per_s = r.vec3("velocity_m_per_s", {});
+    f.velocity_m_per_s = r.vec3("velocity_m_per_s", {}, kVelocity);
     f.velocity_spread_m_per_s =
         r.number("velocity_spread_m_per_s", 0.0, NumberRange::closed(0.0, 1e4));
     f.start_s = r.number("start_s", 0.0, NumberRange::non_negative());

@@ -52,6 +52,19 @@ TEST(SceneJson, OutOfRangeValueNamesPathValueAndRange) {
   EXPECT_EQ(errors[0].allowed, "expected a number in [0.05, 1]");
 }
 
+TEST(SceneJson, SpeedsBeyondWhatARunCanHoldAreRefused) {
+  // 1e308 m/s would give an infinite kinetic energy (null energies in result.json).
+  json doc = valid_scene();
+  doc["sources"][0]["particles"][0]["velocity_m_per_s"] = {1e308, 0, 0};
+  doc["sources"][0]["particles"][0]["angular_velocity_rad_per_s"] = {0, 0, -1e300};
+  const InputErrors errors = errors_of(doc);
+  const InputError* v = find_error(errors, "/sources/0/particles/0/velocity_m_per_s/0");
+  const InputError* w = find_error(errors, "/sources/0/particles/0/angular_velocity_rad_per_s/2");
+  ASSERT_NE(v, nullptr) << format_input_errors("scene", errors);
+  ASSERT_NE(w, nullptr) << format_input_errors("scene", errors);
+  EXPECT_EQ(v->allowed, "expected a number in [-100000, 100000]");
+}
+
 TEST(SceneJson, GridDivisionIsAutoOrInRange) {
   json doc = valid_scene();
   doc["search"] = {{"subcells", 3}, {"levels", 4}};
