@@ -1,6 +1,7 @@
 #include "particles/particle_sources.h"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -65,10 +66,17 @@ ParticleFile read_particle_file(const std::filesystem::path& path) {
   }
   if (!errors.empty()) throw InputErrorList(std::move(errors));
   auto n = file.header.find("N");
-  if (n != file.header.end() && std::stoull(n->second) != file.particles.size())
-    throw InputErrorList(
-        {{path.filename().string() + ": header 'N'", n->second,
-          concat("expected the number of particle lines, ", file.particles.size())}});
+  if (n != file.header.end()) {
+    // A whole number and nothing else ("abc" or "12abc" is not a count).
+    std::uint64_t count = 0;
+    const char* first = n->second.data();
+    const char* last = first + n->second.size();
+    const auto [end, ec] = std::from_chars(first, last, count);
+    if (ec != std::errc() || end != last || count != file.particles.size())
+      throw InputErrorList(
+          {{path.filename().string() + ": header 'N'", n->second.substr(0, 60),
+            concat("expected the number of particle lines, ", file.particles.size())}});
+  }
   return file;
 }
 

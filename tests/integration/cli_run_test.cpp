@@ -92,6 +92,14 @@ TEST(CliRun, NumbersBeyondADoubleAndOverlongPathsAreBadInput) {
   EXPECT_EQ(path.exit_code, 2) << path.err;
   EXPECT_NE(path.err.find("/sources/0/path"), std::string::npos) << path.err;
   EXPECT_LT(path.err.size(), 2000u) << "the 5000-character path is not echoed whole";
+  // A particle file whose header count is not a number.
+  write_file(dir.path() / "p.txt", "# N: abc\n1 5e-4 5e-4 5e-4 1e-4 0 0 0\n");
+  scene["sources"] = {
+      {{"type", "file"}, {"material", scene["materials"][0]["name"]}, {"path", "p.txt"}}};
+  write_file(dir.path() / "header.json", scene.dump());
+  const CommandResult header = run_millsim("run header.json --out c", dir.path());
+  EXPECT_EQ(header.exit_code, 2) << header.err;
+  EXPECT_NE(header.err.find("header 'N'"), std::string::npos) << header.err;
 }
 
 TEST(CliRun, MalformedJsonAndMissingFileAreBadInput) {
