@@ -149,29 +149,32 @@ int main(int argc, char** argv) {
     std::printf("queue (HTTP worker protocol, 2 workers): %d runs in %.2f s: %.0f runs/s\n",
                 done[0] + done[1], s, (done[0] + done[1]) / s);
   }
-  for (const char* what : {"status", "results"}) {
-    const std::string path = std::string("/v1/studies/") + id + (what[0] == 'r' ? "/results" : "");
-    std::vector<std::vector<double>> latency(static_cast<std::size_t>(clients));
-    const auto start = Clock::now();
-    std::vector<std::thread> threads;
-    for (int c = 0; c < clients; ++c)
-      threads.emplace_back([&, c] {
-        httplib::Client client(url);
-        for (int k = 0; k < requests; ++k) {
-          const auto t = Clock::now();
-          auto r = client.Get(path.c_str());
-          if (r && r->status == 200) latency[std::size_t(c)].push_back(seconds_since(t) * 1e3);
-        }
-      });
-    for (auto& t : threads) t.join();
-    std::vector<double> all;
-    for (const auto& l : latency) all.insert(all.end(), l.begin(), l.end());
-    std::printf(
-        "GET %s with %d runs stored, %d clients x %d requests: p50 %.2f ms, p99 %.2f ms, "
-        "%.0f requests/s\n",
-        what, runs, clients, requests, percentile(all, 0.5), percentile(all, 0.99),
-        double(all.size()) / seconds_since(start));
-  }
+  for (const bool keep_alive : {false, true})
+    for (const char* what : {"status", "results"}) {
+      const std::string path =
+          std::string("/v1/studies/") + id + (what[0] == 'r' ? "/results" : "");
+      std::vector<std::vector<double>> latency(static_cast<std::size_t>(clients));
+      const auto start = Clock::now();
+      std::vector<std::thread> threads;
+      for (int c = 0; c < clients; ++c)
+        threads.emplace_back([&, c] {
+          httplib::Client client(url);
+          client.set_keep_alive(keep_alive);  // one connection for all requests, as browsers do
+          for (int k = 0; k < requests; ++k) {
+            const auto t = Clock::now();
+            auto r = client.Get(path.c_str());
+            if (r && r->status == 200) latency[std::size_t(c)].push_back(seconds_since(t) * 1e3);
+          }
+        });
+      for (auto& t : threads) t.join();
+      std::vector<double> all;
+      for (const auto& l : latency) all.insert(all.end(), l.begin(), l.end());
+      std::printf(
+          "GET %s with %d runs stored, %d clients x %d requests%s: p50 %.2f ms, p99 %.2f ms, "
+          "%.0f requests/s\n",
+          what, runs, clients, requests, keep_alive ? " (keep-alive)" : "", percentile(all, 0.5),
+          percentile(all, 0.99), double(all.size()) / seconds_since(start));
+    }
   server.stop();
   http.join();
   std::filesystem::remove_all(dir);

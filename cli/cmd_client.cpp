@@ -70,6 +70,7 @@ std::optional<json> request(const char* verb, const ClientArgs& a, const std::st
                             httplib::Headers headers = {}) {
   httplib::Client client(a.server);
   client.set_connection_timeout(5);
+  client.set_tcp_nodelay(true);
   if (!a.token.empty()) headers.emplace("Authorization", "Bearer " + a.token);
   auto res = method == "GET" ? client.Get(path.c_str(), headers)
                              : client.Post(path.c_str(), headers, body, "application/json");

@@ -18,6 +18,7 @@ class ServerLink {
   explicit ServerLink(const WorkerConfig& c) : client_(c.server), token_(c.token) {
     client_.set_connection_timeout(5);
     client_.set_read_timeout(30);
+    client_.set_tcp_nodelay(true);  // heartbeats are small requests: no Nagle delay
   }
 
   // POST; returns the status (0 when unreachable) and the parsed body.
