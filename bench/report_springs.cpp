@@ -26,7 +26,7 @@ int main(int argc, char** argv) {
     }
   }
   SceneConfig scene;
-  scene.materials.push_back({"table1", 1e9, 0.3, 2000.0, 0.5, 0.0, 0.0, {}});
+  scene.materials.push_back({"table1", 1e9, 0.3, 2000.0, 0.5, 0.0, 0.0, false, {}});
   const MaterialTable table(scene);
   PlotSeries k_series, k_mean;
   k_series.name = "series (Eq. 2)", k_series.color = "#d62728";

@@ -128,7 +128,8 @@ void Breakage::complete_impact(const Impact& impact, const std::vector<Wall>& wa
   const double vn = dot(vi - vj, n);
   if (vn >= 0.0) return;
   const double e = materials_->pair(p.material[i], p.material[j]).restitution;
-  const double reduced_mass = p.mass_kg[i] * p.mass_kg[j] / (p.mass_kg[i] + p.mass_kg[j]);
+  // From the inverse masses: a frozen partner (inverse mass 0) acts as a wall.
+  const double reduced_mass = 1.0 / (p.inv_mass_per_kg[i] + p.inv_mass_per_kg[j]);
   const Vec3 impulse = n * (-(1.0 + e) * vn * reduced_mass);
   vi += impulse * p.inv_mass_per_kg[i];
   vj -= impulse * p.inv_mass_per_kg[j];

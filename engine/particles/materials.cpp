@@ -40,7 +40,7 @@ MaterialTable::MaterialTable(const SceneConfig& scene) : damping_model_(scene.co
     const double E = c.youngs_modulus_pa, nu = c.poisson_ratio, G = E / (2.0 * (1.0 + nu));
     materials_.push_back({E, nu, c.density_kg_per_m3, c.restitution, c.friction, c.rolling_friction,
                           damping_ratio(damping_model_, c.restitution), (1.0 - nu * nu) / E,
-                          (2.0 - nu) / G});
+                          (2.0 - nu) / G, c.frozen});
   }
   const int n = count();
   pairs_.resize(std::size_t(n) * n);

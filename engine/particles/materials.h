@@ -21,6 +21,7 @@ struct MaterialConstants {
   double damping_ratio;      // α(e): F_damp = α √(m* k) δ^{1/4} v (restitution.h)
   double normal_compliance;  // (1−ν²)/E, 1/Pa: E* = 1/(c₁ + c₂)
   double shear_compliance;   // (2−ν)/G, 1/Pa: G* = 1/(c₁ + c₂)
+  bool frozen;               // particles of it never move (ParticleStore::add)
 };
 
 double damping_ratio(DampingModel model, double restitution);

@@ -42,12 +42,14 @@ std::size_t ParticleStore::add(const MaterialTable& materials, int material_inde
   const double mass = sphere_mass_kg(m.density_kg_per_m3, diameter_m);
 
   position_m.push_back(position);
-  motion.push_back({velocity, angular_velocity});
+  // A frozen particle has no inverse mass or inertia: forces, gravity and impulses leave it where
+  // it is, at rest, while its contacts and drag act on its partners and the gas.
+  motion.push_back(m.frozen ? Motion{} : Motion{velocity, angular_velocity});
   load.push_back({});
   previous_load.push_back({});
   radius_m.push_back(r);
-  inv_mass_per_kg.push_back(1.0 / mass);
-  inv_inertia_per_kg_m2.push_back(1.0 / (0.4 * mass * r * r));
+  inv_mass_per_kg.push_back(m.frozen ? 0.0 : 1.0 / mass);
+  inv_inertia_per_kg_m2.push_back(m.frozen ? 0.0 : 1.0 / (0.4 * mass * r * r));
   springs.push_back(particle_springs(m, r, mass, stiffness_scale));
   normal_compliance.push_back(m.normal_compliance / stiffness_scale);
   shear_compliance.push_back(m.shear_compliance / stiffness_scale);

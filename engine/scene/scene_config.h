@@ -64,6 +64,7 @@ struct MaterialConfig {
   double restitution = 1.0;        // e, normal coefficient of restitution, [0.05, 1]
   double friction = 0.0;           // μ, Coulomb sliding friction
   double rolling_friction = 0.0;   // μ_r, constant-torque rolling resistance; 0 = off
+  bool frozen = false;  // its particles never move (a fixed bed, a target); they still collide
   std::optional<MaterialBreakageConfig> breakage;  // absent = unbreakable
 };
 

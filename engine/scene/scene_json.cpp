@@ -125,8 +125,12 @@ std::vector<MaterialConfig> parse_materials(JsonObjectReader& top, InputErrors& 
     m.restitution = r.number("restitution", 1.0, kRestitution);
     m.friction = r.number("friction", 0.0, NumberRange::closed(0.0, 10.0));
     m.rolling_friction = r.number("rolling_friction", 0.0, NumberRange::closed(0.0, 10.0));
+    m.frozen = r.boolean("frozen", false);
     if (const json* b = r.child("breakage"))
       m.breakage = parse_material_breakage(*b, r.path_of("breakage"), errors);
+    if (m.frozen && m.breakage)
+      errors.push_back({r.path_of("frozen"), "true",
+                        "a frozen material cannot break: remove /breakage or set frozen false"});
     r.finish();
     for (const MaterialConfig& earlier : out)
       if (!m.name.empty() && earlier.name == m.name)

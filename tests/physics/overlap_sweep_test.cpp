@@ -28,8 +28,8 @@ double log_uniform(std::mt19937_64& rng, double lo, double hi) {
 }
 
 SceneConfig impact_scene(const Impact& c, DampingModel damping) {
-  MaterialConfig particle{"particle", c.E, 0.34, c.rho, c.e, 0.0, 0.0, {}};
-  MaterialConfig wall{"wall", c.E_wall, 0.3, 7800, 1.0, 0.0, 0.0, {}};
+  MaterialConfig particle{"particle", c.E, 0.34, c.rho, c.e, 0.0, 0.0, false, {}};
+  MaterialConfig wall{"wall", c.E_wall, 0.3, 7800, 1.0, 0.0, 0.0, false, {}};
   const double L = 4.0 * c.d;
   SceneConfig s = test::empty_scene({-L, -L, 0}, {L, L, L}, particle);
   s.materials.push_back(wall);
