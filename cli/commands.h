@@ -18,5 +18,6 @@ int cmd_status(const std::vector<std::string>& args);
 int cmd_results(const std::vector<std::string>& args);
 int cmd_psd(const std::vector<std::string>& args);
 int cmd_cancel(const std::vector<std::string>& args);
+int cmd_regress(const std::vector<std::string>& args);
 
 }  // namespace millsim::cli

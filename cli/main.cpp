@@ -25,6 +25,10 @@ constexpr Verb kVerbs[] = {
      "[--workers N] [--out DIR] [--scenes DIR] [--lease S]"},
     {"worker", millsim::cli::cmd_worker,
      "one worker: millsim worker [--server URL] [--token T] [--name NAME] [--until-empty]"},
+    {"regress", millsim::cli::cmd_regress,
+     "run a regression suite against its baseline: millsim regress SUITE.json [--local | "
+     "--server URL] [--junit FILE] [--format table|json] [--update-baseline]; past runs: "
+     "millsim regress --history CHECK[/QUANTITY]"},
     {"submit", millsim::cli::cmd_submit, "submit a study: millsim submit STUDY.json [--wait]"},
     {"status", millsim::cli::cmd_status,
      "studies, or one study's progress: millsim status [STUDY] [--watch]"},

@@ -7,6 +7,7 @@
 
 #include "core/errors.h"
 #include "executor.h"
+#include "regression.h"
 #include "results.h"
 #include "sim/run.h"
 
@@ -413,6 +414,80 @@ void ApiServer::routes() {
                 sink.write(buffer.data(), std::size_t(stream->gcount()));
                 return stream->gcount() > 0;
               });
+        }));
+
+  s.Get(R"(/v1/runs/([^/]+)/result)",
+        guard(public_reads, [this, with_run](const Request& req, Response& res) {
+          std::lock_guard<std::mutex> lock(store_mutex_);
+          std::optional<RunRecord> r;
+          if (!with_run(req, res, r)) return;
+          if (r->state != RunState::Complete)
+            return send_error(res, 409, "not_complete",
+                              "run " + r->id + " is " + std::string(run_state_name(r->state)) +
+                                  "; its result exists once it is COMPLETE");
+          send_json(res, 200, ordered_json::parse(r->result));
+        }));
+
+  // The regression history (millsim regress): the client runs the checks as studies through
+  // this server, compares, and records the outcome here.
+  s.Post(
+      "/v1/regressions", guard(true, [this](const Request& req, Response& res) {
+        json record;
+        if (!parse_body(req, res, record)) return;
+        const InputErrors errors = validate_regression_record(record);
+        if (!errors.empty()) {
+          ordered_json details = ordered_json::array();
+          for (const InputError& err : errors)
+            details.push_back({{"path", err.path}, {"value", err.value}, {"allowed", err.allowed}});
+          return send_error(res, 400, "invalid_regression",
+                            concat(errors.size(), " problem(s) in the record; nothing stored"),
+                            details);
+        }
+        std::lock_guard<std::mutex> lock(store_mutex_);
+        const std::string id = store_->add_regression(record, wall_clock_s());
+        send_json(res, 201, {{"id", id}});
+      }));
+
+  s.Get("/v1/regressions", guard(public_reads, [this](const Request& req, Response& res) {
+          int limit = 0, offset = 0;
+          if (!query_int(req, res, "limit", 100, 1, 1000, limit) ||
+              !query_int(req, res, "offset", 0, 0, 1 << 30, offset))
+            return;
+          const std::string suite = req.has_param("suite") ? req.get_param_value("suite") : "";
+          const std::string check = req.has_param("check") ? req.get_param_value("check") : "";
+          std::lock_guard<std::mutex> lock(store_mutex_);
+          ordered_json list = ordered_json::array();
+          for (const RegressionEntry& e : store_->regressions(limit, offset, suite)) {
+            const ordered_json record = ordered_json::parse(e.record);
+            ordered_json item = {{"id", e.id},
+                                 {"suite", e.suite},
+                                 {"created_at", e.created_at},
+                                 {"created", record.value("created", "")},
+                                 {"passed", e.passed},
+                                 {"failures", e.failures},
+                                 {"build", record["build"]}};
+            if (!check.empty()) {  // that check's rows, for its history across nights
+              ordered_json rows = ordered_json::array();
+              for (const ordered_json& row : record["rows"])
+                if (row.value("check", "") == check) rows.push_back(row);
+              item["rows"] = rows;
+            }
+            list.push_back(item);
+          }
+          send_json(res, 200, {{"regressions", list}, {"limit", limit}, {"offset", offset}});
+        }));
+
+  s.Get(R"(/v1/regressions/([^/]+))",
+        guard(public_reads, [this](const Request& req, Response& res) {
+          const std::string id = req.matches[1];
+          std::lock_guard<std::mutex> lock(store_mutex_);
+          std::optional<RegressionEntry> e;
+          if (id.size() == 7 && id[0] == 'g' && all_digits(id.substr(1)))
+            e = store_->regression(id);
+          if (!e) return send_error(res, 404, "not_found", "no regression run \"" + id + "\"");
+          ordered_json record = ordered_json::parse(e->record);
+          record["id"] = e->id;
+          send_json(res, 200, record);
         }));
 
   // Worker protocol: claim, heartbeat, finish (each with the run's fencing token).

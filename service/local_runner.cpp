@@ -18,18 +18,36 @@ struct Active {
 
 void run_study_locally(Store& store, const std::string& study_id, Executor& executor,
                        const LocalRunOptions& options) {
+  run_studies_locally(store, {study_id}, executor, options);
+}
+
+void run_studies_locally(Store& store, const std::vector<std::string>& study_ids,
+                         Executor& executor, const LocalRunOptions& options) {
   const std::string worker = "local-" + std::to_string(getpid());
   std::vector<Active> active;
-  auto report = [&] {
-    if (options.on_progress) options.on_progress(store.progress(study_id));
+  auto total_progress = [&] {
+    Progress sum;
+    for (const std::string& id : study_ids) {
+      const Progress p = store.progress(id);
+      sum.total += p.total;
+      for (int s = 0; s < 7; ++s) sum.by_state[s] += p.by_state[s];
+    }
+    return sum;
   };
+  auto report = [&] {
+    if (options.on_progress) options.on_progress(total_progress());
+  };
+  std::size_t next_study = 0;  // studies before it have no queued run left
   report();
   while (true) {
     double now = wall_clock_s();
     if (store.requeue_expired(now) > 0) report();
-    while (int(active.size()) < options.workers) {
-      std::optional<Claim> claim = store.claim(worker, options.lease_s, now, study_id);
-      if (!claim) break;
+    while (int(active.size()) < options.workers && next_study < study_ids.size()) {
+      std::optional<Claim> claim = store.claim(worker, options.lease_s, now, study_ids[next_study]);
+      if (!claim) {
+        ++next_study;
+        continue;
+      }
       Active a{*claim, {}, now};
       try {
         a.handle = executor.start(claim->run, now);
@@ -62,7 +80,8 @@ void run_study_locally(Store& store, const std::string& study_id, Executor& exec
       }
       ++k;
     }
-    if (active.empty() && store.progress(study_id).finished()) break;
+    if (active.empty() && total_progress().finished()) break;
+    if (next_study == study_ids.size()) next_study = 0;  // expired leases queue runs again
     std::this_thread::sleep_for(std::chrono::duration<double>(options.poll_interval_s));
   }
 }

@@ -6,6 +6,7 @@
 
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "executor.h"
 #include "store.h"
@@ -22,5 +23,10 @@ struct LocalRunOptions {
 // Returns when no run of the study is queued, running or canceling.
 void run_study_locally(Store& store, const std::string& study_id, Executor& executor,
                        const LocalRunOptions& options);
+
+// The same for several studies at once (a regression suite's checks): runs are taken oldest
+// study first; `on_progress` gets the sum over the studies.
+void run_studies_locally(Store& store, const std::vector<std::string>& study_ids,
+                         Executor& executor, const LocalRunOptions& options);
 
 }  // namespace millsim

@@ -56,6 +56,19 @@ CREATE TABLE attempts (
 );
 )";
 
+// Version 2: the regression history (millsim regress), one row per regression run.
+constexpr const char* kSchemaV2 = R"(
+CREATE TABLE regressions (
+  id TEXT PRIMARY KEY,
+  suite TEXT NOT NULL,
+  created_at REAL NOT NULL,
+  passed INTEGER NOT NULL,
+  failures INTEGER NOT NULL,
+  record TEXT NOT NULL
+);
+CREATE INDEX regressions_by_suite ON regressions(suite, created_at);
+)";
+
 constexpr const char* kRunColumns =
     "id, study_id, idx, params, seed, scene, is_reference, state, attempts, max_attempts, "
     "fencing_token, lease_owner, lease_expires_at, created_at, started_at, finished_at, "
@@ -121,7 +134,7 @@ void Store::migrate() {
       throw DbError("the database has schema version " + std::to_string(version) +
                     ", newer than this millsim (" + std::to_string(kSchemaVersion) + ")");
     if (version < 1) db_.exec(kSchemaV1);
-    // Later versions add their steps here: if (version < 2) db_.exec(kSchemaV2); …
+    if (version < 2) db_.exec(kSchemaV2);
     db_.exec(("PRAGMA user_version = " + std::to_string(kSchemaVersion)).c_str());
   });
 }
@@ -322,6 +335,61 @@ std::vector<RunRecord> Store::runs(const std::string& study_id,
   s.bind(3, std::int64_t(limit)).bind(4, std::int64_t(offset));
   while (s.step()) out.push_back(read_run(s));
   return out;
+}
+
+namespace {
+
+RegressionEntry read_regression(const Statement& s) {
+  RegressionEntry e;
+  e.id = s.text(0);
+  e.suite = s.text(1);
+  e.created_at = s.real(2);
+  e.passed = s.integer(3) != 0;
+  e.failures = int(s.integer(4));
+  e.record = s.text(5);
+  return e;
+}
+
+}  // namespace
+
+std::string Store::add_regression(const nlohmann::json& record, double now) {
+  return db_.transaction([&]() -> std::string {
+    Statement count = db_.prepare("SELECT COUNT(*) FROM regressions");
+    count.step();
+    char id[32];
+    std::snprintf(id, sizeof id, "g%06lld", static_cast<long long>(count.integer(0) + 1));
+    int failures = 0;
+    for (const nlohmann::json& row : record["rows"]) {
+      const std::string verdict = row.value("verdict", "");
+      failures += verdict != "pass" && verdict != "skipped";
+    }
+    Statement insert = db_.prepare(
+        "INSERT INTO regressions (id, suite, created_at, passed, failures, record) "
+        "VALUES (?, ?, ?, ?, ?, ?)");
+    insert.bind(1, std::string(id)).bind(2, record["suite"].get<std::string>()).bind(3, now);
+    insert.bind(4, std::int64_t(record["passed"].get<bool>())).bind(5, std::int64_t(failures));
+    insert.bind(6, record.dump());
+    insert.run();
+    return id;
+  });
+}
+
+std::vector<RegressionEntry> Store::regressions(int limit, int offset, const std::string& suite) {
+  Statement s = db_.prepare(
+      "SELECT id, suite, created_at, passed, failures, record FROM regressions "
+      "WHERE (?1 = '' OR suite = ?1) ORDER BY created_at DESC, id DESC LIMIT ?2 OFFSET ?3");
+  s.bind(1, suite).bind(2, std::int64_t(limit)).bind(3, std::int64_t(offset));
+  std::vector<RegressionEntry> out;
+  while (s.step()) out.push_back(read_regression(s));
+  return out;
+}
+
+std::optional<RegressionEntry> Store::regression(const std::string& id) {
+  Statement s = db_.prepare(
+      "SELECT id, suite, created_at, passed, failures, record FROM regressions WHERE id = ?");
+  s.bind(1, id);
+  if (!s.step()) return std::nullopt;
+  return read_regression(s);
 }
 
 Progress Store::progress(const std::string& study_id) {

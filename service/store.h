@@ -20,7 +20,7 @@
 
 namespace millsim {
 
-inline constexpr int kSchemaVersion = 1;
+inline constexpr int kSchemaVersion = 2;
 
 struct RunRecord {
   std::string id;
@@ -53,6 +53,17 @@ struct StudyRecord {
   std::optional<std::string> reference_run;
   bool canceled = false;
   double created_at = 0.0;
+};
+
+// One regression run of the history (millsim regress): its record is the JSON of
+// regression_record() (service/regression.h).
+struct RegressionEntry {
+  std::string id;  // "g" and six digits
+  std::string suite;
+  double created_at = 0.0;
+  bool passed = false;
+  int failures = 0;
+  std::string record;  // JSON text
 };
 
 struct Claim {
@@ -115,6 +126,12 @@ class Store {
   Progress progress(const std::string& study_id);
   // Mean wall time of the study's completed runs (0 when none).
   double mean_wall_time_s(const std::string& study_id);
+  // Appends a regression run to the history (one transaction); returns its id.
+  std::string add_regression(const nlohmann::json& record, double now);
+  // Newest first; only `suite`'s when it is not empty.
+  std::vector<RegressionEntry> regressions(int limit, int offset, const std::string& suite = "");
+  std::optional<RegressionEntry> regression(const std::string& id);
+
   // Changes whenever a run of the study changes state or finishes (for caches).
   std::string change_signature(const std::string& study_id);
 

@@ -102,6 +102,15 @@ bool set_at(json& doc, const std::vector<std::string>& keys, const json& value,
   return true;
 }
 
+std::string describe_point(const json& params) {
+  std::string text;
+  for (const auto& [key, value] : params.items())
+    text += (text.empty() ? "" : ", ") + key + " = " + value.dump();
+  return text;
+}
+
+}  // namespace
+
 // File sources name paths relative to the scene: make them absolute so a run can start anywhere.
 void absolutize_paths(json& scene, const std::filesystem::path& scene_dir) {
   if (!scene.contains("sources") || !scene["sources"].is_array()) return;
@@ -111,13 +120,6 @@ void absolutize_paths(json& scene, const std::filesystem::path& scene_dir) {
       const std::filesystem::path p = s["path"].get<std::string>();
       if (p.is_relative()) s["path"] = (scene_dir / p).lexically_normal().string();
     }
-}
-
-std::string describe_point(const json& params) {
-  std::string text;
-  for (const auto& [key, value] : params.items())
-    text += (text.empty() ? "" : ", ") + key + " = " + value.dump();
-  return text;
 }
 
 json read_json_file(const std::filesystem::path& path, const std::string& what) {
@@ -131,8 +133,6 @@ json read_json_file(const std::filesystem::path& path, const std::string& what) 
     throw InputErrorList({{what, path.string(), std::string("not valid JSON: ") + e.what()}});
   }
 }
-
-}  // namespace
 
 std::vector<std::string> parameter_keys(const std::string& path) {
   std::vector<std::string> keys;

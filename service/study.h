@@ -49,6 +49,13 @@ Study expand_study(const nlohmann::json& spec, const std::filesystem::path& base
 // Reads a study file; throws InputErrorList / IoError.
 Study load_study(const std::filesystem::path& path, int max_runs);
 
+// Makes the paths of a scene's file sources absolute (relative ones are relative to scene_dir),
+// so a run can start in any directory.
+void absolutize_paths(nlohmann::json& scene, const std::filesystem::path& scene_dir);
+
+// Reads a JSON file; throws InputErrorList naming `what` when it is missing or not valid JSON.
+nlohmann::json read_json_file(const std::filesystem::path& path, const std::string& what);
+
 // Splits "dust.threshold_diameter_m" or "/dust/threshold_diameter_m" into keys.
 std::vector<std::string> parameter_keys(const std::string& path);
 

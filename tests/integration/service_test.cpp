@@ -300,5 +300,66 @@ TEST(Service, TwoWorkersRacingOnManyRunsRunEachOnce) {
             std::filesystem::file_size(dir.path() / "runs" / id / (id + "-r7") / "run.h5"));
 }
 
+// `millsim regress --server`: the checks run as studies on the server's workers, the record goes
+// to the server's history, and the history endpoints serve it; a malformed record is refused
+// whole.
+TEST(Service, RegressionRunsThroughTheServerAndItsHistoryIsServed) {
+  test::TempDir dir;
+  ServerProcess server(dir.path(), 2);
+  ASSERT_FALSE(server.url().empty());
+  const json suite = {{"name", "nightly"},
+                      {"checks",
+                       {{{"name", "impact"},
+                         {"scene", MILLSIM_SOURCE_DIR "/cases/impact_two_spheres.json"},
+                         {"set", {{"output.h5", false}}},
+                         {"quantities",
+                          {{{"derived", "kinetic_energy_ratio"},
+                            {"tolerance", {{"relative", 0.01}}},
+                            {"reason", "e squared"}}}}}}}};
+  test::write_file(dir.path() / "nightly.json", suite.dump());
+  const std::string common = " --server " + server.url() + " --token " + kToken;
+  test::CommandResult r =
+      test::run_millsim("regress nightly.json --update-baseline" + common, dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = test::run_millsim("regress nightly.json" + common, dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("nightly: PASSED"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("recorded as g000002"), std::string::npos) << r.out;
+
+  const json list = json::parse(server.get("/v1/regressions")->body);
+  ASSERT_EQ(list["regressions"].size(), 2u);
+  EXPECT_EQ(list["regressions"][0]["id"], "g000002");  // newest first
+  EXPECT_EQ(list["regressions"][0]["passed"], true);
+  EXPECT_EQ(list["regressions"][1]["passed"], false);  // no baseline yet at the first run
+  const json one = json::parse(server.get("/v1/regressions/g000002")->body);
+  ASSERT_EQ(one["rows"].size(), 1u);
+  EXPECT_NEAR(one["rows"][0]["measured"].get<double>(), 0.25, 0.005);
+  const std::string study = one["studies"]["impact"];
+  const json result = json::parse(server.get("/v1/runs/" + study + "-r0/result")->body);
+  EXPECT_EQ(result["scene"], "impact_two_spheres");
+  EXPECT_EQ(server.get("/v1/regressions/g999999")->status, 404);
+  EXPECT_EQ(server.get("/v1/regressions/..%2Fq.db")->status, 404);
+  const json rows = json::parse(server.get("/v1/regressions?check=impact&limit=1")->body);
+  ASSERT_EQ(rows["regressions"].size(), 1u);
+  EXPECT_EQ(rows["regressions"][0]["rows"][0]["quantity"], "kinetic_energy_ratio");
+
+  json bad = one;
+  bad["rows"][0]["verdict"] = "fine";
+  bad["rows"][0]["measured"] = "0.25";
+  auto res = server.post("/v1/regressions", bad.dump());
+  ASSERT_EQ(res->status, 400) << res->body;
+  EXPECT_EQ(json::parse(res->body)["error"]["details"].size(), 2u) << res->body;
+  EXPECT_EQ(server.post("/v1/regressions", one.dump(), false)->status, 401);
+  EXPECT_EQ(json::parse(server.get("/v1/regressions")->body)["regressions"].size(), 2u);
+
+  r = test::run_millsim("regress --history impact/kinetic_energy_ratio --format json" + common,
+                        dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json history = json::parse(r.out);
+  ASSERT_EQ(history.size(), 2u);
+  EXPECT_EQ(history[0]["verdict"], "no_baseline");
+  EXPECT_EQ(history[1]["verdict"], "pass");
+}
+
 }  // namespace
 }  // namespace millsim

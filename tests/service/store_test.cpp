@@ -46,6 +46,41 @@ TEST(Store, SchemaIsVersionedAndSubmissionIsIdempotent) {
   EXPECT_EQ(again.progress(a.study_id).count(RunState::Queued), 3);
 }
 
+// A version-1 file (before the regression history) opens, keeps its studies and gains the
+// history table; records are listed newest first and by suite.
+TEST(Store, VersionOneFilesMigrateAndKeepTheRegressionHistory) {
+  test::TempDir dir;
+  const std::filesystem::path db = dir.path() / "q.db";
+  std::string study_id;
+  {
+    Store store(db);
+    study_id = store.submit(trivial_study(2), std::nullopt, dir.path(), 1.0).study_id;
+  }
+  {
+    Database raw(db);
+    raw.exec("DROP TABLE regressions; PRAGMA user_version = 1;");
+  }
+  Store store(db);
+  EXPECT_EQ(store.schema_version(), 2);
+  EXPECT_EQ(store.progress(study_id).total, 2);
+  auto record = [](const char* suite, bool passed) {
+    return nlohmann::json{
+        {"suite", suite}, {"passed", passed}, {"rows", {{{"verdict", passed ? "pass" : "drift"}}}}};
+  };
+  EXPECT_EQ(store.add_regression(record("physics", true), 10.0), "g000001");
+  EXPECT_EQ(store.add_regression(record("physics", false), 20.0), "g000002");
+  EXPECT_EQ(store.add_regression(record("other", true), 30.0), "g000003");
+  const std::vector<RegressionEntry> physics = store.regressions(10, 0, "physics");
+  ASSERT_EQ(physics.size(), 2u);
+  EXPECT_EQ(physics[0].id, "g000002");
+  EXPECT_EQ(physics[0].failures, 1);
+  EXPECT_FALSE(physics[0].passed);
+  EXPECT_EQ(store.regressions(10, 0).size(), 3u);
+  EXPECT_EQ(store.regressions(1, 1)[0].id, "g000002");
+  EXPECT_TRUE(store.regression("g000001"));
+  EXPECT_FALSE(store.regression("g000009"));
+}
+
 TEST(Store, ConcurrentClaimersNeverGetTheSameRun) {
   test::TempDir dir;
   const std::filesystem::path db = dir.path() / "q.db";

@@ -1,0 +1,121 @@
+// Regression suites (docs/regression.md): a list of checks, each a scene (or a study) run through
+// the same queue and workers as studies, and the quantities to compare after it ran — picked by
+// JSON pointer or by a named derived quantity, each with a tolerance (absolute, relative or
+// exact) and a reason. This module owns the suite format, the baseline file, the comparison
+// into a drift table, and the record kept in the history (its JSON, text and JUnit forms).
+// Running the checks is the caller's (cli/cmd_regress.cpp): locally or through a server.
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "study.h"
+
+namespace millsim {
+
+struct Tolerance {
+  enum class Kind { Absolute, Relative, Exact };
+  Kind kind = Kind::Relative;
+  double value = 0.0;
+  std::string text() const;  // "abs 0.001", "rel 0.02", "exact"
+};
+
+// Derived quantities a check may name instead of a pointer (on a scene's result.json).
+const std::vector<std::string>& derived_quantity_names();
+
+struct RegressionQuantity {
+  std::string name;     // its key in the baseline and the table: the derived name or the pointer
+  std::string pointer;  // a JSON pointer into the check's document, or ""
+  std::string derived;  // one of derived_quantity_names(), or ""
+  Tolerance tolerance;
+  std::string reason;
+  std::optional<double> expect;  // a fixed value (analytic, published) compared instead
+};
+
+struct RegressionCheck {
+  std::string name;
+  bool is_study = false;  // quantities come from the study's results table, else from result.json
+  Study study;            // expanded and validated
+  nlohmann::json submit_spec;  // the same study with its scene inline (for a server)
+  std::vector<RegressionQuantity> quantities;
+};
+
+struct RegressionSuite {
+  std::string name;
+  std::string description;
+  std::filesystem::path baseline_path;
+  std::vector<RegressionCheck> checks;
+};
+
+// Parses and validates a suite; every problem at once (InputErrorList), paths like
+// /checks/2/quantities/0/tolerance. Scene and study paths resolve against `dir`.
+RegressionSuite parse_regression_suite(const nlohmann::json& spec, const std::filesystem::path& dir,
+                                       int max_runs_per_check);
+RegressionSuite load_regression_suite(const std::filesystem::path& path, int max_runs_per_check);
+
+// What one check produced: the document its quantities are read from, or why there is none.
+struct CheckOutcome {
+  bool ok = false;
+  std::string failure;      // e.g. "run s000004-r0 ended EXECUTOR_ERROR (exit 3): …"
+  nlohmann::json document;  // the run's result.json, or the study's results table
+};
+
+// The quantity's value in `document`; nullopt with `problem` set when it is absent or not a
+// number.
+std::optional<double> measure_quantity(const nlohmann::json& document, const RegressionQuantity& q,
+                                       std::string& problem);
+
+struct RegressionRow {
+  std::string check;
+  std::string quantity;
+  std::optional<double> reference;  // the baseline's value, or the expected one
+  std::string reference_kind;       // "baseline" or "expected"
+  std::optional<double> measured;
+  std::string tolerance;
+  std::string verdict;  // pass, drift, failed, missing, no_baseline, skipped
+  std::string message;  // why, for anything but pass
+  std::string reason;
+};
+
+bool row_fails(const RegressionRow& row);  // anything but pass and skipped
+
+// Compares every quantity of every check. `outcomes` is keyed by check name; `baseline` is the
+// baseline document (or null); an `exact` tolerance is compared only when the baseline comes
+// from the same build (build_fingerprint), and is skipped otherwise.
+std::vector<RegressionRow> compare_with_baseline(
+    const RegressionSuite& suite, const std::map<std::string, CheckOutcome>& outcomes,
+    const nlohmann::json& baseline, const nlohmann::json& build);
+
+// The record of one regression run, as stored in the history and served by the API:
+// {suite, created_at, build, passed, counts {checks, quantities, failures, skipped},
+//  baseline {path, git_commit, created}, baseline_update, rows [...], runs {check: study}}.
+nlohmann::ordered_json regression_record(const RegressionSuite& suite,
+                                         const std::vector<RegressionRow>& rows,
+                                         const nlohmann::json& baseline,
+                                         const nlohmann::json& build, double now,
+                                         bool baseline_update,
+                                         const std::map<std::string, std::string>& studies);
+
+// Problems with a record sent to POST /v1/regressions (empty when it is well formed).
+InputErrors validate_regression_record(const nlohmann::json& record);
+
+// The drift table (check, quantity, reference, measured, tolerance, verdict) and a summary.
+std::string drift_table_text(const nlohmann::json& record);
+// JUnit XML: one testsuite, one testcase per quantity; failures carry the message.
+std::string junit_xml(const nlohmann::json& record);
+
+// A new baseline from what the checks measured (only complete checks); `date` ISO 8601.
+nlohmann::ordered_json make_baseline(const RegressionSuite& suite,
+                                     const std::map<std::string, CheckOutcome>& outcomes,
+                                     const nlohmann::json& build, const std::string& date);
+// What changed between two baselines, one line per quantity ("" when nothing did).
+std::string baseline_changes(const nlohmann::json& before, const nlohmann::json& after);
+
+// ISO 8601 UTC of a Unix time ("2026-11-24T10:31:05Z").
+std::string iso_utc(double unix_s);
+
+}  // namespace millsim
