@@ -56,6 +56,8 @@ pid_t start_worker(const std::string& self, const std::string& url, const std::s
 int cmd_serve(const std::vector<std::string>& args) {
   ServerConfig config;
   config.workers = int(std::max(1u, std::thread::hardware_concurrency()));
+  // The token from the environment keeps it out of `ps` (systemd: EnvironmentFile=).
+  if (const char* t = std::getenv("MILLSIM_TOKEN")) config.token = t;
   ArgReader r("serve", args);
   while (r.next()) {
     if (r.option("--host", config.host) || r.option("--token", config.token)) continue;
@@ -87,7 +89,8 @@ int cmd_serve(const std::vector<std::string>& args) {
         "--lease S, --max-body BYTES, --max-runs N");
   }
   if (!r.ok()) return kBadInput;
-  if (config.token.empty()) config.token = random_token();
+  const bool token_generated = config.token.empty();
+  if (token_generated) config.token = random_token();
 
   // SIGINT/SIGTERM are taken by sigwait below, in this thread only.
   sigset_t stop_signals;
@@ -100,8 +103,10 @@ int cmd_serve(const std::vector<std::string>& args) {
     std::unique_ptr<ApiServer> server = std::make_unique<ApiServer>(config);
     server->bind();
     const std::string url = "http://" + config.host + ":" + std::to_string(server->bound_port());
+    // A token the operator gave is theirs already; only a generated one is printed.
     std::printf("millsim serve: listening on %s (database %s, %d workers)\ntoken: %s\n",
-                url.c_str(), config.db.c_str(), config.workers, config.token.c_str());
+                url.c_str(), config.db.c_str(), config.workers,
+                token_generated ? config.token.c_str() : "(given)");
     std::fflush(stdout);
     std::thread http([&] { server->serve(); });
 
