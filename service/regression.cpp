@@ -141,6 +141,16 @@ json inline_scene(json spec, const std::filesystem::path& dir) {
   return spec;
 }
 
+// "commit eec31aa01f11, GNU 12.2.0, host vm".
+std::string build_summary(const json& build) {
+  if (!build.is_object()) return "an unknown build";
+  std::string host = "?";
+  if (build.contains("machine") && build["machine"].is_object())
+    host = build["machine"].value("host", "?");
+  return "commit " + build.value("git_commit", "?") + ", " + build.value("compiler", "?") +
+         ", host " + host;
+}
+
 std::string number_text(const std::optional<double>& v) {
   if (!v) return "-";
   char text[40];
