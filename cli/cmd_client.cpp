@@ -19,6 +19,7 @@
 
 #include "cli_args.h"
 #include "commands.h"
+#include "help.h"
 #include "results.h"
 
 namespace millsim::cli {
@@ -64,10 +65,20 @@ bool read_client_args(const char* verb, const std::vector<std::string>& args, Cl
   return r.ok();
 }
 
-// One request; prints the server's error and returns nullopt when it is not 2xx.
-std::optional<json> request(const char* verb, const ClientArgs& a, const std::string& method,
-                            const std::string& path, const std::string& body = "",
-                            httplib::Headers headers = {}) {
+// One request's outcome: the reply's JSON when 2xx, else the exit code of the failure (4 for a
+// server that cannot be reached, 2 for a 4xx: the request was wrong, 1 for a 5xx).
+struct Reply {
+  std::optional<json> body;
+  int exit_code = kOk;
+  explicit operator bool() const { return body.has_value(); }
+  const json& operator*() const { return *body; }
+  const json* operator->() const { return &*body; }
+};
+
+// One request; prints the server's error when it is not 2xx.
+Reply request(const char* verb, const ClientArgs& a, const std::string& method,
+              const std::string& path, const std::string& body = "",
+              httplib::Headers headers = {}) {
   httplib::Client client(a.server);
   client.set_connection_timeout(5);
   client.set_tcp_nodelay(true);
@@ -77,7 +88,7 @@ std::optional<json> request(const char* verb, const ClientArgs& a, const std::st
   if (!res) {
     std::fprintf(stderr, "millsim %s: cannot reach the server at %s (%s)\n", verb, a.server.c_str(),
                  httplib::to_string(res.error()).c_str());
-    return std::nullopt;
+    return {std::nullopt, kEnvironment};
   }
   const json parsed = json::parse(res->body, nullptr, false);
   if (res->status >= 300) {
@@ -88,13 +99,9 @@ std::optional<json> request(const char* verb, const ClientArgs& a, const std::st
       for (const json& d : parsed["error"]["details"])
         std::fprintf(stderr, "  %s = %s: %s\n", d.value("path", "").c_str(),
                      d.value("value", "").c_str(), d.value("allowed", "").c_str());
-    return std::nullopt;
+    return {std::nullopt, res->status >= 500 ? kUnexpected : kBadInput};
   }
-  return parsed;
-}
-
-int exit_for(const std::optional<json>& j) {
-  return j ? kOk : kEnvironment;
+  return {parsed, kOk};
 }
 
 void print_results(const ordered_json& table, const std::string& format) {
@@ -124,10 +131,10 @@ void print_progress_line(const json& study) {
 }
 
 // Polls the study until it is finished; a progress bar on a terminal.
-std::optional<json> wait_for(const char* verb, const ClientArgs& a, const std::string& id) {
+Reply wait_for(const char* verb, const ClientArgs& a, const std::string& id) {
   while (true) {
-    std::optional<json> study = request(verb, a, "GET", "/v1/studies/" + id);
-    if (!study) return std::nullopt;
+    Reply study = request(verb, a, "GET", "/v1/studies/" + id);
+    if (!study) return study;
     if (isatty(STDERR_FILENO)) print_progress_line(*study);
     if ((*study)["progress"]["finished"].get<bool>()) {
       if (isatty(STDERR_FILENO)) std::fprintf(stderr, "\n");
@@ -137,15 +144,98 @@ std::optional<json> wait_for(const char* verb, const ClientArgs& a, const std::s
   }
 }
 
+int failed_runs(const json& study) {
+  const json& c = study["progress"]["counts"];
+  return c["EXECUTOR_ERROR"].get<int>() + c["SYSTEM_ERROR"].get<int>();
+}
+
+std::string csv_field(const std::string& text) {
+  if (text.find_first_of(",\"\n") == std::string::npos) return text;
+  std::string out = "\"";
+  for (const char c : text) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return out + "\"";
+}
+
+// The study list as a table or CSV (JSON is printed as it came).
+void print_study_list(const json& list, const std::string& format) {
+  static const char* kStates[] = {"COMPLETE",       "RUNNING",      "QUEUED",
+                                  "EXECUTOR_ERROR", "SYSTEM_ERROR", "CANCELED"};
+  if (format == "csv") {
+    std::printf(
+        "study,name,runs,complete,running,queued,executor_error,system_error,canceled,"
+        "study_canceled\n");
+    for (const json& s : list["studies"]) {
+      std::printf("%s,%s,%d", s["id"].get<std::string>().c_str(),
+                  csv_field(s["name"].get<std::string>()).c_str(),
+                  s["progress"]["total"].get<int>());
+      for (const char* state : kStates)
+        std::printf(",%d", s["progress"]["counts"][state].get<int>());
+      std::printf(",%s\n", s["canceled"].get<bool>() ? "true" : "false");
+    }
+    return;
+  }
+  std::printf("%-8s %-32s %5s %9s %8s %7s %7s\n", "study", "name", "runs", "complete", "running",
+              "queued", "failed");
+  for (const json& s : list["studies"]) {
+    const json& c = s["progress"]["counts"];
+    std::printf("%-8s %-32s %5d %9d %8d %7d %7d%s\n", s["id"].get<std::string>().c_str(),
+                s["name"].get<std::string>().substr(0, 32).c_str(),
+                s["progress"]["total"].get<int>(), c["COMPLETE"].get<int>(),
+                c["RUNNING"].get<int>(), c["QUEUED"].get<int>(), failed_runs(s),
+                s["canceled"].get<bool>() ? "  (canceled)" : "");
+  }
+}
+
+// One study's progress and runs as a table or CSV.
+void print_study(const json& study, const json& runs, const std::string& format) {
+  if (format == "csv") {
+    std::printf("run,state,attempts,wall_time_s,params,error\n");
+    for (const json& r : runs["runs"])
+      std::printf("%s,%s,%d,%.6g,%s,%s\n", r["id"].get<std::string>().c_str(),
+                  r["state"].get<std::string>().c_str(), r["attempts"].get<int>(),
+                  r["wall_time_s"].get<double>(), csv_field(r["params"].dump()).c_str(),
+                  csv_field(r["error"].get<std::string>().substr(
+                                0, r["error"].get<std::string>().find('\n')))
+                      .c_str());
+    return;
+  }
+  const json& p = study["progress"];
+  std::printf("study %s  %s%s\n", study["id"].get<std::string>().c_str(),
+              study["name"].get<std::string>().c_str(),
+              study["canceled"].get<bool>() ? "  (canceled)" : "");
+  std::printf("runs %d:", p["total"].get<int>());
+  for (const auto& [state, count] : p["counts"].items())
+    if (count.get<int>() > 0) std::printf("  %s %d", state.c_str(), count.get<int>());
+  std::printf("%s\n", p["finished"].get<bool>() ? "  (finished)" : "");
+  if (p["eta_s"].is_number() && !p["finished"].get<bool>())
+    std::printf("ETA %.0f s\n", p["eta_s"].get<double>());
+  std::printf("\n%-18s %-15s %8s %10s  %s\n", "run", "state", "attempts", "wall s", "params");
+  for (const json& r : runs["runs"]) {
+    std::printf("%-18s %-15s %8d %10.1f  %s\n", r["id"].get<std::string>().c_str(),
+                r["state"].get<std::string>().c_str(), r["attempts"].get<int>(),
+                r["wall_time_s"].get<double>(), r["params"].dump().c_str());
+    const std::string error = r["error"].get<std::string>();
+    if (!error.empty() && r["state"] != "COMPLETE")
+      std::printf("%18s %s\n", "", error.substr(0, error.find('\n')).c_str());
+  }
+  if (runs["runs"].size() < std::size_t(p["total"].get<int>()))
+    std::printf("(the first %zu runs; millsim results %s for all)\n", runs["runs"].size(),
+                study["id"].get<std::string>().c_str());
+}
+
+// A missing argument: the verb's usage, exit 2.
+int missing(const char* verb, const char* what) {
+  std::fprintf(stderr, "millsim %s: missing %s\n", verb, what);
+  print_verb_usage(verb, stderr);
+  return kBadInput;
+}
+
 }  // namespace
 
 int cmd_submit(const std::vector<std::string>& args) {
   ClientArgs a;
   if (!read_client_args("submit", args, a)) return kBadInput;
-  if (a.target.empty()) {
-    std::fprintf(stderr, "usage: millsim submit STUDY.json [--wait] [--server URL] [--token T]\n");
-    return kBadInput;
-  }
+  if (a.target.empty()) return missing("submit", "the study file");
   std::ifstream in(a.target);
   if (!in) {
     std::fprintf(stderr, "millsim submit: cannot read %s\n", a.target.c_str());
@@ -174,68 +264,74 @@ int cmd_submit(const std::vector<std::string>& args) {
   }
   httplib::Headers headers;
   if (!a.idempotency_key.empty()) headers.emplace("Idempotency-Key", a.idempotency_key);
-  std::optional<json> reply = request("submit", a, "POST", "/v1/studies", spec.dump(), headers);
-  if (!reply) return kBadInput;
+  Reply reply = request("submit", a, "POST", "/v1/studies", spec.dump(), headers);
+  if (!reply) return reply.exit_code;
   const std::string id = (*reply)["study"].get<std::string>();
   std::printf("%s\n", id.c_str());
   std::fprintf(stderr, "millsim submit: study %s, %d runs%s\n", id.c_str(),
                (*reply)["runs"].get<int>(), (*reply)["created"].get<bool>() ? "" : " (existing)");
   if (!a.wait) return kOk;
-  if (!wait_for("submit", a, id)) return kEnvironment;
-  std::optional<json> table = request("submit", a, "GET", "/v1/studies/" + id + "/results");
-  if (!table) return kEnvironment;
+  Reply study = wait_for("submit", a, id);
+  if (!study) return study.exit_code;
+  Reply table = request("submit", a, "GET", "/v1/studies/" + id + "/results");
+  if (!table) return table.exit_code;
   print_results(ordered_json(*table), a.format);
-  return kOk;
+  return failed_runs(*study) > 0 ? kUnexpected : kOk;
 }
 
 int cmd_status(const std::vector<std::string>& args) {
   ClientArgs a;
   if (!read_client_args("status", args, a)) return kBadInput;
   if (a.target.empty()) {
-    std::optional<json> list = request("status", a, "GET", "/v1/studies");
-    if (!list) return kEnvironment;
-    for (const json& s : (*list)["studies"]) {
-      const json& c = s["progress"]["counts"];
-      std::printf("%s  %-28s %3d runs  complete %d  running %d  queued %d  failed %d%s\n",
-                  s["id"].get<std::string>().c_str(), s["name"].get<std::string>().c_str(),
-                  s["progress"]["total"].get<int>(), c["COMPLETE"].get<int>(),
-                  c["RUNNING"].get<int>(), c["QUEUED"].get<int>(),
-                  c["EXECUTOR_ERROR"].get<int>() + c["SYSTEM_ERROR"].get<int>(),
-                  s["canceled"].get<bool>() ? "  (canceled)" : "");
-    }
+    Reply list = request("status", a, "GET", "/v1/studies");
+    if (!list) return list.exit_code;
+    if (a.format == "json")
+      std::cout << list->dump(2) << std::endl;
+    else
+      print_study_list(*list, a.format);
     return kOk;
   }
-  std::optional<json> study = a.watch ? wait_for("status", a, a.target)
-                                      : request("status", a, "GET", "/v1/studies/" + a.target);
-  if (!study) return kEnvironment;
-  std::cout << study->dump(2) << std::endl;
+  Reply study = a.watch ? wait_for("status", a, a.target)
+                        : request("status", a, "GET", "/v1/studies/" + a.target);
+  if (!study) return study.exit_code;
+  if (a.format == "json") {
+    std::cout << study->dump(2) << std::endl;
+    return kOk;
+  }
+  Reply runs = request("status", a, "GET", "/v1/studies/" + a.target + "/runs?limit=1000");
+  if (!runs) return runs.exit_code;
+  print_study(*study, *runs, a.format);
   return kOk;
 }
 
 int cmd_results(const std::vector<std::string>& args) {
   ClientArgs a;
-  if (!read_client_args("results", args, a) || a.target.empty()) return kBadInput;
-  std::optional<json> table = request("results", a, "GET", "/v1/studies/" + a.target + "/results");
-  if (!table) return kEnvironment;
+  if (!read_client_args("results", args, a)) return kBadInput;
+  if (a.target.empty()) return missing("results", "the study id");
+  Reply table = request("results", a, "GET", "/v1/studies/" + a.target + "/results");
+  if (!table) return table.exit_code;
   print_results(ordered_json(*table), a.format);
   return kOk;
 }
 
 int cmd_psd(const std::vector<std::string>& args) {
   ClientArgs a;
-  if (!read_client_args("psd", args, a) || a.target.empty()) return kBadInput;
-  std::optional<json> psd = request("psd", a, "GET", "/v1/runs/" + a.target + "/psd");
-  if (psd) std::cout << psd->dump(2) << std::endl;
-  return exit_for(psd);
+  if (!read_client_args("psd", args, a)) return kBadInput;
+  if (a.target.empty()) return missing("psd", "the run id");
+  Reply psd = request("psd", a, "GET", "/v1/runs/" + a.target + "/psd");
+  if (!psd) return psd.exit_code;
+  std::cout << psd->dump(2) << std::endl;
+  return kOk;
 }
 
 int cmd_cancel(const std::vector<std::string>& args) {
   ClientArgs a;
-  if (!read_client_args("cancel", args, a) || a.target.empty()) return kBadInput;
-  std::optional<json> reply =
-      request("cancel", a, "POST", "/v1/studies/" + a.target + "/cancel", "{}");
-  if (reply) std::printf("%s canceled\n", a.target.c_str());
-  return exit_for(reply);
+  if (!read_client_args("cancel", args, a)) return kBadInput;
+  if (a.target.empty()) return missing("cancel", "the study id");
+  Reply reply = request("cancel", a, "POST", "/v1/studies/" + a.target + "/cancel", "{}");
+  if (!reply) return reply.exit_code;
+  std::printf("%s canceled\n", a.target.c_str());
+  return kOk;
 }
 
 }  // namespace millsim::cli

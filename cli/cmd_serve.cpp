@@ -44,8 +44,9 @@ pid_t start_worker(const std::string& self, const std::string& url, const std::s
     sigemptyset(&none);
     sigprocmask(SIG_SETMASK, &none, nullptr);
     const std::string name = "local-" + std::to_string(index);
-    execl(self.c_str(), "millsim", "worker", "--server", url.c_str(), "--token", token.c_str(),
-          "--name", name.c_str(), static_cast<char*>(nullptr));
+    setenv("MILLSIM_TOKEN", token.c_str(), 1);  // in the environment, not in argv (ps)
+    execl(self.c_str(), "millsim", "worker", "--server", url.c_str(), "--name", name.c_str(),
+          static_cast<char*>(nullptr));
     _exit(4);
   }
   return pid;

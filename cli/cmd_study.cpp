@@ -6,7 +6,7 @@
 // and prints the results table with each run's error against the reference run and its run time;
 // writes DIR/<study>/results.json, results.csv and error_vs_time.svg. --resume finishes a study
 // a previous runner left (runs it had leased are taken again when their lease expires).
-// Exit 0 when every run completed, 3 when some failed, 2 bad input, 4 database or disk error.
+// Exit 0 when every run completed, 1 when some failed, 2 bad input, 4 database or disk error.
 #include <unistd.h>
 
 #include <cstdio>
@@ -169,7 +169,7 @@ int cmd_study(const std::vector<std::string>& args) {
       std::cout << results_text(table) << "results: "
                 << (std::filesystem::path(a.out) / study_id / "results.json").string() << "\n";
     const Progress p = store.progress(study_id);
-    return p.count(RunState::Complete) == p.total ? kOk : kUnstable;
+    return p.count(RunState::Complete) == p.total ? kOk : kUnexpected;
   } catch (const DbError& e) {
     std::fprintf(stderr, "millsim study: %s\n", e.what());
     return kEnvironment;

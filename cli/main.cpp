@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "commands.h"
+#include "help.h"
 #include "sim/run.h"
 
 namespace {
@@ -12,49 +13,45 @@ namespace {
 struct Verb {
   const char* name;
   int (*run)(const std::vector<std::string>&);
-  const char* summary;
 };
 
 constexpr Verb kVerbs[] = {
-    {"run", millsim::cli::cmd_run, "run one scene: millsim run SCENE.json [--out DIR] [--quiet]"},
-    {"study", millsim::cli::cmd_study,
-     "run a parameter study on this machine: millsim study STUDY.json --local [--db FILE] "
-     "[--out DIR] [--workers N] [--format table|json|csv] [--resume STUDY_ID]"},
-    {"serve", millsim::cli::cmd_serve,
-     "the batch service: millsim serve [--host H] [--port P] [--db FILE] [--token T] "
-     "[--workers N] [--out DIR] [--scenes DIR] [--lease S]"},
-    {"worker", millsim::cli::cmd_worker,
-     "one worker: millsim worker [--server URL] [--token T] [--name NAME] [--until-empty]"},
-    {"regress", millsim::cli::cmd_regress,
-     "run a regression suite against its baseline: millsim regress SUITE.json [--local | "
-     "--server URL] [--junit FILE] [--format table|json] [--update-baseline]; past runs: "
-     "millsim regress --history CHECK[/QUANTITY]"},
-    {"submit", millsim::cli::cmd_submit, "submit a study: millsim submit STUDY.json [--wait]"},
-    {"status", millsim::cli::cmd_status,
-     "studies, or one study's progress: millsim status [STUDY] [--watch]"},
-    {"results", millsim::cli::cmd_results,
-     "a study's results table: millsim results STUDY [--format table|json|csv]"},
-    {"psd", millsim::cli::cmd_psd, "a run's outlet PSD as JSON: millsim psd RUN"},
-    {"cancel", millsim::cli::cmd_cancel, "cancel a study: millsim cancel STUDY"},
+    {"run", millsim::cli::cmd_run},         {"study", millsim::cli::cmd_study},
+    {"regress", millsim::cli::cmd_regress}, {"serve", millsim::cli::cmd_serve},
+    {"worker", millsim::cli::cmd_worker},   {"submit", millsim::cli::cmd_submit},
+    {"status", millsim::cli::cmd_status},   {"results", millsim::cli::cmd_results},
+    {"psd", millsim::cli::cmd_psd},         {"cancel", millsim::cli::cmd_cancel},
 };
 
-void usage(std::FILE* to) {
-  std::fprintf(to, "millsim %s: CFD-DEM for wide particle size distributions\n\nusage:\n",
-               millsim::kMillsimVersion);
-  for (const Verb& v : kVerbs) std::fprintf(to, "  %-8s %s\n", v.name, v.summary);
-  std::fprintf(to, "  %-8s %s\n", "version", "print the version");
+// millsim help [VERB | --man]
+int help(const std::vector<std::string>& args) {
+  if (args.empty()) {
+    millsim::cli::print_overview(stdout);
+    return 0;
+  }
+  if (args[0] == "--man") {
+    std::fputs(millsim::cli::man_page().c_str(), stdout);
+    return 0;
+  }
+  if (const millsim::cli::VerbHelp* v = millsim::cli::find_verb_help(args[0])) {
+    millsim::cli::print_verb_help(*v, stdout);
+    return 0;
+  }
+  std::fprintf(stderr, "millsim help: no verb \"%s\"\n", args[0].c_str());
+  millsim::cli::print_overview(stderr);
+  return millsim::cli::kBadInput;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    usage(stderr);
+    millsim::cli::print_overview(stderr);
     return millsim::cli::kBadInput;
   }
   const std::string verb = argv[1];
-  if (verb == "-h" || verb == "--help" || verb == "help") {
-    usage(stdout);
+  if (verb == "-h" || verb == "--help") {
+    millsim::cli::print_overview(stdout);
     return 0;
   }
   if (verb == "version" || verb == "--version") {
@@ -62,8 +59,14 @@ int main(int argc, char** argv) {
     return 0;
   }
   const std::vector<std::string> args(argv + 2, argv + argc);
+  if (verb == "help") return help(args);
   for (const Verb& v : kVerbs) {
     if (verb != v.name) continue;
+    for (const std::string& a : args)
+      if (a == "--help" || a == "-h") {
+        millsim::cli::print_verb_help(*millsim::cli::find_verb_help(v.name), stdout);
+        return 0;
+      }
     try {
       return v.run(args);
     } catch (const std::exception& e) {
@@ -71,7 +74,7 @@ int main(int argc, char** argv) {
       return millsim::cli::kUnexpected;
     }
   }
-  std::fprintf(stderr, "millsim: unknown command \"%s\"\n", verb.c_str());
-  usage(stderr);
+  std::fprintf(stderr, "millsim: unknown command \"%s\"\n\n", verb.c_str());
+  millsim::cli::print_overview(stderr);
   return millsim::cli::kBadInput;
 }

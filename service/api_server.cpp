@@ -2,7 +2,16 @@
 
 #include <httplib.h>
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstring>
 #include <fstream>
+#include <regex>
 #include <string_view>
 
 #include "core/errors.h"
@@ -12,12 +21,54 @@
 #include "sim/run.h"
 
 namespace millsim {
+
+extern const char* const kOpenApiYaml;  // docs/openapi.yaml (generated openapi_yaml.cpp)
+
 namespace {
 
 using httplib::Request;
 using httplib::Response;
 using nlohmann::json;
 using nlohmann::ordered_json;
+
+thread_local std::chrono::steady_clock::time_point request_started_at;
+
+// A request path for the log: control characters and non-ASCII bytes as %XX, at most 200.
+std::string printable(const std::string& path) {
+  std::string out;
+  for (const unsigned char c : path.substr(0, 200)) {
+    if (c < 0x21 || c > 0x7e) {
+      char hex[4];
+      std::snprintf(hex, sizeof hex, "%%%02X", c);
+      out += hex;
+    } else {
+      out += char(c);
+    }
+  }
+  return path.size() > 200 ? out + "..." : out;
+}
+
+// Holds <db>.lock exclusively (flock) for the server's life; a second server on the same
+// database is refused with the first one's pid.
+int lock_database(const std::filesystem::path& db) {
+  const std::string path = db.string() + ".lock";
+  const int fd = open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0) throw IoError("cannot open " + path + ": " + std::strerror(errno));
+  if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+    char pid[32] = "";
+    const ssize_t n = pread(fd, pid, sizeof pid - 1, 0);
+    pid[n > 0 ? n : 0] = '\0';
+    close(fd);
+    throw IoError(concat("another millsim serve uses ", db.string(), " (pid ",
+                         *pid ? std::string(pid) : "unknown", ", lock ", path,
+                         "); stop it or give another --db"));
+  }
+  const std::string text = std::to_string(getpid());
+  if (ftruncate(fd, 0) != 0 || pwrite(fd, text.data(), text.size(), 0) < 0) {
+    // The lock holds without the pid in it.
+  }
+  return fd;
+}
 
 bool all_digits(std::string_view s) {
   return !s.empty() && s.find_first_not_of("0123456789") == std::string_view::npos;
@@ -135,13 +186,38 @@ bool is_loopback_host(const std::string& host) {
 
 ApiServer::ApiServer(ServerConfig config)
     : config_(std::move(config)), http_(std::make_unique<httplib::Server>()) {
+  lock_fd_ = lock_database(config_.db);
   store_ = std::make_unique<Store>(config_.db);
+  // SO_REUSEADDR only: httplib's default adds SO_REUSEPORT, with which a second server on the
+  // same port would start silently and take half the traffic.
+  http_->set_socket_options([](int sock) {
+    int yes = 1;
+    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+  });
+  if (config_.request_log) {
+    http_->set_pre_routing_handler([](const Request&, Response&) {
+      request_started_at = std::chrono::steady_clock::now();
+      return httplib::Server::HandlerResponse::Unhandled;
+    });
+    http_->set_logger([](const Request& req, const Response& res) {
+      const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() -
+                                                                  request_started_at)
+                            .count();
+      // One write per line, so lines of concurrent requests never interleave.
+      char millis[32];
+      std::snprintf(millis, sizeof millis, "%.3f", ms);
+      const std::string line = concat(iso_utc(wall_clock_s()), " ", req.method, " ",
+                                      printable(req.path), " ", res.status, " ", millis, " ms\n");
+      std::fputs(line.c_str(), stderr);
+    });
+  }
   routes();
 }
 
 ApiServer::~ApiServer() {
   stop();
   if (reaper_.joinable()) reaper_.join();
+  if (lock_fd_ >= 0) close(lock_fd_);
 }
 
 void ApiServer::bind() {
@@ -363,6 +439,10 @@ void ApiServer::routes() {
            std::lock_guard<std::mutex> lock(store_mutex_);
            std::optional<StudyRecord> st;
            if (!with_study(req, res, st)) return;
+           if (store_->progress(st->id).finished())
+             return send_error(
+                 res, 409, "finished",
+                 "study " + st->id + " has finished (no run queued or running): nothing to cancel");
            store_->cancel_study(st->id, wall_clock_s());
            send_json(res, 200, {{"study", st->id}, {"canceled", true}});
          }));
@@ -551,6 +631,41 @@ void ApiServer::routes() {
            }
            send_json(res, 200, {{"recorded", true}});
          }));
+
+  s.Get("/v1/openapi.yaml", guard(public_reads, [](const Request&, Response& res) {
+          res.set_content(kOpenApiYaml, "application/yaml");
+        }));
+
+  // A known path with a method it does not take: 405 with Allow. Registered last, so every real
+  // route matched first; anything else is a 404.
+  struct Route {
+    std::regex path;
+    const char* allow;
+  };
+  static const std::vector<Route> known = {
+      {std::regex("/v1/(health|info|openapi\\.yaml)"), "GET"},
+      {std::regex("/v1/studies"), "GET, POST"},
+      {std::regex("/v1/studies/[^/]+(/runs|/results|/plot/error-vs-time)?"), "GET"},
+      {std::regex("/v1/studies/[^/]+/cancel"), "POST"},
+      {std::regex("/v1/runs/[^/]+(/psd|/h5|/result)?"), "GET"},
+      {std::regex("/v1/regressions"), "GET, POST"},
+      {std::regex("/v1/regressions/[^/]+"), "GET"},
+      {std::regex("/v1/worker/(claim|runs/[^/]+/(heartbeat|finish))"), "POST"},
+  };
+  auto not_allowed = [](const Request& req, Response& res) {
+    for (const Route& r : known)
+      if (std::regex_match(req.path, r.path)) {
+        res.set_header("Allow", r.allow);
+        return send_error(res, 405, "method_not_allowed",
+                          req.method + " is not allowed on " + req.path + "; allowed: " + r.allow);
+      }
+    send_error(res, 404, "not_found", "no endpoint " + req.path);
+  };
+  s.Get(".*", not_allowed);
+  s.Post(".*", not_allowed);
+  s.Put(".*", not_allowed);
+  s.Patch(".*", not_allowed);
+  s.Delete(".*", not_allowed);
 }
 
 }  // namespace millsim

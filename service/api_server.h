@@ -1,9 +1,11 @@
-// The HTTP API under /v1 (docs/openapi.yaml), on cpp-httplib. It owns the Store: every write to
-// the SQLite file goes through this process, serialised by one mutex; workers (local or on
+// The HTTP API under /v1 (docs/openapi.yaml, also served at /v1/openapi.yaml), on cpp-httplib.
+// It owns the Store: one server per database file (an exclusive lock on <db>.lock), and every
+// write to the SQLite file goes through this process, serialised by one mutex; workers (local or on
 // other machines) talk to it over HTTP. JSON error bodies {"error": {"code", "message",
 // "details"}} with 400/401/404/409/413. Mutating endpoints need the bearer token; read endpoints
 // too when the server listens beyond loopback. A background thread re-queues runs whose lease
-// expired.
+// expired. A port in use is an error (no SO_REUSEPORT sharing); a wrong method on a known path
+// is a 405 with Allow; each request is logged as one line (time, method, path, status, ms).
 #pragma once
 
 #include <atomic>
@@ -33,7 +35,8 @@ struct ServerConfig {
   std::size_t max_body_bytes = 1 << 20;
   int max_runs_per_study = 10000;
   double lease_s = 30.0;
-  int workers = 0;  // reported in /v1/info (the serve command starts them)
+  int workers = 0;          // reported in /v1/info (the serve command starts them)
+  bool request_log = true;  // one line per request on stderr
 };
 
 class ApiServer {
@@ -66,6 +69,7 @@ class ApiServer {
   std::atomic<bool> stopping_{false};
   std::thread reaper_;
   int port_ = 0;
+  int lock_fd_ = -1;  // <db>.lock, held (flock) while this server owns the database
 };
 
 bool is_loopback_host(const std::string& host);

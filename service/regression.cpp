@@ -384,10 +384,9 @@ std::vector<RegressionRow> compare_with_baseline(
             "no baseline value: run `millsim regress SUITE --update-baseline` to make one";
       } else if (q.tolerance.kind == Tolerance::Kind::Exact && !q.expect && !same_build) {
         row.verdict = "skipped";
-        row.message =
-            "exact comparison needs a baseline from this build (commit, compiler, "
-            "machine); the baseline is from " +
-            (baseline.contains("build") ? build_fingerprint(baseline["build"]) : "?");
+        row.message = "exact needs a baseline from this build; the baseline is from " +
+                      build_summary(baseline.value("build", json::object())) + ", this is " +
+                      build_summary(build);
       } else {
         const double diff = std::abs(*row.measured - *row.reference);
         bool within = false;

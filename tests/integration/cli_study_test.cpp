@@ -99,7 +99,7 @@ TEST(CliStudy, WallTimeLimitStopsARunAndBadStudiesQueueNothing) {
   study["limits"] = {{"wall_time_s", 0.5}};
   write_file(dir.path() / "slow.json", study.dump());
   test::CommandResult r = run_millsim("study slow.json --local --db q.db --out runs", dir.path());
-  EXPECT_EQ(r.exit_code, 3) << r.err;
+  EXPECT_EQ(r.exit_code, 1) << r.err;
   {
     Store store(dir.path() / "q.db");
     const RunRecord run = *store.run("s000001-r0");
@@ -112,7 +112,7 @@ TEST(CliStudy, WallTimeLimitStopsARunAndBadStudiesQueueNothing) {
   study["limits"] = {{"memory_mb", 16}};
   write_file(dir.path() / "tiny.json", study.dump());
   r = run_millsim("study tiny.json --local --db q.db --out runs", dir.path());
-  EXPECT_EQ(r.exit_code, 3) << r.err;
+  EXPECT_EQ(r.exit_code, 1) << r.err;
   {
     Store store(dir.path() / "q.db");
     const RunRecord run = *store.run("s000002-r0");

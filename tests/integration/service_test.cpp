@@ -13,6 +13,7 @@
 #include <fstream>
 #include <regex>
 #include <set>
+#include <sstream>
 #include <thread>
 
 #include "store.h"
@@ -39,9 +40,10 @@ class ServerProcess {
       freopen(log.c_str(), "w", stdout);
       freopen((log.string() + ".err").c_str(), "w", stderr);
       const std::string w = std::to_string(workers), lease = std::to_string(lease_s);
-      execl(MILLSIM_BINARY, "millsim", "serve", "--port", "0", "--db", "q.db", "--token", kToken,
-            "--workers", w.c_str(), "--lease", lease.c_str(), "--out", "runs", "--max-body",
-            "200000", static_cast<char*>(nullptr));
+      setenv("MILLSIM_TOKEN", kToken, 1);  // as a systemd EnvironmentFile gives it
+      execl(MILLSIM_BINARY, "millsim", "serve", "--port", "0", "--db", "q.db", "--workers",
+            w.c_str(), "--lease", lease.c_str(), "--out", "runs", "--max-body", "200000",
+            static_cast<char*>(nullptr));
       _exit(98);
     }
     const std::regex listening("listening on (http://127.0.0.1:[0-9]+)");
@@ -73,6 +75,14 @@ class ServerProcess {
 
   const std::string& url() const { return url_; }
   pid_t pid() const { return pid_; }
+  // What the server printed on stdout and stderr (its request log) so far.
+  std::string output() const {
+    std::ifstream out(dir_ / ("serve-" + std::to_string(starts_) + ".log"));
+    std::ifstream err(dir_ / ("serve-" + std::to_string(starts_) + ".log.err"));
+    std::stringstream text;
+    text << out.rdbuf() << err.rdbuf();
+    return text.str();
+  }
 
   httplib::Result get(const std::string& path, bool auth = false) const {
     httplib::Client c(url_);
@@ -359,6 +369,90 @@ TEST(Service, RegressionRunsThroughTheServerAndItsHistoryIsServed) {
   ASSERT_EQ(history.size(), 2u);
   EXPECT_EQ(history[0]["verdict"], "no_baseline");
   EXPECT_EQ(history[1]["verdict"], "pass");
+}
+
+// Operating the server by convention: one server per port and per database file, the token
+// kept out of argv and printed only when generated, a request log, 405 with Allow for a wrong
+// method, 409 for canceling a finished study, the spec served, and the client's exit codes.
+TEST(Service, ServerStartsSafelyAndAnswersByConvention) {
+  test::TempDir dir;
+  ServerProcess server(dir.path(), 1);
+  ASSERT_FALSE(server.url().empty());
+  const std::string port = server.url().substr(server.url().rfind(':') + 1);
+  test::CommandResult r =
+      test::run_millsim("serve --workers 0 --db other.db --port " + port, dir.path());
+  EXPECT_EQ(r.exit_code, 4);
+  EXPECT_NE(r.err.find("cannot listen on 127.0.0.1:" + port), std::string::npos) << r.err;
+  r = test::run_millsim("serve --workers 0 --db q.db --port 0", dir.path());
+  EXPECT_EQ(r.exit_code, 4);
+  EXPECT_NE(r.err.find("another millsim serve uses q.db (pid " + std::to_string(server.pid())),
+            std::string::npos)
+      << r.err;
+
+  // The token is in no process's argv, and the server printed it only as "(given)".
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the worker has started
+  const std::vector<pid_t> children = children_of(server.pid());
+  ASSERT_FALSE(children.empty());
+  for (pid_t p : std::vector<pid_t>{server.pid(), children[0]}) {
+    std::ifstream in("/proc/" + std::to_string(p) + "/cmdline");
+    std::string cmdline((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(cmdline.find(kToken), std::string::npos) << "pid " << p;
+  }
+  EXPECT_NE(server.output().find("token: (given)"), std::string::npos) << server.output();
+
+  httplib::Client c(server.url());
+  auto res = c.Delete("/v1/studies");
+  ASSERT_TRUE(res);
+  EXPECT_EQ(res->status, 405);
+  EXPECT_EQ(res->get_header_value("Allow"), "GET, POST");
+  EXPECT_EQ(server.get("/v1/studies/s000001/cancel")->status, 405);
+  EXPECT_EQ(server.get("/v1/no/such/thing")->status, 404);
+  std::ifstream spec_file(MILLSIM_SOURCE_DIR "/docs/openapi.yaml");
+  const std::string spec((std::istreambuf_iterator<char>(spec_file)),
+                         std::istreambuf_iterator<char>());
+  res = server.get("/v1/openapi.yaml");
+  EXPECT_EQ(res->status, 200);
+  EXPECT_EQ(res->body, spec);
+
+  // One request, one log line: time, method, path, status, milliseconds.
+  const std::regex log_line(
+      "[0-9]{4}-[0-9]{2}-[0-9]{2}T[0-9:]{8}Z DELETE /v1/studies 405 [0-9]+\\.[0-9]{3} ms");
+  EXPECT_TRUE(std::regex_search(server.output(), log_line)) << server.output();
+
+  // A finished study cannot be canceled: 409, and the CLI exits 2.
+  res = server.post("/v1/studies", slow_study(1, 0.001).dump());
+  ASSERT_EQ(res->status, 201) << res->body;
+  const std::string id = json::parse(res->body)["study"];
+  ASSERT_FALSE(server.wait_finished(id).is_null());
+  res = server.post("/v1/studies/" + id + "/cancel", "{}");
+  EXPECT_EQ(res->status, 409);
+  EXPECT_EQ(json::parse(res->body)["error"]["code"], "finished");
+  const std::string common = " --server " + server.url();
+  r = test::run_millsim("cancel " + id + common + " --token " + kToken, dir.path());
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("HTTP 409"), std::string::npos) << r.err;
+  EXPECT_EQ(json::parse(server.get("/v1/studies/" + id)->body)["canceled"], false);
+
+  // status STUDY is a table; --format json the document.
+  r = test::run_millsim("status " + id + common, dir.path());
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("study " + id + "  slow"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find(id + "-r0"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("COMPLETE"), std::string::npos) << r.out;
+  r = test::run_millsim("status " + id + " --format json" + common, dir.path());
+  EXPECT_EQ(json::parse(r.out)["id"], id);
+  r = test::run_millsim("status --format csv" + common, dir.path());
+  EXPECT_EQ(r.out.rfind("study,name,runs,complete", 0), 0u) << r.out;
+  EXPECT_NE(r.out.find(id + ",slow,1,1,"), std::string::npos) << r.out;
+
+  // Exit codes: a study that does not exist is bad input (2); a server that is gone, 4.
+  EXPECT_EQ(test::run_millsim("results s999999" + common, dir.path()).exit_code, 2);
+  server.stop();
+  test::write_file(dir.path() / "study.json", slow_study(1, 0.001).dump());
+  r = test::run_millsim("submit study.json" + common, dir.path());
+  EXPECT_EQ(r.exit_code, 4) << r.err;
+  EXPECT_NE(r.err.find("cannot reach the server"), std::string::npos) << r.err;
+  EXPECT_EQ(test::run_millsim("status" + common, dir.path()).exit_code, 4);
 }
 
 }  // namespace

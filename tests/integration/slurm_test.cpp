@@ -56,7 +56,7 @@ TEST(Slurm, StudyRunsAsBatchJobsWithExitCodesMapped) {
   const test::CommandResult r = test::run_millsim(
       "study study.json --local --executor slurm --workers 2 --db q.db --out runs --format json",
       dir.path());
-  EXPECT_EQ(r.exit_code, 3) << r.err;  // one run failed
+  EXPECT_EQ(r.exit_code, 1) << r.err;  // one run failed
   Store store(dir.path() / "q.db");
   const std::vector<RunRecord> runs = store.runs("s000001");
   ASSERT_EQ(runs.size(), 2u);

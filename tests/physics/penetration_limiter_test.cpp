@@ -44,7 +44,7 @@ TEST(PenetrationLimiter, ReversesClosingVelocityTimesRestitutionAndConservesMome
 }
 
 SceneConfig soft_impact(bool limiter) {
-  MaterialConfig steel{"steel", 210e9, 0.3, 7800, 0.5, 0.0, 0.0, {}};
+  MaterialConfig steel{"steel", 210e9, 0.3, 7800, 0.5, 0.0, 0.0, false, {}};
   SceneConfig s =
       test::empty_scene({-1e-3, -1e-3, 0}, {1e-3, 1e-3, 1e-3}, test::table1_material(0.5));
   s.materials.push_back(steel);

@@ -21,8 +21,8 @@ constexpr double kSaltE = 40e9, kSaltNu = 0.25, kSaltRho = 2165, kE = 0.5;
 constexpr double kSteelE = 210e9, kSteelNu = 0.3, kSpeed = 40.0, kDmin = 8e-6;
 
 SceneConfig salt_scene(double safety_factor, double steps_per_contact) {
-  MaterialConfig salt{"salt", kSaltE, kSaltNu, kSaltRho, kE, 0.0, 0.0, {}};
-  MaterialConfig steel{"steel", kSteelE, kSteelNu, 7800, kE, 0.0, 0.0, {}};
+  MaterialConfig salt{"salt", kSaltE, kSaltNu, kSaltRho, kE, 0.0, 0.0, false, {}};
+  MaterialConfig steel{"steel", kSteelE, kSteelNu, 7800, kE, 0.0, 0.0, false, {}};
   SceneConfig s = test::empty_scene({-1e-3, -1e-3, 0}, {1e-3, 1e-3, 1e-3}, salt);
   s.materials.push_back(steel);
   s.domain.wall_material = 1;

@@ -1,0 +1,82 @@
+// The command line by convention: every verb answers --help and `millsim help VERB` with its
+// usage, every option it accepts and an example; a missing argument prints the usage and exits
+// 2; the man page is valid roff (groff finds no problem) and names every verb.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <regex>
+#include <set>
+
+#include "support/process.h"
+#include "support/scenes.h"
+
+namespace millsim {
+namespace {
+
+const char* const kVerbs[] = {"run",    "study",  "regress", "serve", "worker",
+                              "submit", "status", "results", "psd",   "cancel"};
+
+TEST(CliHelp, EveryVerbHasHelpListingTheOptionsItAccepts) {
+  test::TempDir dir;
+  for (const char* verb : kVerbs) {
+    const test::CommandResult a = test::run_millsim(std::string(verb) + " --help", dir.path());
+    EXPECT_EQ(a.exit_code, 0) << verb << a.err;
+    EXPECT_EQ(a.out.rfind(std::string("usage: millsim ") + verb, 0), 0u) << a.out;
+    const std::size_t example = a.out.find("example:\n");
+    ASSERT_NE(example, std::string::npos) << a.out;
+    EXPECT_NE(a.out.find("millsim " + std::string(verb), example), std::string::npos) << a.out;
+    EXPECT_NE(a.out.find("exit codes:"), std::string::npos);
+    const test::CommandResult b = test::run_millsim(std::string("help ") + verb, dir.path());
+    EXPECT_EQ(b.out, a.out) << verb;
+    // Every option the help lists is one the verb accepts: given alone with a dummy value, it
+    // never gets "unknown option".
+    const std::regex option("\n  (--[a-z-]+)");
+    for (std::sregex_iterator it(a.out.begin(), a.out.end(), option), end; it != end; ++it) {
+      const std::string flag = (*it)[1];
+      if (flag == "--help") continue;
+      const test::CommandResult c = test::run_millsim(
+          std::string(verb) + " " + flag + " 1 --server http://127.0.0.1:9 --db x.db", dir.path());
+      EXPECT_EQ(c.err.find("unknown option \"" + flag), std::string::npos)
+          << verb << " " << flag << ": " << c.err;
+    }
+  }
+  EXPECT_EQ(test::run_millsim("help frobnicate", dir.path()).exit_code, 2);
+  const test::CommandResult overview = test::run_millsim("--help", dir.path());
+  for (const char* verb : kVerbs)
+    EXPECT_NE(overview.out.find(std::string("\n  ") + verb + " "), std::string::npos) << verb;
+}
+
+TEST(CliHelp, AMissingArgumentPrintsTheUsage) {
+  test::TempDir dir;
+  for (const char* verb : {"results", "psd", "cancel", "submit", "run", "study", "regress"}) {
+    const bool client = std::string(verb) != "run" && std::string(verb) != "study";
+    const test::CommandResult r = test::run_millsim(
+        std::string(verb) + (client ? " --server http://127.0.0.1:9" : ""), dir.path());
+    EXPECT_EQ(r.exit_code, 2) << verb;
+    EXPECT_NE(r.err.find(std::string("usage: millsim ") + verb), std::string::npos)
+        << verb << ": " << r.err;
+  }
+}
+
+TEST(CliHelp, TheManPageIsValidRoffNamingEveryVerb) {
+  test::TempDir dir;
+  const test::CommandResult r = test::run_millsim("help --man", dir.path());
+  ASSERT_EQ(r.exit_code, 0);
+  EXPECT_EQ(r.out.rfind(".TH MILLSIM 1", 0), 0u);
+  for (const char* verb : kVerbs)
+    EXPECT_NE(r.out.find(std::string(".SS ") + verb + "\n"), std::string::npos) << verb;
+  EXPECT_NE(r.out.find(".SH EXIT STATUS"), std::string::npos);
+  if (std::system("command -v groff >/dev/null 2>&1") != 0)
+    GTEST_SKIP() << "groff is not installed";
+  test::write_file(dir.path() / "millsim.1", r.out);
+  const std::string check = "groff -man -ww -z " + (dir.path() / "millsim.1").string() + " 2>" +
+                            (dir.path() / "groff.err").string();
+  EXPECT_EQ(std::system(check.c_str()), 0);
+  std::ifstream err(dir.path() / "groff.err");
+  const std::string warnings((std::istreambuf_iterator<char>(err)),
+                             std::istreambuf_iterator<char>());
+  EXPECT_EQ(warnings, "");
+}
+
+}  // namespace
+}  // namespace millsim
