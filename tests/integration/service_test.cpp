@@ -455,5 +455,115 @@ TEST(Service, ServerStartsSafelyAndAnswersByConvention) {
   EXPECT_EQ(test::run_millsim("status" + common, dir.path()).exit_code, 4);
 }
 
+// The API contract: every endpoint, with its successes and its errors, answered by a real server;
+// each response is checked against docs/openapi.yaml (declared path, method and status, and the
+// body against the declared schema) by tests/contract/validate_responses.py (python3-jsonschema).
+TEST(Service, EveryResponseConformsToTheOpenApiSpec) {
+  const char* python = std::filesystem::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
+  if (std::system((std::string(python) + " -c 'import jsonschema, yaml' 2>/dev/null").c_str()) != 0)
+    GTEST_SKIP() << "python3-jsonschema or python3-yaml is not installed";
+  test::TempDir dir;
+  ServerProcess server(dir.path(), 1);
+  ASSERT_FALSE(server.url().empty());
+  std::string recorded;
+  auto record = [&](const std::string& method, const std::string& path, const httplib::Result& r) {
+    ASSERT_TRUE(r) << method << " " << path;
+    const std::string bare = path.substr(0, path.find('?'));
+    recorded +=
+        json{{"method", method},
+             {"path", bare},
+             {"status", r->status},
+             {"content_type", r->get_header_value("Content-Type")},
+             {"body", r->status == 200 && bare.size() > 3 && bare.substr(bare.size() - 3) == "/h5"
+                          ? std::string()
+                          : r->body}}
+            .dump(-1, ' ', false, json::error_handler_t::replace) +
+        "\n";
+  };
+  auto get = [&](const std::string& path, bool auth = false) {
+    auto r = server.get(path, auth);
+    record("GET", path, r);
+    return r;
+  };
+  auto post = [&](const std::string& path, const std::string& body, bool auth = true,
+                  httplib::Headers h = {}) {
+    auto r = server.post(path, body, auth, h);
+    record("POST", path, r);
+    return r;
+  };
+
+  get("/v1/health");
+  get("/v1/info");
+  get("/v1/openapi.yaml");
+  auto r =
+      post("/v1/studies", attrition_study({1e-4, 8e-5}).dump(), true, {{"Idempotency-Key", "c"}});
+  ASSERT_EQ(r->status, 201) << r->body;
+  const std::string id = json::parse(r->body)["study"];
+  post("/v1/studies", attrition_study({1e-4, 8e-5}).dump(), true, {{"Idempotency-Key", "c"}});
+  post("/v1/studies", "{not json");
+  post("/v1/studies", R"({"scene": 3, "parameters": "x"})");
+  post("/v1/studies", "{}", false);
+  post("/v1/studies", std::string(300000, ' '));
+  ASSERT_FALSE(server.wait_finished(id).is_null());
+  get("/v1/studies");
+  get("/v1/studies?limit=0");
+  get("/v1/studies/" + id);
+  get("/v1/studies/s999999");
+  get("/v1/studies/" + id + "/runs");
+  get("/v1/studies/" + id + "/runs?state=BOGUS");
+  get("/v1/studies/" + id + "/results");
+  get("/v1/studies/" + id + "/plot/error-vs-time");
+  post("/v1/studies/" + id + "/cancel", "{}");
+  post("/v1/studies/s999999/cancel", "{}");
+  get("/v1/runs/" + id + "-r0");
+  get("/v1/runs/" + id + "-r0/psd");
+  get("/v1/runs/" + id + "-r0/result");
+  get("/v1/runs/" + id + "-r0/h5");
+  get("/v1/runs/s999999-r0/result");
+  // A run that is not COMPLETE: queue a slow one and read it while it runs.
+  r = post("/v1/studies", slow_study(1, 0.3).dump());
+  const std::string slow = json::parse(r->body)["study"];
+  get("/v1/runs/" + slow + "-r0/psd");
+  get("/v1/runs/" + slow + "-r0/result");
+  post("/v1/studies/" + slow + "/cancel", "{}");
+  ASSERT_FALSE(server.wait_finished(slow).is_null());
+
+  const json regression = {{"suite", "s"},
+                           {"passed", true},
+                           {"build", json::object()},
+                           {"rows", {{{"check", "c"}, {"quantity", "q"}, {"verdict", "pass"}}}}};
+  r = post("/v1/regressions", regression.dump());
+  EXPECT_EQ(r->status, 201);
+  post("/v1/regressions", R"({"suite": "s"})");
+  get("/v1/regressions");
+  get("/v1/regressions?check=c");
+  get("/v1/regressions/" + json::parse(r->body)["id"].get<std::string>());
+  get("/v1/regressions/g999999");
+
+  post("/v1/worker/claim", R"({"worker": "w"})");
+  post("/v1/worker/claim", "[1]");
+  post("/v1/worker/runs/" + id + "-r0/heartbeat", R"({"token": 999})");
+  post("/v1/worker/runs/" + id + "-r0/heartbeat", "{}");
+  post("/v1/worker/runs/" + id + "-r0/finish", R"({"token": 999, "state": "COMPLETE"})");
+  post("/v1/worker/runs/" + id + "-r0/finish", "{}");
+  httplib::Client c(server.url());
+  record("DELETE", "/v1/studies", c.Delete("/v1/studies"));
+  get("/v1/nothing/here");
+
+  test::write_file(dir.path() / "responses.jsonl", recorded);
+  const std::string command = std::string(python) +
+                              " " MILLSIM_SOURCE_DIR
+                              "/tests/contract/validate_responses.py " MILLSIM_SOURCE_DIR
+                              "/docs/openapi.yaml " +
+                              (dir.path() / "responses.jsonl").string() + " > " +
+                              (dir.path() / "contract.txt").string() + " 2>&1";
+  const int status = std::system(command.c_str());
+  std::ifstream report(dir.path() / "contract.txt");
+  const std::string text((std::istreambuf_iterator<char>(report)),
+                         std::istreambuf_iterator<char>());
+  EXPECT_EQ(status, 0) << text;
+  EXPECT_NE(text.find(" responses, 0 problems"), std::string::npos) << text;
+}
+
 }  // namespace
 }  // namespace millsim
