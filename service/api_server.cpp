@@ -11,7 +11,6 @@
 #include <chrono>
 #include <cstring>
 #include <fstream>
-#include <regex>
 #include <string_view>
 
 #include "core/errors.h"
@@ -32,6 +31,20 @@ using nlohmann::json;
 using nlohmann::ordered_json;
 
 thread_local std::chrono::steady_clock::time_point request_started_at;
+
+// Whether `path` has `pattern`'s segments, "*" standing for any one non-empty segment.
+bool path_matches(std::string_view pattern, std::string_view path) {
+  while (!pattern.empty() && !path.empty()) {
+    const std::size_t p_end = std::min(pattern.find('/', 1), pattern.size());
+    const std::size_t s_end = std::min(path.find('/', 1), path.size());
+    const std::string_view p_segment = pattern.substr(0, p_end);
+    const std::string_view s_segment = path.substr(0, s_end);
+    if (p_segment == "/*" ? s_segment.size() < 2 : p_segment != s_segment) return false;
+    pattern.remove_prefix(p_end);
+    path.remove_prefix(s_end);
+  }
+  return pattern.empty() && path.empty();
+}
 
 // A request path for the log: control characters and non-ASCII bytes as %XX, at most 200.
 std::string printable(const std::string& path) {
@@ -639,22 +652,32 @@ void ApiServer::routes() {
   // A known path with a method it does not take: 405 with Allow. Registered last, so every real
   // route matched first; anything else is a 404.
   struct Route {
-    std::regex path;
+    const char* path;  // "*" matches one path segment
     const char* allow;
   };
-  static const std::vector<Route> known = {
-      {std::regex("/v1/(health|info|openapi\\.yaml)"), "GET"},
-      {std::regex("/v1/studies"), "GET, POST"},
-      {std::regex("/v1/studies/[^/]+(/runs|/results|/plot/error-vs-time)?"), "GET"},
-      {std::regex("/v1/studies/[^/]+/cancel"), "POST"},
-      {std::regex("/v1/runs/[^/]+(/psd|/h5|/result)?"), "GET"},
-      {std::regex("/v1/regressions"), "GET, POST"},
-      {std::regex("/v1/regressions/[^/]+"), "GET"},
-      {std::regex("/v1/worker/(claim|runs/[^/]+/(heartbeat|finish))"), "POST"},
+  static constexpr Route kKnown[] = {
+      {"/v1/health", "GET"},
+      {"/v1/info", "GET"},
+      {"/v1/openapi.yaml", "GET"},
+      {"/v1/studies", "GET, POST"},
+      {"/v1/studies/*", "GET"},
+      {"/v1/studies/*/runs", "GET"},
+      {"/v1/studies/*/results", "GET"},
+      {"/v1/studies/*/plot/error-vs-time", "GET"},
+      {"/v1/studies/*/cancel", "POST"},
+      {"/v1/runs/*", "GET"},
+      {"/v1/runs/*/psd", "GET"},
+      {"/v1/runs/*/h5", "GET"},
+      {"/v1/runs/*/result", "GET"},
+      {"/v1/regressions", "GET, POST"},
+      {"/v1/regressions/*", "GET"},
+      {"/v1/worker/claim", "POST"},
+      {"/v1/worker/runs/*/heartbeat", "POST"},
+      {"/v1/worker/runs/*/finish", "POST"},
   };
   auto not_allowed = [](const Request& req, Response& res) {
-    for (const Route& r : known)
-      if (std::regex_match(req.path, r.path)) {
+    for (const Route& r : kKnown)
+      if (path_matches(r.path, req.path)) {
         res.set_header("Allow", r.allow);
         return send_error(res, 405, "method_not_allowed",
                           req.method + " is not allowed on " + req.path + "; allowed: " + r.allow);
