@@ -11,11 +11,32 @@ mode=${1:-run}
 jobs=$(nproc 2>/dev/null || echo 2)
 bash deploy/install-deps.sh
 
+# Shows the build's percentage on stderr: in place on a terminal, every 10 % in a log.
+progress() {  # progress DIR < build output
+  local line pct last=-10
+  while IFS= read -r line; do
+    [[ $line =~ ^\[\ *([0-9]+)%\] ]] || continue
+    pct=${BASH_REMATCH[1]}
+    if [ -t 2 ]; then
+      printf '\rbuilding %s: %3d%%' "$1" "$pct" >&2
+    elif [ $((pct / 10)) -gt $((last / 10)) ]; then
+      echo "building $1: $pct%" >&2
+      last=$pct
+    fi
+  done
+  if [ -t 2 ]; then echo >&2; fi
+}
+
 build() {  # build DIR [cmake options...]
   local dir=$1
   shift
+  echo "configuring $dir (the first build takes a few minutes)" >&2
   cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
-  cmake --build "$dir" -j"$jobs" >/dev/null
+  if ! cmake --build "$dir" -j"$jobs" 2>&1 | tee "$dir/build.log" | progress "$dir"; then
+    tail -n 40 "$dir/build.log" >&2
+    echo "the build failed; the whole log is $dir/build.log" >&2
+    exit 1
+  fi
 }
 
 case "$mode" in
