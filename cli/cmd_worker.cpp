@@ -28,12 +28,14 @@ void on_stop_signal(int) {
 int cmd_worker(const std::vector<std::string>& args) {
   WorkerConfig config;
   if (const char* t = std::getenv("MILLSIM_TOKEN")) config.token = t;
-  std::string executor_name = "local", sbatch_args;
+  std::string executor_name = "local", sbatch_args, partition, account, qos;
   ArgReader r("worker", args);
   while (r.next()) {
     if (r.option("--server", config.server) || r.option("--token", config.token) ||
         r.option("--name", config.name) || r.option("--executor", executor_name) ||
-        r.option("--sbatch-args", sbatch_args) || r.int_option("--slots", config.slots, 1, 100000))
+        r.option("--sbatch-args", sbatch_args) || r.option("--partition", partition) ||
+        r.option("--account", account) || r.option("--qos", qos) ||
+        r.int_option("--slots", config.slots, 1, 100000))
       continue;
     if (r.is_flag("--until-empty")) {
       config.until_empty = true;
@@ -41,9 +43,23 @@ int cmd_worker(const std::vector<std::string>& args) {
     }
     r.unknown(
         "--server URL, --token T, --name NAME, --until-empty, --executor local|slurm, "
-        "--slots N, --sbatch-args ARGS");
+        "--slots N, --sbatch-args ARGS, --partition P, --account A, --qos Q");
   }
   if (!r.ok()) return kBadInput;
+  // The worker's own Slurm options (a study's `slurm` key comes after them and wins).
+  nlohmann::json given = nlohmann::json::object();
+  if (!partition.empty()) given["partition"] = partition;
+  if (!account.empty()) given["account"] = account;
+  if (!qos.empty()) given["qos"] = qos;
+  SlurmOptions own;
+  InputErrors errors;
+  parse_slurm(given, own, errors);
+  for (const InputError& e : errors) {
+    std::fprintf(stderr, "millsim worker: --%s = %s: %s\n",
+                 e.path.substr(e.path.rfind('/') + 1).c_str(), e.value.c_str(), e.allowed.c_str());
+    return kBadInput;
+  }
+  sbatch_args += study_options(own);
   if (executor_name != "local" && executor_name != "slurm") {
     std::fprintf(stderr, "millsim worker: --executor = %s: expected local or slurm\n",
                  executor_name.c_str());

@@ -140,8 +140,8 @@ const std::vector<VerbHelp>& verb_help() {
        "MILLSIM_TOKEN=secret millsim serve --port 8080 --workers 2"},
       {"worker",
        "one worker: claims runs from a server and runs them",
-       "millsim worker [--server URL] [--token T] [--name NAME] [--until-empty] [--executor "
-       "local|slurm] [--slots N] [--sbatch-args ARGS]",
+       "millsim worker [--server URL] [--name NAME] [--until-empty] [--executor local|slurm] "
+       "[--slots N] [--partition P] [--account A] [--qos Q] [--sbatch-args ARGS]",
        "Claims runs from the server and executes each as a `millsim run` child or a Slurm batch "
        "job. SIGTERM or SIGINT stop it; its runs go back to the queue.",
        {kServer,
@@ -150,7 +150,10 @@ const std::vector<VerbHelp>& verb_help() {
         {"--until-empty", "off", "exit when nothing is queued"},
         {"--executor E", "local", "local children, or slurm batch jobs"},
         {"--slots N", "1", "runs (or batch jobs) at once"},
-        {"--sbatch-args ARGS", "", "extra sbatch arguments, e.g. \"--partition=short\""}},
+        {"--partition P", "", "Slurm partition of every job (a study's own `slurm` wins)"},
+        {"--account A", "", "Slurm account of every job"},
+        {"--qos Q", "", "Slurm QOS of every job"},
+        {"--sbatch-args ARGS", "", "extra sbatch arguments, e.g. \"--constraint=avx2\""}},
        "millsim worker --server http://login:8080 --executor slurm --slots 64"},
       {"submit",
        "submit a study to the server",

@@ -171,6 +171,7 @@ ordered_json run_json(const RunRecord& r, bool with_scene) {
   if (with_scene) {
     j["scene"] = json::parse(r.scene);
     j["out_dir"] = r.out_dir;
+    j["slurm"] = r.slurm.to_json();
   }
   return j;
 }

@@ -9,9 +9,10 @@ namespace millsim {
 namespace {
 
 // Runs a shell command; returns its stdout and sets `status` to its exit status.
-std::string capture(const std::string& command, int& status) {
+// The command's stdout (and its stderr too with `with_errors`) and its exit status.
+std::string capture(const std::string& command, int& status, bool with_errors = false) {
   std::string out;
-  FILE* pipe = popen((command + " 2>/dev/null").c_str(), "r");
+  FILE* pipe = popen((command + (with_errors ? " 2>&1" : " 2>/dev/null")).c_str(), "r");
   if (!pipe) {
     status = -1;
     return out;
@@ -38,6 +39,15 @@ std::string trim(std::string s) {
 SlurmExecutor::SlurmExecutor(std::filesystem::path binary, std::string extra)
     : binary_(std::move(binary)), extra_args_(std::move(extra)) {}
 
+std::string study_options(const SlurmOptions& o) {
+  std::string out;
+  if (!o.partition.empty()) out += " --partition=" + shell_quoted(o.partition);
+  if (!o.account.empty()) out += " --account=" + shell_quoted(o.account);
+  if (!o.qos.empty()) out += " --qos=" + shell_quoted(o.qos);
+  for (const std::string& a : o.sbatch_args) out.append(" ").append(shell_quoted(a));
+  return out;
+}
+
 bool SlurmExecutor::available() {
   int status = 0;
   capture("sinfo -h -o %P", status);
@@ -58,10 +68,14 @@ ExecHandle SlurmExecutor::start(const RunRecord& run, double now) {
       "sbatch --parsable --job-name=" + shell_quoted("millsim-" + run.id) +
       " --chdir=" + shell_quoted(h.out_dir.string()) +
       " --output=log.txt --open-mode=append --ntasks=1 --time=" + std::to_string(minutes) +
-      " --mem=" + std::to_string(memory_mb) + " " + extra_args_ + " --wrap=" + shell_quoted(job);
+      " --mem=" + std::to_string(memory_mb) + " " + extra_args_ + study_options(run.slurm) +
+      " --wrap=" + shell_quoted(job);
   int status = 0;
-  const std::string out = trim(capture(command, status));
-  const std::string id = out.substr(0, out.find(';'));  // "jobid[;cluster]"
+  // With stderr, so a refusal carries sbatch's own words; the job id is the last line.
+  const std::string out = trim(capture(command, status, true));
+  const std::string last =
+      out.substr(out.find_last_of('\n') == std::string::npos ? 0 : out.find_last_of('\n') + 1);
+  const std::string id = last.substr(0, last.find(';'));  // "jobid[;cluster]"
   if (status != 0 || id.empty() || id.find_first_not_of("0123456789") != std::string::npos)
     throw IoError("sbatch failed (status " + std::to_string(status) + "): " + out);
   h.job_id = id;

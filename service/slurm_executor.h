@@ -13,6 +13,10 @@
 
 namespace millsim {
 
+// The sbatch options of a study's `slurm` key, each shell-quoted, with a leading space each
+// ("" when there are none). They come after the worker's own, so they win.
+std::string study_options(const SlurmOptions& options);
+
 class SlurmExecutor : public Executor {
  public:
   // `extra_sbatch_args`: appended to every sbatch call (e.g. "--partition=debug").

@@ -69,10 +69,15 @@ CREATE TABLE regressions (
 CREATE INDEX regressions_by_suite ON regressions(suite, created_at);
 )";
 
+// Version 3: each run's Slurm options (the study's `slurm` key), as JSON.
+constexpr const char* kSchemaV3 =
+    "ALTER TABLE runs ADD COLUMN executor_options TEXT NOT NULL DEFAULT '{}';";
+
 constexpr const char* kRunColumns =
     "id, study_id, idx, params, seed, scene, is_reference, state, attempts, max_attempts, "
     "fencing_token, lease_owner, lease_expires_at, created_at, started_at, finished_at, "
-    "exit_code, error, wall_time_s, result, out_dir, wall_limit_s, memory_limit_mb";
+    "exit_code, error, wall_time_s, result, out_dir, wall_limit_s, memory_limit_mb, "
+    "executor_options";
 
 RunRecord read_run(const Statement& s) {
   RunRecord r;
@@ -99,6 +104,7 @@ RunRecord read_run(const Statement& s) {
   r.out_dir = s.text(20);
   r.wall_limit_s = s.real(21);
   r.memory_limit_mb = s.real(22);
+  r.slurm = SlurmOptions::from_json(nlohmann::json::parse(s.text(23), nullptr, false));
   return r;
 }
 
@@ -135,6 +141,7 @@ void Store::migrate() {
                     ", newer than this millsim (" + std::to_string(kSchemaVersion) + ")");
     if (version < 1) db_.exec(kSchemaV1);
     if (version < 2) db_.exec(kSchemaV2);
+    if (version < 3) db_.exec(kSchemaV3);
     db_.exec(("PRAGMA user_version = " + std::to_string(kSchemaVersion)).c_str());
   });
 }
@@ -164,13 +171,14 @@ Store::Submitted Store::submit(const Study& study, const std::optional<std::stri
       const std::string run_id = study_id + "-r" + std::to_string(r.index);
       Statement run = db_.prepare(
           "INSERT INTO runs (id, study_id, idx, params, seed, scene, is_reference, state, "
-          "max_attempts, created_at, out_dir, wall_limit_s, memory_limit_mb) "
-          "VALUES (?, ?, ?, ?, ?, ?, ?, 'QUEUED', ?, ?, ?, ?, ?)");
+          "max_attempts, created_at, out_dir, wall_limit_s, memory_limit_mb, executor_options) "
+          "VALUES (?, ?, ?, ?, ?, ?, ?, 'QUEUED', ?, ?, ?, ?, ?, ?)");
       run.bind(1, run_id).bind(2, study_id).bind(3, std::int64_t(r.index));
       run.bind(4, r.params.dump()).bind(5, std::int64_t(r.seed)).bind(6, r.scene.dump());
       run.bind(7, std::int64_t(r.is_reference)).bind(8, std::int64_t(study.limits.max_attempts));
       run.bind(9, now).bind(10, (out_root / study_id / run_id).string());
       run.bind(11, study.limits.wall_time_s).bind(12, study.limits.memory_mb);
+      run.bind(13, study.slurm.to_json().dump());
       run.run();
     }
     return {study_id, true};

@@ -20,7 +20,7 @@
 
 namespace millsim {
 
-inline constexpr int kSchemaVersion = 2;
+inline constexpr int kSchemaVersion = 3;
 
 struct RunRecord {
   std::string id;
@@ -43,6 +43,7 @@ struct RunRecord {
   std::string result;  // result.json text, when complete
   std::string out_dir;
   double wall_limit_s = 0.0, memory_limit_mb = 0.0;
+  SlurmOptions slurm;  // the study's batch-job options (Slurm executor)
 };
 
 struct StudyRecord {

@@ -1,6 +1,7 @@
 #include "study.h"
 
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 
@@ -102,6 +103,41 @@ bool set_at(json& doc, const std::vector<std::string>& keys, const json& value,
   return true;
 }
 
+// A value that can go into an sbatch command line unquoted and mean only itself.
+bool is_slurm_word(const std::string& s) {
+  if (s.empty() || s.size() > 128) return false;
+  for (const char c : s)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || std::strchr("_.,:=+/-", c))) return false;
+  return true;
+}
+
+}  // namespace
+
+void parse_slurm(const json& value, SlurmOptions& out, InputErrors& errors) {
+  JsonObjectReader r(value, "/slurm", errors);
+  const std::string word = "1-128 characters of letters, digits and _ . , : = + / -";
+  for (auto [key, field] : {std::pair<const char*, std::string*>{"partition", &out.partition},
+                            {"account", &out.account},
+                            {"qos", &out.qos}}) {
+    *field = r.string(key, "");
+    if (r.has(key) && !is_slurm_word(*field))
+      errors.push_back({r.path_of(key), "\"" + *field + "\"", "expected " + word});
+  }
+  if (const json* args = r.array("sbatch_args"))
+    for (std::size_t i = 0; i < args->size(); ++i) {
+      const json& a = (*args)[i];
+      const std::string text = a.is_string() ? a.get<std::string>() : "";
+      if (!a.is_string() || text.rfind("--", 0) != 0 || !is_slurm_word(text))
+        errors.push_back({json_pointer_join("/slurm/sbatch_args", i), json_value_text(a),
+                          "expected an sbatch option \"--name\" or \"--name=value\" of " + word});
+      else
+        out.sbatch_args.push_back(text);
+    }
+  r.finish();
+}
+
+namespace {
+
 std::string describe_point(const json& params) {
   std::string text;
   for (const auto& [key, value] : params.items())
@@ -132,6 +168,22 @@ json read_json_file(const std::filesystem::path& path, const std::string& what) 
   } catch (const json::exception& e) {  // syntax, or a number beyond a double (1e999)
     throw InputErrorList({{what, path.string(), std::string("not valid JSON: ") + e.what()}});
   }
+}
+
+json SlurmOptions::to_json() const {
+  json j = json::object();
+  if (!partition.empty()) j["partition"] = partition;
+  if (!account.empty()) j["account"] = account;
+  if (!qos.empty()) j["qos"] = qos;
+  if (!sbatch_args.empty()) j["sbatch_args"] = sbatch_args;
+  return j;
+}
+
+SlurmOptions SlurmOptions::from_json(const json& j) {
+  SlurmOptions o;
+  InputErrors ignored;
+  if (j.is_object()) parse_slurm(j, o, ignored);
+  return ignored.empty() ? o : SlurmOptions{};
 }
 
 std::vector<std::string> parameter_keys(const std::string& path) {
@@ -207,6 +259,7 @@ Study expand_study(const json& spec, const std::filesystem::path& base_dir, int 
     study.limits.max_attempts = int(r.integer("max_attempts", 3, 1, 100));
     r.finish();
   }
+  if (const json* sl = top.child("slurm")) parse_slurm(*sl, study.slurm, errors);
   const json* reference = top.child("reference");
   if (reference && !reference->is_object())
     errors.push_back({"/reference", json_value_text(*reference), "expected {path: value}"});

@@ -21,6 +21,18 @@ struct StudyLimits {
   int max_attempts = 3;  // system errors are retried up to this many attempts in all
 };
 
+// Slurm options of a study's batch jobs (`slurm` key): each becomes one sbatch option, after the
+// worker's own, so the study's win. Values are checked (letters, digits and _ . , : = + / -).
+struct SlurmOptions {
+  std::string partition, account, qos;
+  std::vector<std::string> sbatch_args;  // each "--name" or "--name=value"
+  bool empty() const {
+    return partition.empty() && account.empty() && qos.empty() && sbatch_args.empty();
+  }
+  nlohmann::json to_json() const;
+  static SlurmOptions from_json(const nlohmann::json& j);  // tolerant: unknown or bad = empty
+};
+
 struct StudyRun {
   int index = 0;
   nlohmann::ordered_json params;  // {path: value} of the varied parameters
@@ -38,6 +50,7 @@ struct Study {
   std::optional<int> reference_index;  // the first run at the reference point
   std::string error_metric;            // "psd_ks", "psd_l1", "d50" or a JSON pointer
   StudyLimits limits;
+  SlurmOptions slurm;
 };
 
 // Parses and expands a study. `base_dir` resolves a scene path (the study file's directory).
@@ -55,6 +68,9 @@ void absolutize_paths(nlohmann::json& scene, const std::filesystem::path& scene_
 
 // Reads a JSON file; throws InputErrorList naming `what` when it is missing or not valid JSON.
 nlohmann::json read_json_file(const std::filesystem::path& path, const std::string& what);
+
+// Reads a study's `slurm` object (paths /slurm/...); problems go to `errors`.
+void parse_slurm(const nlohmann::json& value, SlurmOptions& out, InputErrors& errors);
 
 // Splits "dust.threshold_diameter_m" or "/dust/threshold_diameter_m" into keys.
 std::vector<std::string> parameter_keys(const std::string& path);

@@ -113,5 +113,43 @@ TEST(Slurm, CancelReachesTheJobs) {
   }
 }
 
+// A study's `slurm` options reach sbatch: a study on the cluster's partition runs; one naming a
+// partition that does not exist is refused by sbatch, a system error kept with sbatch's words.
+TEST(Slurm, StudyOptionsReachSbatch) {
+  if (!SlurmExecutor::available()) GTEST_SKIP() << "no Slurm cluster answers";
+  test::TempDir dir;
+  {
+    // Two empty studies first, so these are s000003 and s000004 (job names unique across the
+    // tests, which ctest may run at the same time).
+    Study placeholder;
+    placeholder.name = "placeholder";
+    placeholder.spec = json::object();
+    Store store(dir.path() / "q.db");
+    store.submit(placeholder, std::nullopt, dir.path(), 0.0);
+    store.submit(placeholder, std::nullopt, dir.path(), 0.0);
+  }
+  json good = settling(0.005);
+  good["slurm"] = {{"partition", "debug"}, {"sbatch_args", {"--comment=millsim-options"}}};
+  json bad = settling(0.005);
+  bad["slurm"] = {{"partition", "nosuchpartition"}};
+  bad["limits"] = {{"max_attempts", 1}};
+  test::write_file(dir.path() / "good.json", good.dump());
+  test::write_file(dir.path() / "bad.json", bad.dump());
+  test::CommandResult r = test::run_millsim(
+      "study good.json --local --executor slurm --db q.db --out runs", dir.path());
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  r = test::run_millsim("study bad.json --local --executor slurm --db q.db --out runs", dir.path());
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  Store store(dir.path() / "q.db");
+  const RunRecord ran = *store.run("s000003-r0");
+  EXPECT_EQ(ran.state, RunState::Complete);
+  EXPECT_EQ(ran.slurm.partition, "debug");
+  EXPECT_EQ(job_state(ran.id), "COMPLETED");
+  const RunRecord refused = *store.run("s000004-r0");
+  EXPECT_EQ(refused.state, RunState::SystemError);
+  EXPECT_NE(refused.error.find("sbatch failed"), std::string::npos) << refused.error;
+  EXPECT_NE(refused.error.find("artition"), std::string::npos) << refused.error;
+}
+
 }  // namespace
 }  // namespace millsim

@@ -58,10 +58,13 @@ TEST(Store, VersionOneFilesMigrateAndKeepTheRegressionHistory) {
   }
   {
     Database raw(db);
-    raw.exec("DROP TABLE regressions; PRAGMA user_version = 1;");
+    raw.exec(
+        "DROP TABLE regressions; ALTER TABLE runs DROP COLUMN executor_options; "
+        "PRAGMA user_version = 1;");
   }
   Store store(db);
-  EXPECT_EQ(store.schema_version(), 2);
+  EXPECT_EQ(store.schema_version(), kSchemaVersion);
+  EXPECT_TRUE(store.run(study_id + "-r0")->slurm.empty());
   EXPECT_EQ(store.progress(study_id).total, 2);
   auto record = [](const char* suite, bool passed) {
     return nlohmann::json{

@@ -3,6 +3,7 @@
 // over-large studies are refused before anything is queued.
 #include "study.h"
 #include "results.h"
+#include "slurm_executor.h"
 
 #include <gtest/gtest.h>
 
@@ -157,6 +158,38 @@ TEST(StudyError, TotalPsdDistancesCompareEverythingTheRunsMade) {
   nlohmann::json no_total = a;
   no_total.erase("total_psd");
   EXPECT_FALSE(error_against(no_total, c, "total_psd_ks").has_value());
+}
+
+// A study's `slurm` key: its options are kept for the runs' batch jobs, each one shell-quoted
+// on the sbatch line; anything that could be more than one word there is refused by its path.
+TEST(Study, SlurmOptionsAreCheckedAndQuoted) {
+  json spec = {{"scene", base_scene()},
+               {"slurm",
+                {{"partition", "short"},
+                 {"account", "lab-42"},
+                 {"qos", "normal"},
+                 {"sbatch_args", {"--constraint=avx2", "--exclusive"}}}}};
+  const Study study = expand_study(spec, ".", 10);
+  EXPECT_EQ(study.slurm.partition, "short");
+  EXPECT_EQ(study.slurm.sbatch_args.size(), 2u);
+  EXPECT_EQ(study_options(study.slurm),
+            " --partition='short' --account='lab-42' --qos='normal' '--constraint=avx2' "
+            "'--exclusive'");
+  EXPECT_EQ(SlurmOptions::from_json(study.slurm.to_json()).to_json(), study.slurm.to_json());
+
+  spec["slurm"] = {{"partition", "a b"},
+                   {"account", "x;rm -rf /"},
+                   {"sbatch_args", {"constraint", "--x=$(id)", 3}},
+                   {"queue", "q"}};
+  std::vector<std::string> paths;
+  try {
+    expand_study(spec, ".", 10);
+  } catch (const InputErrorList& e) {
+    for (const InputError& err : e.errors()) paths.push_back(err.path);
+  }
+  EXPECT_EQ(paths, (std::vector<std::string>{"/slurm/partition", "/slurm/account",
+                                             "/slurm/sbatch_args/0", "/slurm/sbatch_args/1",
+                                             "/slurm/sbatch_args/2", "/slurm/queue"}));
 }
 
 }  // namespace
