@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 #include "core/json_reader.h"
@@ -285,7 +286,17 @@ Study expand_study(const json& spec, const std::filesystem::path& base_dir, int 
     errors.push_back(
         {"/parameters", "",
          concat("the study expands to ", total, " runs; this service allows at most ", max_runs)});
-  if (!errors.empty()) throw InputErrorList(std::move(errors));
+  // The runs are expanded and validated even when the study's own fields have problems, so every
+  // problem is reported at once; only a study that cannot be expanded stops here.
+  bool expandable = scene.is_object() && total <= max_runs;
+  for (const Parameter& p : parameters) expandable = expandable && !p.values.empty();
+  if (combine == "zip")
+    for (const Parameter& p : parameters)
+      expandable = expandable && p.values.size() == parameters[0].values.size();
+  if (!expandable) throw InputErrorList(std::move(errors));
+  // A problem of the base scene shows in every run: it is reported for the first run only.
+  std::set<std::string> seen_scene_problems;
+  std::size_t repeated_problems = 0;
 
   std::uint64_t base_seed =
       scene.is_object() && scene.contains("seed") && scene["seed"].is_number_unsigned()
@@ -322,9 +333,14 @@ Study expand_study(const json& spec, const std::filesystem::path& base_dir, int 
       absolutize_paths(run.scene, scene_dir);
       InputErrors scene_errors;
       parse_scene(run.scene, scene_dir, scene_errors);
-      for (const InputError& e : scene_errors)
+      for (const InputError& e : scene_errors) {
+        if (!seen_scene_problems.insert(e.path + '\x1f' + e.value + '\x1f' + e.allowed).second) {
+          ++repeated_problems;
+          continue;
+        }
         errors.push_back({concat("run ", run.index, " (", describe_point(params), ") ", e.path),
                           e.value, e.allowed});
+      }
       if (reference && reference->is_object() && !study.reference_index) {
         bool match = !reference->empty();
         for (const auto& [key, value] : reference->items())
@@ -340,6 +356,9 @@ Study expand_study(const json& spec, const std::filesystem::path& base_dir, int 
   if (reference && reference->is_object() && !study.reference_index)
     errors.push_back({"/reference", reference->dump(),
                       "matches no point of the study: give one value of each varied parameter"});
+  if (repeated_problems > 0)
+    errors.push_back(
+        {"(other runs)", "", concat(repeated_problems, " more problems repeat the ones above")});
   if (!errors.empty()) throw InputErrorList(std::move(errors));
   return study;
 }

@@ -102,10 +102,19 @@ TEST(Study, BadInputNamesTheParameterAndThePoint) {
   errors = errors_of(spec);
   ASSERT_EQ(errors.size(), 1u);
   EXPECT_EQ(errors[0].path, "/reference");
+  // Every problem at once: the study's own field and its runs' scene problems together, a base
+  // scene's problem once (not once per run).
   spec["error"] = "rmse";
+  spec["parameters"][0]["values"] = {0.1, 0.2, 5.0};
+  spec["set"] = {{"materials.0.restitution", 2.0}};
   errors = errors_of(spec);
-  ASSERT_EQ(errors.size(), 1u);  // the study's own fields are checked before the expansion
-  EXPECT_EQ(errors[0].path, "/error");
+  std::vector<std::string> paths;
+  for (const InputError& e : errors) paths.push_back(e.path);
+  EXPECT_EQ(paths, (std::vector<std::string>{
+                       "/error", "run 0 (time.safety_factor = 0.1) /materials/0/restitution",
+                       "run 2 (time.safety_factor = 5.0) /time/safety_factor", "/reference",
+                       "(other runs)"}));
+  EXPECT_EQ(errors.back().allowed, "2 more problems repeat the ones above");
   errors = errors_of(study_with({{{"path", "seed"}}}));
   ASSERT_FALSE(errors.empty());
   EXPECT_EQ(errors[0].path, "/parameters/0");
