@@ -2,7 +2,10 @@
 // Validates the scene (all errors at once, exit 2, nothing written), runs it with a progress
 // line on a terminal, prints the JSON summary on stdout and writes DIR/{run.h5, run.xdmf,
 // result.json}. Default DIR: out/<scene name>.
+#include <signal.h>
 #include <unistd.h>
+
+#include <atomic>
 
 #include <cstdio>
 #include <filesystem>
@@ -51,6 +54,12 @@ bool parse_run_args(const std::vector<std::string>& args, RunArgs& out) {
   return true;
 }
 
+std::atomic<int> g_stop_signal{0};
+
+void on_stop_signal(int signal) {
+  g_stop_signal.store(signal, std::memory_order_relaxed);
+}
+
 void print_progress(const RunProgress& p) {
   const double percent = 100.0 * double(p.step) / double(std::max<std::int64_t>(1, p.total_steps));
   std::fprintf(
@@ -74,6 +83,12 @@ int cmd_run(const std::vector<std::string>& args) {
     options.out_dir = run_args.out_dir.empty() ? std::filesystem::path("out") / scene.name
                                                : std::filesystem::path(run_args.out_dir);
     if (!run_args.quiet && isatty(STDERR_FILENO)) options.on_progress = print_progress;
+    // SIGINT (Ctrl-C), SIGTERM (a batch system's stop, a wall-time limit) and SIGUSR1 end the
+    // run after the step under way, with run.h5 and result.json complete.
+    struct sigaction action = {};
+    action.sa_handler = on_stop_signal;
+    for (const int sig : {SIGINT, SIGTERM, SIGUSR1}) sigaction(sig, &action, nullptr);
+    options.stop_request = &g_stop_signal;
     if (!run_args.quiet)
       std::fprintf(stderr, "millsim run: %s, %zu particles, dt = %.4g s (%s), %lld steps -> %s\n",
                    scene.name.c_str(), sim.particles().size(), sim.time_step().step_s,
@@ -86,6 +101,15 @@ int cmd_run(const std::vector<std::string>& args) {
                    static_cast<long long>(outcome.failure->step), outcome.failure->time_s,
                    outcome.failure->detail.c_str());
       return kUnstable;
+    }
+    if (outcome.interrupted_by != 0) {
+      std::fprintf(stderr,
+                   "\nmillsim run: interrupted by %s at step %lld of %lld; run.h5 and "
+                   "result.json are complete up to there\n",
+                   outcome.summary["interrupted"]["signal"].get<std::string>().c_str(),
+                   static_cast<long long>(sim.step_index()),
+                   static_cast<long long>(sim.total_steps()));
+      return 128 + outcome.interrupted_by;  // the shell's convention: 130 for SIGINT, 143 SIGTERM
     }
     return kOk;
   } catch (const InputErrorList& e) {

@@ -78,7 +78,8 @@ const std::vector<VerbHelp>& verb_help() {
        "millsim run SCENE.json [--out DIR] [--quiet]",
        "Validates the scene (every error at once, exit 2, nothing written), runs it with a "
        "progress line on a terminal, prints the JSON summary on stdout and writes DIR/run.h5, "
-       "run.xdmf and result.json.",
+       "run.xdmf and result.json. SIGINT, SIGTERM and SIGUSR1 stop it after the step under way "
+       "with every file complete (result.json status \"interrupted\", exit 128 + the signal).",
        {{"--out DIR", "out/<scene name>", "where the run's files go"},
         {"--quiet", "off", "no progress line"}},
        "millsim run cases/spiral_jet_mill.json --out out/mill"},

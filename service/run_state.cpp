@@ -33,6 +33,10 @@ ChildOutcome classify_child_exit(int exit_code, int signal) {
       return {RunState::ExecutorError, false};  // the stability guard stopped it
     case 4:
       return {RunState::SystemError, true};  // I/O or environment
+    case 128 + 2:                            // SIGINT,
+    case 128 + 10:                           // SIGUSR1 or
+    case 128 + 15:  // SIGTERM from outside (shutdown, preemption): stopped cleanly, try again
+      return {RunState::SystemError, true};
     default:
       return {RunState::SystemError, false};  // unexpected: kept with its log, not retried
   }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <memory>
 
@@ -269,6 +270,12 @@ std::int64_t steps_per_interval(std::optional<double> interval_s, double fallbac
   return std::int64_t(std::clamp(steps, 1.0, 4e18));
 }
 
+// "SIGTERM" for 15.
+std::string sigabbrev(int signal) {
+  const char* name = sigabbrev_np(signal);
+  return name ? std::string("SIG") + name : "signal " + std::to_string(signal);
+}
+
 }  // namespace
 
 nlohmann::ordered_json energy_json(const EnergyReport& e) {
@@ -315,7 +322,9 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
     if (h5) next = std::min(next, (now / snapshot_every + 1) * snapshot_every);
     outcome.failure = sim.advance(next - now);
     const std::int64_t step = sim.step_index();
-    const bool last = step == total || outcome.failure;
+    if (options.stop_request && !outcome.failure)
+      outcome.interrupted_by = options.stop_request->load(std::memory_order_relaxed);
+    const bool last = step == total || outcome.failure || outcome.interrupted_by != 0;
     if (step % series_every == 0 || last)
       sim.profile().time(Phase::Output, [&] { series.record(sim); });
     if (h5 && (step % snapshot_every == 0 || last))
@@ -329,7 +338,7 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
       options.on_progress({step, total, sim.time_s(), sim.particles().size(), elapsed,
                            elapsed / double(step) * double(total - step)});
     }
-    if (outcome.failure) break;
+    if (outcome.failure || outcome.interrupted_by != 0) break;
   }
   const double wall_s = std::chrono::duration<double>(Clock::now() - start).count();
 
@@ -337,7 +346,11 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
   nlohmann::ordered_json& s = outcome.summary;
   s["millsim_version"] = kMillsimVersion;
   s["scene"] = scene.name;
-  s["status"] = outcome.failure ? "failed" : "ok";
+  s["status"] = outcome.failure ? "failed" : outcome.interrupted_by != 0 ? "interrupted" : "ok";
+  if (outcome.interrupted_by != 0)
+    s["interrupted"] = {{"signal", sigabbrev(outcome.interrupted_by)},
+                        {"step", sim.step_index()},
+                        {"time_s", sim.time_s()}};
   if (outcome.failure) {
     const StepFailure& f = *outcome.failure;
     s["failure"] = {{"step", f.step},

@@ -1,8 +1,10 @@
 // The run loop: steps a Simulation to its end time, reports progress, writes snapshots and the
 // time series to run.h5 (+ run.xdmf), and builds the JSON summary (result.json). Files appear
-// under their final names only when complete (written as *.partial, then renamed).
+// under their final names only when complete (written as *.partial, then renamed). A stop request
+// (SIGINT, SIGTERM, SIGUSR1 in `millsim run`) ends the run early with every file complete.
 #pragma once
 
+#include <atomic>
 #include <filesystem>
 #include <functional>
 #include <nlohmann/json.hpp>
@@ -28,10 +30,14 @@ struct RunOptions {
   std::filesystem::path out_dir;  // empty: write no files
   std::function<void(const RunProgress&)> on_progress;
   double progress_interval_s = 0.2;
+  // Set (to a signal number) by a signal handler: the run stops after the step under way,
+  // writes its last snapshot, closes run.h5 as a valid file and its summary says "interrupted".
+  const std::atomic<int>* stop_request = nullptr;
 };
 
 struct RunOutcome {
   std::optional<StepFailure> failure;
+  int interrupted_by = 0;  // the signal that stopped the run, 0 when it was not interrupted
   nlohmann::ordered_json summary;
 };
 

@@ -1,12 +1,17 @@
 // `millsim run` as a real process: exit codes (0 ok, 2 bad input, 3 stopped by the stability
 // guard), the summary on stdout, the files it writes, and that bad input writes nothing.
 #include <gtest/gtest.h>
+#include <hdf5.h>
+#include <signal.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
+#include <chrono>
 #include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <thread>
 
 #include "support/process.h"
 #include "support/scenes.h"
@@ -134,6 +139,48 @@ TEST(CliRun, BlowUpStopsWithExitThreeAndAMessage) {
   EXPECT_EQ(summary["failure"]["particle_id"], 1);
   std::ifstream result(dir.path() / "out/result.json");
   EXPECT_EQ(nlohmann::json::parse(result)["status"], "failed");
+}
+
+// SIGTERM (a batch system's stop) and SIGINT (Ctrl-C) end a run after the step under way with
+// every file complete: exit 128 + the signal, result.json "interrupted" with the step it
+// reached, run.h5 renamed into place and readable by HDF5 with its snapshots and time series.
+TEST(CliRun, SignalsStopARunWithEveryFileComplete) {
+  for (const int sig : {SIGTERM, SIGINT}) {
+    test::TempDir dir;
+    const pid_t pid = fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      if (chdir(dir.path().c_str()) != 0) _exit(99);
+      freopen("/dev/null", "w", stdout);
+      freopen("run.err", "w", stderr);
+      execl(MILLSIM_BINARY, "millsim", "run", MILLSIM_SOURCE_DIR "/cases/settling_column.json",
+            "--out", "out", "--quiet", static_cast<char*>(nullptr));
+      _exit(98);
+    }
+    // Running: its run.h5.partial exists; then let it step a little.
+    for (int k = 0; k < 200 && !std::filesystem::exists(dir.path() / "out/run.h5.partial"); ++k)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    kill(pid, sig);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    ASSERT_TRUE(WIFEXITED(status)) << "killed instead of stopping";
+    EXPECT_EQ(WEXITSTATUS(status), 128 + sig);
+    std::ifstream in(dir.path() / "out/result.json");
+    const nlohmann::json result = nlohmann::json::parse(in);
+    EXPECT_EQ(result["status"], "interrupted");
+    EXPECT_EQ(result["interrupted"]["signal"], sig == SIGTERM ? "SIGTERM" : "SIGINT");
+    EXPECT_GT(result["steps"].get<long>(), 0);
+    EXPECT_LT(result["steps"].get<long>(), result["steps_planned"].get<long>());
+    EXPECT_EQ(result["interrupted"]["step"], result["steps"]);
+    EXPECT_FALSE(std::filesystem::exists(dir.path() / "out/run.h5.partial"));
+    EXPECT_TRUE(std::filesystem::exists(dir.path() / "out/run.xdmf"));
+    const hid_t file = H5Fopen((dir.path() / "out/run.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    ASSERT_GE(file, 0) << "run.h5 is not a valid HDF5 file";
+    EXPECT_GT(H5Lexists(file, "timeseries", H5P_DEFAULT), 0);
+    EXPECT_GT(H5Lexists(file, "snapshots", H5P_DEFAULT), 0);
+    H5Fclose(file);
+  }
 }
 
 }  // namespace

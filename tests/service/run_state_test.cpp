@@ -15,6 +15,11 @@ TEST(RunState, ExitCodesMapToStatesAndRetryPolicy) {
   EXPECT_FALSE(classify_child_exit(3, 0).retryable);
   EXPECT_EQ(classify_child_exit(4, 0).state, RunState::SystemError);
   EXPECT_TRUE(classify_child_exit(4, 0).retryable);
+  // A run stopped cleanly by a signal from outside (130 SIGINT, 143 SIGTERM) is tried again.
+  EXPECT_EQ(classify_child_exit(143, 0).state, RunState::SystemError);
+  EXPECT_TRUE(classify_child_exit(143, 0).retryable);
+  EXPECT_TRUE(classify_child_exit(130, 0).retryable);
+  EXPECT_FALSE(classify_child_exit(1, 0).retryable);
   EXPECT_TRUE(classify_child_exit(-1, SIGKILL).retryable);
   EXPECT_EQ(run_state_name(classify_child_exit(-1, SIGKILL).state), "SYSTEM_ERROR");
   EXPECT_FALSE(classify_child_exit(1, 0).retryable);
