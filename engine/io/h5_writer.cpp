@@ -72,14 +72,16 @@ void H5Writer::write_snapshot(std::int64_t step, double time_s, const ParticleSt
   const std::size_t n = p.size();
   const hsize_t dims3[2] = {n, 3}, dims1[1] = {n};
   static_assert(sizeof(Vec3) == 3 * sizeof(double));
-  std::vector<double> diameter(n);
-  std::vector<int> material(n);
+  std::vector<double> diameter(n), speed(n);
+  std::vector<int> material(n), generation;
   std::vector<Vec3> velocity(n), angular_velocity(n);
   for (std::size_t i = 0; i < n; ++i) {
     diameter[i] = 2.0 * p.radius_m[i], material[i] = p.material[i];
     velocity[i] = p.motion[i].velocity_m_per_s;
     angular_velocity[i] = p.motion[i].angular_velocity_rad_per_s;
+    speed[i] = norm(velocity[i]);
   }
+  if (p.has_breakage_state) generation.assign(p.generation.begin(), p.generation.end());
   try {
     write_dataset(g, "position", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, 2, dims3, p.position_m.data(),
                   path_);
@@ -91,6 +93,13 @@ void H5Writer::write_snapshot(std::int64_t step, double time_s, const ParticleSt
                   path_);
     write_dataset(g, "id", H5T_NATIVE_UINT64, H5T_STD_U64LE, 1, dims1, p.id.data(), path_);
     write_dataset(g, "material", H5T_NATIVE_INT, H5T_STD_I32LE, 1, dims1, material.data(), path_);
+    write_dataset(g, "speed", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, 1, dims1, speed.data(), path_);
+    if (p.has_breakage_state) {
+      write_dataset(g, "remaining_capacity", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, 1, dims1,
+                    p.remaining_capacity_j_per_kg.data(), path_);
+      write_dataset(g, "generation", H5T_NATIVE_INT, H5T_STD_I32LE, 1, dims1, generation.data(),
+                    path_);
+    }
     write_scalar_attribute(g, "step", H5T_NATIVE_INT64, static_cast<std::int64_t>(step));
     write_scalar_attribute(g, "time_s", H5T_NATIVE_DOUBLE, time_s);
   } catch (...) {
@@ -98,7 +107,7 @@ void H5Writer::write_snapshot(std::int64_t step, double time_s, const ParticleSt
     throw;
   }
   H5Gclose(g);
-  snapshots_.push_back({name, step, time_s, n});
+  snapshots_.push_back({name, step, time_s, n, p.has_breakage_state});
 }
 
 void H5Writer::write_timeseries(const std::vector<std::string>& names,
@@ -118,6 +127,16 @@ void H5Writer::write_columns(const std::string& group, const std::vector<std::st
   H5Gclose(g);
 }
 
+void H5Writer::write_vertex_index() {
+  std::size_t largest = 1;
+  for (const SnapshotInfo& s : snapshots_) largest = std::max(largest, s.particle_count);
+  std::vector<std::int64_t> index(largest);
+  for (std::size_t i = 0; i < largest; ++i) index[i] = std::int64_t(i);
+  const hsize_t dims[1] = {largest};
+  write_dataset(file_, "vertex_index", H5T_NATIVE_INT64, H5T_STD_I64LE, 1, dims, index.data(),
+                path_);
+}
+
 void H5Writer::close() {
   if (file_ < 0) return;
   const herr_t status = H5Fclose(file_);
@@ -129,27 +148,61 @@ void write_xdmf(const std::filesystem::path& xdmf_path, const std::string& h5_na
                 const std::vector<SnapshotInfo>& snapshots) {
   std::ofstream out(xdmf_path);
   if (!out) throw IoError("cannot write " + xdmf_path.string());
+  out.precision(17);  // times as written in run.h5, to the last bit
   out << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n"
          "  <Grid Name=\"particles\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
-  auto item = [&](const SnapshotInfo& s, const char* field, const char* dims) {
-    out << "      <DataItem Dimensions=\"" << dims << "\" NumberType=\"Float\" Precision=\"8\" "
-        << "Format=\"HDF\">" << h5_name << ":" << s.group << "/" << field << "</DataItem>\n";
+  auto item = [&](const SnapshotInfo& s, const char* field, const std::string& dims,
+                  const char* type, int precision) {
+    out << "      <DataItem Dimensions=\"" << dims << "\" NumberType=\"" << type
+        << "\" Precision=\"" << precision << "\" Format=\"HDF\">" << h5_name << ":" << s.group
+        << "/" << field << "</DataItem>\n";
   };
+  struct Field {
+    const char* name;  // dataset and attribute name
+    bool vector;       // n × 3
+    const char* type;  // XDMF NumberType
+    int precision;     // bytes
+    bool breakage_only;
+  };
+  static constexpr Field kFields[] = {
+      {"id", false, "UInt", 8, false},
+      {"material", false, "Int", 4, false},
+      {"diameter", false, "Float", 8, false},
+      {"velocity", true, "Float", 8, false},
+      {"angular_velocity", true, "Float", 8, false},
+      {"speed", false, "Float", 8, false},
+      {"remaining_capacity", false, "Float", 8, true},
+      {"generation", false, "Int", 4, true},
+  };
+  std::size_t largest = 1;  // the length of /vertex_index (H5Writer::write_vertex_index)
+  for (const SnapshotInfo& s : snapshots) largest = std::max(largest, s.particle_count);
   for (const SnapshotInfo& s : snapshots) {
     const std::string n = std::to_string(s.particle_count), n3 = n + " 3";
+    // One vertex cell per particle (Polyvertex, one node each): ParaView's default reader
+    // draws them as soon as the file is opened.
     out << "   <Grid Name=\"" << s.group.substr(s.group.rfind('/') + 1)
         << "\" GridType=\"Uniform\">\n"
         << "    <Time Value=\"" << s.time_s << "\"/>\n"
-        << "    <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << n << "\"/>\n"
-        << "    <Geometry GeometryType=\"XYZ\">\n";
-    item(s, "position", n3.c_str());
-    out << "    </Geometry>\n    <Attribute Name=\"diameter\" AttributeType=\"Scalar\" "
-           "Center=\"Node\">\n";
-    item(s, "diameter", n.c_str());
-    out << "    </Attribute>\n    <Attribute Name=\"velocity\" AttributeType=\"Vector\" "
-           "Center=\"Node\">\n";
-    item(s, "velocity", n3.c_str());
-    out << "    </Attribute>\n   </Grid>\n";
+        << "    <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << n
+        << "\" NodesPerElement=\"1\">\n";
+    if (s.particle_count > 0)  // the first n entries of /vertex_index
+      out << "      <DataItem ItemType=\"HyperSlab\" Dimensions=\"" << n
+          << "\" Type=\"HyperSlab\">\n"
+          << "        <DataItem Dimensions=\"3 1\" Format=\"XML\">0 1 " << n << "</DataItem>\n"
+          << "        <DataItem Dimensions=\"" << largest
+          << "\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">" << h5_name
+          << ":/vertex_index</DataItem>\n      </DataItem>\n";
+    out << "    </Topology>\n    <Geometry GeometryType=\"XYZ\">\n";
+    item(s, "position", n3, "Float", 8);
+    out << "    </Geometry>\n";
+    for (const Field& f : kFields) {
+      if (f.breakage_only && !s.breakage) continue;
+      out << "    <Attribute Name=\"" << f.name << "\" AttributeType=\""
+          << (f.vector ? "Vector" : "Scalar") << "\" Center=\"Node\">\n";
+      item(s, f.name, f.vector ? n3 : n, f.type, f.precision);
+      out << "    </Attribute>\n";
+    }
+    out << "   </Grid>\n";
   }
   out << "  </Grid>\n </Domain>\n</Xdmf>\n";
   if (!out) throw IoError("cannot write " + xdmf_path.string());

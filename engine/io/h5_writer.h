@@ -23,6 +23,7 @@ struct SnapshotInfo {
   std::int64_t step;
   double time_s;
   std::size_t particle_count;
+  bool breakage = false;  // the snapshot has remaining_capacity and generation
 };
 
 class H5Writer {
@@ -40,6 +41,9 @@ class H5Writer {
   // One 1-D double dataset per name under a new group (e.g. "/psd").
   void write_columns(const std::string& group, const std::vector<std::string>& names,
                      const std::vector<std::vector<double>>& columns);
+  // /vertex_index: 0, 1, …, up to the largest snapshot's particle count, the connectivity every
+  // snapshot's vertex cells take a slice of in run.xdmf. Call once, after the last snapshot.
+  void write_vertex_index();
   void close();  // flushes; throws IoError on failure
 
   const std::vector<SnapshotInfo>& snapshots() const { return snapshots_; }

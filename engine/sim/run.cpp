@@ -419,6 +419,7 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
       h5->write_timeseries(series.names, series.columns);
       if (has_product(sim)) write_psd_h5(sim, *h5);
       if (sim.gas()) write_gas_h5(sim, *h5);
+      h5->write_vertex_index();
       h5->close();
       std::filesystem::rename(h5_partial, options.out_dir / "run.h5");
       write_xdmf(options.out_dir / "run.xdmf", "run.h5", h5->snapshots());
