@@ -3,6 +3,7 @@
 // line on a terminal, prints the JSON summary on stdout and writes DIR/{run.h5, run.xdmf,
 // result.json}. Default DIR: out/<scene name>.
 #include <signal.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -10,6 +11,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <memory>
 
 #include "commands.h"
 #include "core/errors.h"
@@ -24,6 +26,7 @@ struct RunArgs {
   std::string scene_path;
   std::string out_dir;
   bool quiet = false;
+  double log_interval_s = 10.0;
 };
 
 bool parse_run_args(const std::vector<std::string>& args, RunArgs& out) {
@@ -35,8 +38,18 @@ bool parse_run_args(const std::vector<std::string>& args, RunArgs& out) {
       out.out_dir = a.substr(6);
     } else if (a == "--quiet" || a == "-q") {
       out.quiet = true;
+    } else if (a == "--log-interval" && k + 1 < args.size()) {
+      char* end = nullptr;
+      out.log_interval_s = std::strtod(args[++k].c_str(), &end);
+      if (*end != '\0' || !(out.log_interval_s >= 0.01 && out.log_interval_s <= 1e6)) {
+        std::fprintf(stderr, "millsim run: --log-interval = %s: expected seconds in [0.01, 1e6]\n",
+                     args[k].c_str());
+        return false;
+      }
     } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "millsim run: unknown option \"%s\"; allowed: --out DIR, --quiet\n",
+      std::fprintf(stderr,
+                   "millsim run: unknown option \"%s\"; allowed: --out DIR, --quiet, "
+                   "--log-interval S\n",
                    a.c_str());
       return false;
     } else if (out.scene_path.empty()) {
@@ -60,6 +73,56 @@ void on_stop_signal(int signal) {
   g_stop_signal.store(signal, std::memory_order_relaxed);
 }
 
+// LAMMPS-style thermo lines for batch logs (stderr is not a terminal): a header, then one line
+// every interval of wall time and one at the end, on stderr and in DIR/log.txt (once when
+// stderr already is that file, as under the service's executors).
+class ThermoLog {
+ public:
+  ThermoLog(const std::filesystem::path& dir, double interval_s) : interval_s_(interval_s) {
+    std::filesystem::create_directories(dir);
+    file_ = std::fopen((dir / "log.txt").c_str(), "a");
+    struct stat a {
+    }, b{};
+    to_stderr_ = !(file_ && fstat(fileno(file_), &a) == 0 && fstat(STDERR_FILENO, &b) == 0 &&
+                   a.st_dev == b.st_dev && a.st_ino == b.st_ino);
+  }
+  ~ThermoLog() {
+    if (file_) std::fclose(file_);
+  }
+  ThermoLog(const ThermoLog&) = delete;
+  ThermoLog& operator=(const ThermoLog&) = delete;
+
+  void report(const RunProgress& p) {
+    const bool last = p.step == p.total_steps;
+    if (!header_written_) {
+      write("%10s %12s %10s %9s %12s %10s %10s %9s\n", "Step", "Time_s", "Particles", "Contacts",
+            "KinEng_J", "Dt_s", "PSteps/s", "ETA_s");
+      header_written_ = true;
+    } else if (!last && p.elapsed_s - last_s_ < interval_s_) {
+      return;
+    }
+    last_s_ = p.elapsed_s;
+    write("%10lld %12.6g %10zu %9zu %12.5g %10.4g %10.4g %9.0f\n", static_cast<long long>(p.step),
+          p.time_s, p.particles, p.contacts, p.kinetic_j, p.time_step_s, p.particle_steps_per_s,
+          p.eta_s);
+  }
+
+ private:
+  template <class... Args>
+  void write(const char* format, Args... args) {
+    if (to_stderr_) std::fprintf(stderr, format, args...);
+    if (file_) {
+      std::fprintf(file_, format, args...);
+      std::fflush(file_);
+    }
+  }
+  double interval_s_;
+  double last_s_ = 0.0;
+  bool header_written_ = false;
+  bool to_stderr_ = true;
+  std::FILE* file_ = nullptr;
+};
+
 void print_progress(const RunProgress& p) {
   const double percent = 100.0 * double(p.step) / double(std::max<std::int64_t>(1, p.total_steps));
   std::fprintf(
@@ -82,7 +145,13 @@ int cmd_run(const std::vector<std::string>& args) {
     RunOptions options;
     options.out_dir = run_args.out_dir.empty() ? std::filesystem::path("out") / scene.name
                                                : std::filesystem::path(run_args.out_dir);
-    if (!run_args.quiet && isatty(STDERR_FILENO)) options.on_progress = print_progress;
+    std::unique_ptr<ThermoLog> thermo;
+    if (isatty(STDERR_FILENO)) {
+      if (!run_args.quiet) options.on_progress = print_progress;
+    } else {
+      thermo = std::make_unique<ThermoLog>(options.out_dir, run_args.log_interval_s);
+      options.on_progress = [&thermo](const RunProgress& p) { thermo->report(p); };
+    }
     // SIGINT (Ctrl-C), SIGTERM (a batch system's stop, a wall-time limit) and SIGUSR1 end the
     // run after the step under way, with run.h5 and result.json complete.
     struct sigaction action = {};

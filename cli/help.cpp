@@ -75,13 +75,17 @@ const std::vector<VerbHelp>& verb_help() {
   static const std::vector<VerbHelp> verbs = {
       {"run",
        "run one scene",
-       "millsim run SCENE.json [--out DIR] [--quiet]",
+       "millsim run SCENE.json [--out DIR] [--quiet] [--log-interval S]",
        "Validates the scene (every error at once, exit 2, nothing written), runs it with a "
        "progress line on a terminal, prints the JSON summary on stdout and writes DIR/run.h5, "
        "run.xdmf and result.json. SIGINT, SIGTERM and SIGUSR1 stop it after the step under way "
        "with every file complete (result.json status \"interrupted\", exit 128 + the signal).",
        {{"--out DIR", "out/<scene name>", "where the run's files go"},
-        {"--quiet", "off", "no progress line"}},
+        {"--quiet", "off", "no start line and no progress line on a terminal"},
+        {"--log-interval S", "10",
+         "seconds of wall time between thermo lines (step, time, particles, contacts, kinetic "
+         "energy, time step, particle-steps/s, ETA) on stderr and in DIR/log.txt when stderr is "
+         "not a terminal"}},
        "millsim run cases/spiral_jet_mill.json --out out/mill"},
       {"study",
        "run a parameter study on this machine",

@@ -314,6 +314,18 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
 
   RunOutcome outcome;
   auto last_progress = Clock::now();
+  auto progress_now = [&](std::int64_t step, double elapsed) {
+    RunProgress p{step,         total,
+                  sim.time_s(), sim.particles().size(),
+                  elapsed,      step > 0 ? elapsed / double(step) * double(total - step) : 0.0};
+    p.contacts = sim.contact_stats().touching_pairs + sim.contact_stats().touching_walls;
+    p.kinetic_j = sim.energy().kinetic_j;
+    p.time_step_s = dt;
+    const double step_seconds = sim.profile().total();
+    p.particle_steps_per_s = step_seconds > 0 ? sim.particle_steps() / step_seconds : 0.0;
+    return p;
+  };
+  if (options.on_progress) options.on_progress(progress_now(sim.step_index(), 0.0));
   while (sim.step_index() < total) {
     // Advance to the next step anything is recorded at, and at most 256 steps, so progress
     // (checked between advances) stays timely.
@@ -335,8 +347,7 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
                      std::chrono::duration<double>(options.progress_interval_s))) {
       last_progress = Clock::now();
       const double elapsed = std::chrono::duration<double>(last_progress - start).count();
-      options.on_progress({step, total, sim.time_s(), sim.particles().size(), elapsed,
-                           elapsed / double(step) * double(total - step)});
+      options.on_progress(progress_now(step, elapsed));
     }
     if (outcome.failure || outcome.interrupted_by != 0) break;
   }

@@ -24,6 +24,10 @@ struct RunProgress {
   std::size_t particles = 0;
   double elapsed_s = 0.0;
   double eta_s = 0.0;
+  std::size_t contacts = 0;  // touching particle pairs and wall contacts
+  double kinetic_j = 0.0;    // translational kinetic energy
+  double time_step_s = 0.0;
+  double particle_steps_per_s = 0.0;  // since the start
 };
 
 struct RunOptions {

@@ -183,5 +183,54 @@ TEST(CliRun, SignalsStopARunWithEveryFileComplete) {
   }
 }
 
+// In a batch log (stderr not a terminal) a run writes LAMMPS-style thermo lines: a header, a line
+// per interval and one at the end, to stderr and to DIR/log.txt; once only when stderr already is
+// DIR/log.txt (as under the service's executors).
+TEST(CliRun, BatchLogsGetThermoLines) {
+  test::TempDir dir;
+  std::ifstream in(MILLSIM_SOURCE_DIR "/cases/settling_column.json");
+  nlohmann::json scene = nlohmann::json::parse(in);
+  scene["time"]["end_s"] = 0.06;
+  scene["output"]["h5"] = false;
+  write_file(dir.path() / "column.json", scene.dump());
+  const CommandResult r =
+      run_millsim("run column.json --out out --quiet --log-interval 0.05", dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json result = nlohmann::json::parse(r.out);
+  std::istringstream lines(r.err);
+  std::string line, header, last;
+  int data_lines = 0;
+  while (std::getline(lines, line)) {
+    if (line.find("Step") != std::string::npos && line.find("KinEng_J") != std::string::npos)
+      header = line;
+    else if (!header.empty() && !line.empty())
+      ++data_lines, last = line;
+  }
+  EXPECT_FALSE(header.empty()) << r.err;
+  EXPECT_GE(data_lines, 2) << r.err;
+  long long step = 0;
+  std::size_t particles = 0;
+  std::sscanf(last.c_str(), "%lld %*g %zu", &step, &particles);
+  EXPECT_EQ(step, result["steps"].get<long long>()) << last;
+  EXPECT_EQ(particles, result["particles"]["final"].get<std::size_t>());
+  std::ifstream log(dir.path() / "out/log.txt");
+  std::stringstream text;
+  text << log.rdbuf();
+  EXPECT_EQ(text.str(), r.err.substr(r.err.find(header))) << "log.txt holds the same lines";
+
+  // stderr is DIR/log.txt itself: every line once.
+  std::filesystem::create_directories(dir.path() / "same");
+  const int status = std::system(("cd " + (dir.path() / "same").string() +
+                                  " && " MILLSIM_BINARY " run " MILLSIM_SOURCE_DIR
+                                  "/cases/impact_two_spheres.json "
+                                  "--out . --quiet >/dev/null 2>>log.txt")
+                                     .c_str());
+  EXPECT_EQ(status, 0);
+  std::ifstream same(dir.path() / "same/log.txt");
+  std::string content((std::istreambuf_iterator<char>(same)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(content.find("KinEng_J"), content.rfind("KinEng_J")) << content;
+  EXPECT_NE(content.find("KinEng_J"), std::string::npos) << content;
+}
+
 }  // namespace
 }  // namespace millsim
