@@ -10,8 +10,10 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <memory>
+#include <sstream>
 
 #include "commands.h"
 #include "core/errors.h"
@@ -145,6 +147,13 @@ int cmd_run(const std::vector<std::string>& args) {
     RunOptions options;
     options.out_dir = run_args.out_dir.empty() ? std::filesystem::path("out") / scene.name
                                                : std::filesystem::path(run_args.out_dir);
+    {
+      std::ifstream in(run_args.scene_path);
+      std::stringstream text;
+      text << in.rdbuf();
+      options.scene_text = text.str();
+      options.scene_path = run_args.scene_path;
+    }
     std::unique_ptr<ThermoLog> thermo;
     if (isatty(STDERR_FILENO)) {
       if (!run_args.quiet) options.on_progress = print_progress;

@@ -1,14 +1,12 @@
-// Where this binary came from: the git commit of its source tree (with "-dirty" for local
-// changes) and the compiler, written at build time by cmake/write_build_info.cmake. Baselines and
-// regression records carry them, so an `exact` comparison is only made against the same build.
+// The build and the machine a result came from (core/build_info.h plus the host): baselines and
+// regression records carry it, so an `exact` comparison is only made against the same build.
 #pragma once
 
 #include <nlohmann/json.hpp>
 
-namespace millsim {
+#include "core/build_info.h"
 
-extern const char* const kGitCommit;
-extern const char* const kCompiler;
+namespace millsim {
 
 // {millsim_version, git_commit, compiler, machine {host, arch, cpu}}.
 nlohmann::ordered_json build_description();

@@ -4,6 +4,8 @@
 
 #include <cstdio>
 #include <fstream>
+#include <string_view>
+#include <utility>
 
 #include "core/errors.h"
 
@@ -12,6 +14,34 @@ namespace {
 
 void check(herr_t status, const std::string& what, const std::filesystem::path& path) {
   if (status < 0) throw IoError("HDF5: " + what + " failed in " + path.string());
+}
+
+void write_string_attribute(hid_t object, const char* name, const std::string& value) {
+  const hid_t type = H5Tcopy(H5T_C_S1);
+  H5Tset_size(type, value.size() + 1);
+  const hid_t space = H5Screate(H5S_SCALAR);
+  const hid_t attr = H5Acreate2(object, name, type, space, H5P_DEFAULT, H5P_DEFAULT);
+  H5Awrite(attr, type, value.c_str());
+  H5Aclose(attr), H5Sclose(space), H5Tclose(type);
+}
+
+bool ends_with(std::string_view s, std::string_view suffix) {
+  return s.size() >= suffix.size() && s.substr(s.size() - suffix.size()) == suffix;
+}
+
+// The SI unit of a dataset, from its name: the fields named for what they are, the rest by the
+// unit suffix of the naming convention (_m, _s, _j, _kg, _pa, _m_per_s); "1" for counts and ratios.
+std::string unit_of(std::string_view name) {
+  static constexpr std::pair<std::string_view, std::string_view> kNamed[] = {
+      {"position", "m"}, {"velocity", "m/s"}, {"angular_velocity", "rad/s"},
+      {"speed", "m/s"},  {"diameter", "m"},   {"remaining_capacity", "J/kg"}};
+  for (const auto& [field, unit] : kNamed)
+    if (name == field) return std::string(unit);
+  static constexpr std::pair<std::string_view, std::string_view> kSuffixes[] = {
+      {"_m_per_s", "m/s"}, {"_m", "m"}, {"_s", "s"}, {"_j", "J"}, {"_kg", "kg"}, {"_pa", "Pa"}};
+  for (const auto& [suffix, unit] : kSuffixes)
+    if (ends_with(name, suffix)) return std::string(unit);
+  return "1";
 }
 
 void write_dataset(hid_t group, const char* name, hid_t mem_type, hid_t file_type, int rank,
@@ -25,6 +55,7 @@ void write_dataset(hid_t group, const char* name, hid_t mem_type, hid_t file_typ
   }
   const herr_t status =
       dims[0] == 0 ? 0 : H5Dwrite(set, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data);
+  write_string_attribute(set, "units", unit_of(name));
   H5Dclose(set);
   H5Sclose(space);
   check(status, std::string("writing ") + name, path);
@@ -55,13 +86,14 @@ H5Writer::~H5Writer() {
 }
 
 void H5Writer::write_root_attribute(const std::string& name, const std::string& value) {
-  const hid_t type = H5Tcopy(H5T_C_S1);
-  H5Tset_size(type, value.size() + 1);
-  const hid_t space = H5Screate(H5S_SCALAR);
-  const hid_t attr = H5Acreate2(file_, name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT);
-  const herr_t status = H5Awrite(attr, type, value.c_str());
-  H5Aclose(attr), H5Sclose(space), H5Tclose(type);
-  check(status, "attribute " + name, path_);
+  write_string_attribute(file_, name.c_str(), value);
+}
+
+void H5Writer::write_meta(const std::vector<std::pair<std::string, std::string>>& fields) {
+  const hid_t g = H5Gcreate2(file_, "/meta", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (g < 0) throw IoError("HDF5: cannot create /meta in " + path_.string());
+  for (const auto& [name, value] : fields) write_string_attribute(g, name.c_str(), value);
+  H5Gclose(g);
 }
 
 void H5Writer::write_snapshot(std::int64_t step, double time_s, const ParticleStore& p) {

@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "particles/particle_store.h"
@@ -44,6 +45,8 @@ class H5Writer {
   // /vertex_index: 0, 1, …, up to the largest snapshot's particle count, the connectivity every
   // snapshot's vertex cells take a slice of in run.xdmf. Call once, after the last snapshot.
   void write_vertex_index();
+  // /meta: one string attribute per field (the scene as given, the seed, the build).
+  void write_meta(const std::vector<std::pair<std::string, std::string>>& fields);
   void close();  // flushes; throws IoError on failure
 
   const std::vector<SnapshotInfo>& snapshots() const { return snapshots_; }

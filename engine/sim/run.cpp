@@ -7,6 +7,7 @@
 #include <fstream>
 #include <memory>
 
+#include "core/build_info.h"
 #include "io/h5_writer.h"
 #include "process/classification.h"
 
@@ -296,7 +297,16 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
       steps_per_interval(scene.output.timeseries_interval_s, scene.time.end_s / 200.0, dt);
   const bool write_files = !options.out_dir.empty();
   const bool write_h5 = write_files && scene.output.write_h5;
-  if (write_files) std::filesystem::create_directories(options.out_dir);
+  if (write_files) {
+    std::filesystem::create_directories(options.out_dir);
+    // A copy of the scene beside its results (not over itself: the service runs scene.json in
+    // the run's own directory).
+    const std::filesystem::path copy = options.out_dir / "scene.json";
+    std::error_code ec;
+    if (!options.scene_text.empty() && !(std::filesystem::exists(copy) &&
+                                         std::filesystem::equivalent(copy, options.scene_path, ec)))
+      write_text_atomically(copy, options.scene_text);
+  }
 
   std::unique_ptr<H5Writer> h5;
   const std::filesystem::path h5_partial = options.out_dir / "run.h5.partial";
@@ -304,6 +314,12 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
     h5 = std::make_unique<H5Writer>(h5_partial);
     h5->write_root_attribute("scene", scene.name);
     h5->write_root_attribute("millsim_version", kMillsimVersion);
+    h5->write_meta({{"scene_name", scene.name},
+                    {"scene_json", options.scene_text},
+                    {"seed", std::to_string(scene.seed)},
+                    {"millsim_version", kMillsimVersion},
+                    {"git_commit", kGitCommit},
+                    {"compiler", kCompiler}});
   }
 
   const std::size_t initial_particles = sim.particles().size();

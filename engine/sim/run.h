@@ -37,6 +37,10 @@ struct RunOptions {
   // Set (to a signal number) by a signal handler: the run stops after the step under way,
   // writes its last snapshot, closes run.h5 as a valid file and its summary says "interrupted".
   const std::atomic<int>* stop_request = nullptr;
+  // The scene file's text as given and its path: kept in run.h5 /meta and copied to
+  // DIR/scene.json (unless that is the file itself).
+  std::string scene_text;
+  std::filesystem::path scene_path;
 };
 
 struct RunOutcome {

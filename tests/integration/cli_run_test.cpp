@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <thread>
@@ -230,6 +231,82 @@ TEST(CliRun, BatchLogsGetThermoLines) {
   std::string content((std::istreambuf_iterator<char>(same)), std::istreambuf_iterator<char>());
   EXPECT_EQ(content.find("KinEng_J"), content.rfind("KinEng_J")) << content;
   EXPECT_NE(content.find("KinEng_J"), std::string::npos) << content;
+}
+
+namespace {
+
+// A string attribute of an HDF5 object ("" when absent).
+std::string string_attribute(hid_t object, const char* name) {
+  if (H5Aexists(object, name) <= 0) return "";
+  const hid_t attr = H5Aopen(object, name, H5P_DEFAULT);
+  const hid_t type = H5Aget_type(attr);
+  std::string value(H5Tget_size(type), '\0');
+  H5Aread(attr, type, value.data());
+  H5Tclose(type);
+  H5Aclose(attr);
+  return value.substr(0, value.find('\0'));
+}
+
+}  // namespace
+
+// run.h5 describes itself: every dataset has its units, /meta holds the scene as given, its seed,
+// the version and the build; the scene is copied beside the results.
+TEST(CliRun, RunFilesDescribeThemselves) {
+  test::TempDir dir;
+  std::ifstream in(MILLSIM_SOURCE_DIR "/cases/attrition_target.json");
+  nlohmann::json scene = nlohmann::json::parse(in);
+  scene["time"]["end_s"] = 4e-4;
+  const std::string text = scene.dump(1);
+  write_file(dir.path() / "attrition.json", text);
+  const CommandResult r = run_millsim("run attrition.json --out out --quiet", dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::ifstream copy(dir.path() / "out/scene.json");
+  EXPECT_EQ(std::string((std::istreambuf_iterator<char>(copy)), std::istreambuf_iterator<char>()),
+            text);
+
+  const hid_t file = H5Fopen((dir.path() / "out/run.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  ASSERT_GE(file, 0);
+  struct Visit {
+    int datasets = 0;
+    std::vector<std::string> without_units;
+    std::map<std::string, std::string> units;
+  } visit;
+  H5Ovisit2(
+      file, H5_INDEX_NAME, H5_ITER_NATIVE,
+      [](hid_t root, const char* name, const H5O_info_t* info, void* data) -> herr_t {
+        if (info->type != H5O_TYPE_DATASET) return 0;
+        auto& v = *static_cast<Visit*>(data);
+        ++v.datasets;
+        const hid_t set = H5Dopen2(root, name, H5P_DEFAULT);
+        const std::string units = string_attribute(set, "units");
+        H5Dclose(set);
+        if (units.empty()) v.without_units.push_back(name);
+        const std::string n = name;
+        v.units[n.substr(n.rfind('/') + 1)] = units;
+        return 0;
+      },
+      &visit, H5O_INFO_BASIC);
+  EXPECT_GT(visit.datasets, 20);
+  EXPECT_TRUE(visit.without_units.empty()) << visit.without_units.front();
+  EXPECT_EQ(visit.units["position"], "m");
+  EXPECT_EQ(visit.units["velocity"], "m/s");
+  EXPECT_EQ(visit.units["angular_velocity"], "rad/s");
+  EXPECT_EQ(visit.units["remaining_capacity"], "J/kg");
+  EXPECT_EQ(visit.units["kinetic_j"], "J");
+  EXPECT_EQ(visit.units["time_s"], "s");
+  EXPECT_EQ(visit.units["dust_mass_kg"], "kg");
+  EXPECT_EQ(visit.units["generation"], "1");
+
+  const hid_t meta = H5Gopen2(file, "/meta", H5P_DEFAULT);
+  ASSERT_GE(meta, 0);
+  EXPECT_EQ(string_attribute(meta, "scene_json"), text);
+  EXPECT_EQ(string_attribute(meta, "seed"), std::to_string(scene["seed"].get<int>()));
+  EXPECT_EQ(string_attribute(meta, "millsim_version"),
+            nlohmann::json::parse(r.out)["millsim_version"]);
+  EXPECT_FALSE(string_attribute(meta, "git_commit").empty());
+  EXPECT_FALSE(string_attribute(meta, "compiler").empty());
+  H5Gclose(meta);
+  H5Fclose(file);
 }
 
 }  // namespace
