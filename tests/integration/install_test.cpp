@@ -13,23 +13,6 @@
 namespace millsim {
 namespace {
 
-std::string read_text(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
-std::pair<int, std::string> shell(const std::string& command) {
-  std::string out;
-  FILE* p = popen((command + " 2>&1").c_str(), "r");
-  if (!p) return {-1, ""};
-  char buffer[512];
-  while (fgets(buffer, sizeof buffer, p)) out += buffer;
-  const int status = pclose(p);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
-
 const char* const kInstalled[] = {
     "bin/millsim",
     "share/man/man1/millsim.1",
@@ -47,40 +30,48 @@ TEST(Install, CmakeInstallPutsEverythingInItsPlace) {
   test::TempDir dir;
   const std::filesystem::path prefix = dir.path() / "prefix";
   const auto [status, out] =
-      shell("cmake --install " MILLSIM_BUILD_DIR " --prefix " + prefix.string());
+      test::run_shell("cmake --install " MILLSIM_BUILD_DIR " --prefix " + prefix.string())
+          .status_and_output();
   ASSERT_EQ(status, 0) << out;
   for (const char* file : kInstalled)
     EXPECT_TRUE(std::filesystem::is_regular_file(prefix / file)) << file;
-  const auto [version_status, version] = shell((prefix / "bin/millsim").string() + " version");
+  const auto [version_status, version] =
+      test::run_shell((prefix / "bin/millsim").string() + " version").status_and_output();
   EXPECT_EQ(version_status, 0);
   EXPECT_EQ(version.rfind("millsim ", 0), 0u) << version;
-  const auto [man_status, man] = shell((prefix / "bin/millsim").string() + " help --man");
-  EXPECT_EQ(read_text(prefix / "share/man/man1/millsim.1"), man);
+  const auto [man_status, man] =
+      test::run_shell((prefix / "bin/millsim").string() + " help --man").status_and_output();
+  EXPECT_EQ(test::read_file(prefix / "share/man/man1/millsim.1"), man);
   // The installed suite finds its scenes relative to itself.
   const auto [suite_status, suite_out] =
-      shell((prefix / "bin/millsim").string() + " regress " +
-            (prefix / "share/millsim/cases/regression/physics.json").string() + " --format xml");
+      test::run_shell((prefix / "bin/millsim").string() + " regress " +
+                      (prefix / "share/millsim/cases/regression/physics.json").string() +
+                      " --format xml")
+          .status_and_output();
   EXPECT_EQ(suite_status, 2) << suite_out;  // bad option, but the suite path was accepted
 }
 
 TEST(Install, CpackMakesADebianPackage) {
-  if (shell("command -v cpack && command -v dpkg-deb").first != 0)
+  if (test::run_shell("command -v cpack && command -v dpkg-deb").exit_code != 0)
     GTEST_SKIP() << "cpack or dpkg-deb is not installed";
   test::TempDir dir;
   const auto [status, out] =
-      shell("cd " + dir.path().string() +
-            " && cpack -G DEB --config " MILLSIM_BUILD_DIR "/CPackConfig.cmake -B " +
-            dir.path().string());
+      test::run_shell("cd " + dir.path().string() +
+                      " && cpack -G DEB --config " MILLSIM_BUILD_DIR "/CPackConfig.cmake -B " +
+                      dir.path().string())
+          .status_and_output();
   ASSERT_EQ(status, 0) << out;
   std::filesystem::path deb;
   for (const auto& entry : std::filesystem::directory_iterator(dir.path()))
     if (entry.path().extension() == ".deb") deb = entry.path();
   ASSERT_FALSE(deb.empty()) << out;
-  const auto [list_status, listing] = shell("dpkg-deb -c " + deb.string());
+  const auto [list_status, listing] =
+      test::run_shell("dpkg-deb -c " + deb.string()).status_and_output();
   ASSERT_EQ(list_status, 0) << listing;
   for (const char* file : kInstalled)
     EXPECT_NE(listing.find(std::string("./usr/local/") + file), std::string::npos) << file;
-  const auto [info_status, info] = shell("dpkg-deb -f " + deb.string() + " Package Depends");
+  const auto [info_status, info] =
+      test::run_shell("dpkg-deb -f " + deb.string() + " Package Depends").status_and_output();
   EXPECT_NE(info.find("Package: millsim"), std::string::npos) << info;
   EXPECT_NE(info.find("libhdf5"), std::string::npos) << "shared-library dependencies: " << info;
 }

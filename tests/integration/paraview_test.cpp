@@ -17,23 +17,14 @@ namespace {
 
 using nlohmann::json;
 
-std::pair<int, std::string> shell(const std::string& command) {
-  std::string out;
-  FILE* p = popen(command.c_str(), "r");
-  if (!p) return {-1, ""};
-  char buffer[4096];
-  while (fgets(buffer, sizeof buffer, p)) out += buffer;
-  const int status = pclose(p);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
-
 struct Case {
   const char* file;
   double end_s;
 };
 
 TEST(ParaView, EveryShippedCaseOpensWithTheDefaultReader) {
-  if (shell("command -v pvpython >/dev/null && command -v xvfb-run >/dev/null").first != 0)
+  if (test::run_shell("command -v pvpython >/dev/null && command -v xvfb-run >/dev/null")
+          .exit_code != 0)
     GTEST_SKIP() << "pvpython or xvfb-run is not installed (Debian paraview, python3-paraview, "
                     "xvfb)";
   const std::set<std::string> common = {"angular_velocity", "diameter", "id",
@@ -60,9 +51,12 @@ TEST(ParaView, EveryShippedCaseOpensWithTheDefaultReader) {
     const json result = json::parse(run.out);
     const bool breakage = result.contains("breakage");
 
-    const auto [status, out] = shell("cd " + dir.path().string() +
-                                     " && xvfb-run -a pvpython " MILLSIM_SOURCE_DIR
-                                     "/tests/paraview/read_xdmf.py out/run.xdmf 2>pv.err");
+    // In a subshell of its own, so ParaView's stderr goes to pv.err, not into the JSON.
+    const auto [status, out] = test::run_shell("(cd " + dir.path().string() +
+                                               " && xvfb-run -a pvpython " MILLSIM_SOURCE_DIR
+                                               "/tests/paraview/read_xdmf.py out/run.xdmf "
+                                               "2>pv.err)")
+                                   .status_and_output();
     ASSERT_EQ(status, 0) << out;
     const json shown = json::parse(out.substr(out.find('{')));
     EXPECT_EQ(shown["reader"], "Xdmf3ReaderS");

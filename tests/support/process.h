@@ -4,6 +4,7 @@
 #include <sys/types.h>
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace millsim::test {
@@ -11,6 +12,7 @@ namespace millsim::test {
 struct CommandResult {
   int exit_code = -1;
   std::string out, err;
+  std::pair<int, std::string> status_and_output() const { return {exit_code, out}; }
 };
 
 // Runs `millsim ARGS` in `work` (a shell command line; quote paths yourself) and collects its
@@ -21,5 +23,10 @@ CommandResult run_millsim(const std::string& args, const std::filesystem::path& 
 std::vector<pid_t> children_of(pid_t parent);
 
 void write_file(const std::filesystem::path& path, const std::string& text);
+std::string read_file(const std::filesystem::path& path);  // "" when missing
+
+// Runs a shell command line; its exit status (-1 when it did not exit) and its stdout and
+// stderr together.
+CommandResult run_shell(const std::string& command);
 
 }  // namespace millsim::test
