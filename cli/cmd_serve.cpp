@@ -1,8 +1,9 @@
-// millsim serve [--host H] [--port P] [--db FILE] [--token T] [--workers N] [--out DIR]
+// millsim serve [--host H] [--port P] [--db FILE] [--token-file FILE] [--workers N] [--out DIR]
 //               [--scenes DIR] [--lease S] [--max-body BYTES] [--max-runs N]
 // The batch service: the HTTP API (service/api_server.h) on H:P (default 127.0.0.1:8080), the
 // SQLite file (default ./millsim.db), and N worker processes (`millsim worker`, default one per
-// core; a worker that dies is started again). Without --token one is generated and printed.
+// core; a worker that dies is started again). The token comes from MILLSIM_TOKEN or --token-file
+// (never from argv, where ps shows it); without one a token is generated and printed.
 // Stops cleanly on SIGINT/SIGTERM (workers first: their runs go back to the queue).
 #include <signal.h>
 #include <sys/prctl.h>
@@ -61,7 +62,24 @@ int cmd_serve(const std::vector<std::string>& args) {
   if (const char* t = std::getenv("MILLSIM_TOKEN")) config.token = t;
   ArgReader r("serve", args);
   while (r.next()) {
-    if (r.option("--host", config.host) || r.option("--token", config.token)) continue;
+    if (r.option("--host", config.host)) continue;
+    if (r.is_flag("--token")) {
+      std::fprintf(stderr,
+                   "millsim serve: --token: give the token in MILLSIM_TOKEN or --token-file FILE; "
+                   "on the command line every user sees it in ps\n");
+      return kBadInput;
+    }
+    std::string token_file;
+    if (r.option("--token-file", token_file)) {
+      std::ifstream in(token_file);
+      std::getline(in, config.token);
+      if (!in || config.token.empty()) {
+        std::fprintf(stderr, "millsim serve: --token-file = %s: cannot read a token from it\n",
+                     token_file.c_str());
+        return kBadInput;
+      }
+      continue;
+    }
     std::string db, out, scenes;
     if (r.option("--db", db)) {
       config.db = db;
@@ -86,7 +104,7 @@ int cmd_serve(const std::vector<std::string>& args) {
       continue;
     }
     r.unknown(
-        "--host H, --port P, --db FILE, --token T, --workers N, --out DIR, --scenes DIR, "
+        "--host H, --port P, --db FILE, --token-file FILE, --workers N, --out DIR, --scenes DIR, "
         "--lease S, --max-body BYTES, --max-runs N");
   }
   if (!r.ok()) return kBadInput;

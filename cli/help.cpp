@@ -128,10 +128,10 @@ const std::vector<VerbHelp>& verb_help() {
       {"serve",
        "the batch service: HTTP API, queue and workers",
        "millsim serve [--host H] [--port P] [--db FILE] [--workers N] [--out DIR] [--scenes DIR] "
-       "[--lease S] [--max-body BYTES] [--max-runs N]",
+       "[--lease S] [--max-body BYTES] [--max-runs N] [--token-file FILE]",
        "Serves the HTTP API (docs/openapi.yaml), owns the SQLite file and starts the workers. The "
-       "token comes from MILLSIM_TOKEN (or --token); without one a token is generated and "
-       "printed.",
+       "token comes from MILLSIM_TOKEN or --token-file, never from the command line (ps shows "
+       "it); without one a token is generated and printed.",
        {{"--host H", "127.0.0.1", "address to listen on (beyond loopback, reads need the token)"},
         {"--port P", "8080", "0 picks a free port"},
         {"--db FILE", "millsim.db", "the SQLite file"},
@@ -141,7 +141,7 @@ const std::vector<VerbHelp>& verb_help() {
         {"--lease S", "30", "seconds a worker's claim lasts without a heartbeat"},
         {"--max-body BYTES", "1048576", "largest request body"},
         {"--max-runs N", "10000", "largest study"},
-        kToken},
+        {"--token-file FILE", "$MILLSIM_TOKEN", "read the token from the file's first line"}},
        "MILLSIM_TOKEN=secret millsim serve --port 8080 --workers 2"},
       {"worker",
        "one worker: claims runs from a server and runs them",

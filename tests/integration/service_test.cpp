@@ -399,6 +399,13 @@ TEST(Service, ServerStartsSafelyAndAnswersByConvention) {
     EXPECT_EQ(cmdline.find(kToken), std::string::npos) << "pid " << p;
   }
   EXPECT_NE(server.output().find("token: (given)"), std::string::npos) << server.output();
+  // The command line is no place for it; a file is.
+  r = test::run_millsim("serve --token secret --port 0 --db third.db", dir.path());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("MILLSIM_TOKEN or --token-file"), std::string::npos) << r.err;
+  r = test::run_millsim("serve --token-file missing.txt --port 0 --db third.db", dir.path());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--token-file = missing.txt"), std::string::npos) << r.err;
 
   httplib::Client c(server.url());
   auto res = c.Delete("/v1/studies");
