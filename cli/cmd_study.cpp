@@ -4,9 +4,9 @@
 // Expands and validates the study (all errors at once, exit 2, nothing queued), records it in
 // the SQLite file, runs its runs as `millsim run` children (N at a time, default one per core),
 // and prints the results table with each run's error against the reference run and its run time;
-// writes DIR/<study>/results.json, results.csv and error_vs_time.svg. --resume finishes a study
-// a previous runner left (runs it had leased are taken again when their lease expires).
-// Exit 0 when every run completed, 1 when some failed, 2 bad input, 4 database or disk error.
+// writes DIR/<study>/results.json, results.csv, error_vs_time.svg and psd.svg. --resume finishes a
+// study a previous runner left (runs it had leased are taken again when their lease expires). Exit
+// 0 when every run completed, 1 when some failed, 2 bad input, 4 database or disk error.
 #include <unistd.h>
 
 #include <cstdio>
@@ -160,6 +160,8 @@ int cmd_study(const std::vector<std::string>& args) {
     std::ofstream(dir / "results.csv") << results_csv(table);
     if (table["reference_run"].is_string())
       std::ofstream(dir / "error_vs_time.svg") << error_vs_time_svg(table);
+    if (const std::string psd = psd_svg(store, study_id); !psd.empty())
+      std::ofstream(dir / "psd.svg") << psd;
     if (a.format == "json")
       std::cout << table.dump(2) << std::endl;
     else if (a.format == "csv")

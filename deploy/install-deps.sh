@@ -7,7 +7,7 @@ packages=(
   build-essential cmake pkg-config
   libeigen3-dev libhdf5-dev libsqlite3-dev nlohmann-json3-dev libcpp-httplib-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  python3 python3-numpy python3-jsonschema python3-yaml
+  python3 python3-numpy python3-jsonschema python3-yaml librsvg2-bin
 )
 
 missing=()

@@ -448,6 +448,18 @@ void ApiServer::routes() {
           res.set_content(error_vs_time_svg(cached_results(st->id)), "image/svg+xml");
         }));
 
+  s.Get(R"(/v1/studies/([^/]+)/plot/psd)",
+        guard(public_reads, [this, with_study](const Request& req, Response& res) {
+          std::lock_guard<std::mutex> lock(store_mutex_);
+          std::optional<StudyRecord> st;
+          if (!with_study(req, res, st)) return;
+          const std::string svg = psd_svg(*store_, st->id);
+          if (svg.empty())
+            return send_error(res, 404, "no_psd",
+                              "no complete run of study " + st->id + " has a PSD yet");
+          res.set_content(svg, "image/svg+xml");
+        }));
+
   s.Post(R"(/v1/studies/([^/]+)/cancel)",
          guard(true, [this, with_study](const Request& req, Response& res) {
            std::lock_guard<std::mutex> lock(store_mutex_);
@@ -665,6 +677,7 @@ void ApiServer::routes() {
       {"/v1/studies/*/runs", "GET"},
       {"/v1/studies/*/results", "GET"},
       {"/v1/studies/*/plot/error-vs-time", "GET"},
+      {"/v1/studies/*/plot/psd", "GET"},
       {"/v1/studies/*/cancel", "POST"},
       {"/v1/runs/*", "GET"},
       {"/v1/runs/*/psd", "GET"},

@@ -233,4 +233,46 @@ std::string error_vs_time_svg(const ordered_json& table) {
   return render_svg({panel}, 760, 400);
 }
 
+std::string psd_svg(Store& store, const std::string& study_id) {
+  const std::optional<StudyRecord> study = store.study(study_id);
+  if (!study) return "";
+  const bool total = study->error_metric.rfind("total_", 0) == 0;
+  PlotPanel panel;
+  panel.title = "study " + study_id + ": " +
+                (total ? "everything each run made (outlet, dust and hold-up)"
+                       : "each run's product (outlet and dust)");
+  panel.x_label = "particle size (um, log scale)";
+  panel.y_label = "cumulative mass fraction";
+  panel.log_x = true;
+  static const char* kColors[] = {"#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b",
+                                  "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"};
+  std::size_t k = 0;
+  for (const RunRecord& r : store.runs(study_id, RunState::Complete)) {
+    const json result = parse_or_null(r.result);
+    const std::optional<PsdSummary> psd = total ? total_psd(result) : outlet_psd(result);
+    if (!psd || psd->cumulative_mass.size() != psd->edges_m.size() || psd->total_mass_kg <= 0)
+      continue;
+    PlotSeries curve;
+    const std::string label = r.id.substr(r.id.find_last_of('-') + 1);  // "r3"
+    curve.name = label;
+    for (const auto& [key, value] : r.params.items())
+      curve.name += " " + key.substr(key.find_last_of("./") + 1) + "=" + value.dump();
+    if (r.is_reference) {
+      curve.name += " (reference)";
+      curve.color = "#d62728";
+    } else {
+      curve.color = kColors[k++ % (sizeof kColors / sizeof kColors[0])];
+    }
+    curve.markers = false;
+    for (std::size_t i = 0; i < psd->edges_m.size(); ++i)
+      if (psd->edges_m[i] > 0) {
+        curve.x.push_back(psd->edges_m[i] * 1e6);
+        curve.y.push_back(psd->cumulative_mass[i]);
+      }
+    panel.series.push_back(std::move(curve));
+  }
+  if (panel.series.empty()) return "";
+  return render_svg({panel}, 760, 400);
+}
+
 }  // namespace millsim

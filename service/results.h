@@ -6,7 +6,8 @@
 //   total_psd_ks / total_psd_l1 — the same on everything the run made (outlet + dust + hold-up);
 //   a JSON pointer  — |x − x_ref| / |x_ref| of that number in result.json.
 // Default metric: psd_ks when the reference has an outlet PSD, else the final kinetic energy.
-// Rendered as JSON, CSV, a text table, or an SVG plot of error against wall time.
+// Rendered as JSON, CSV, a text table, an SVG plot of error against wall time, and an SVG plot of
+// the runs' PSDs.
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -27,5 +28,9 @@ std::optional<double> error_against(const nlohmann::json& run, const nlohmann::j
 std::string results_csv(const nlohmann::ordered_json& table);
 std::string results_text(const nlohmann::ordered_json& table);
 std::string error_vs_time_svg(const nlohmann::ordered_json& table);
+// The cumulative mass distribution of every complete run against size (log axis), one curve per
+// run, the reference in red: the outlet PSD, or everything the run made for total_psd metrics.
+// "" when no run has a PSD.
+std::string psd_svg(Store& store, const std::string& study_id);
 
 }  // namespace millsim

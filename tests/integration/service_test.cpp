@@ -520,6 +520,7 @@ TEST(Service, EveryResponseConformsToTheOpenApiSpec) {
   get("/v1/studies/" + id + "/runs?state=BOGUS");
   get("/v1/studies/" + id + "/results");
   get("/v1/studies/" + id + "/plot/error-vs-time");
+  get("/v1/studies/" + id + "/plot/psd");
   post("/v1/studies/" + id + "/cancel", "{}");
   post("/v1/studies/s999999/cancel", "{}");
   get("/v1/runs/" + id + "-r0");
@@ -534,6 +535,7 @@ TEST(Service, EveryResponseConformsToTheOpenApiSpec) {
   get("/v1/runs/" + slow + "-r0/result");
   post("/v1/studies/" + slow + "/cancel", "{}");
   ASSERT_FALSE(server.wait_finished(slow).is_null());
+  get("/v1/studies/" + slow + "/plot/psd");  // no run with a PSD: 404
 
   const json regression = {{"suite", "s"},
                            {"passed", true},
