@@ -148,14 +148,7 @@ std::map<std::string, CheckOutcome> run_locally(const RegressionSuite& suite, St
     studies[check.name] = ids.back();
   }
   const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe");
-  std::unique_ptr<Executor> executor;
-  if (a.executor == "slurm") {
-    if (!SlurmExecutor::available())
-      throw IoError("--executor slurm: sinfo does not answer (no Slurm cluster configured)");
-    executor = std::make_unique<SlurmExecutor>(self);
-  } else {
-    executor = std::make_unique<LocalExecutor>(self);
-  }
+  const std::unique_ptr<Executor> executor = make_executor(a.executor, self);
   LocalRunOptions options;
   options.workers =
       a.workers > 0 ? a.workers : int(std::max(1u, std::thread::hardware_concurrency()));

@@ -138,14 +138,7 @@ int cmd_study(const std::vector<std::string>& args) {
       return kBadInput;
     }
     const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe");
-    std::unique_ptr<Executor> executor;
-    if (a.executor == "slurm") {
-      if (!SlurmExecutor::available())
-        throw IoError("--executor slurm: sinfo does not answer (no Slurm cluster configured)");
-      executor = std::make_unique<SlurmExecutor>(self);
-    } else {
-      executor = std::make_unique<LocalExecutor>(self);
-    }
+    const std::unique_ptr<Executor> executor = make_executor(a.executor, self);
     LocalRunOptions options;
     options.workers =
         a.workers > 0 ? a.workers : int(std::max(1u, std::thread::hardware_concurrency()));

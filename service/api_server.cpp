@@ -397,6 +397,16 @@ void ApiServer::routes() {
     if (!out) send_error(res, 404, "not_found", "no run \"" + id + "\"");
     return out.has_value();
   };
+  // A run that exists and is COMPLETE (404 or 409 otherwise; `what` names what it lacks).
+  auto with_complete_run = [with_run](const Request& req, Response& res,
+                                      std::optional<RunRecord>& out, const char* what) {
+    if (!with_run(req, res, out)) return false;
+    if (out->state == RunState::Complete) return true;
+    send_error(res, 409, "not_complete",
+               "run " + out->id + " is " + std::string(run_state_name(out->state)) + "; its " +
+                   what + " exists once it is COMPLETE");
+    return false;
+  };
 
   s.Get(R"(/v1/studies/([^/]+))",
         guard(public_reads, [this, with_study, study_summary](const Request& req, Response& res) {
@@ -484,14 +494,10 @@ void ApiServer::routes() {
         }));
 
   s.Get(R"(/v1/runs/([^/]+)/psd)",
-        guard(public_reads, [this, with_run](const Request& req, Response& res) {
+        guard(public_reads, [this, with_complete_run](const Request& req, Response& res) {
           std::lock_guard<std::mutex> lock(store_mutex_);
           std::optional<RunRecord> r;
-          if (!with_run(req, res, r)) return;
-          if (r->state != RunState::Complete)
-            return send_error(res, 409, "not_complete",
-                              "run " + r->id + " is " + std::string(run_state_name(r->state)) +
-                                  "; its PSD exists once it is COMPLETE");
+          if (!with_complete_run(req, res, r, "PSD")) return;
           const json result = json::parse(r->result);
           if (!result.contains("outlet_psd"))
             return send_error(res, 404, "no_psd",
@@ -523,14 +529,10 @@ void ApiServer::routes() {
         }));
 
   s.Get(R"(/v1/runs/([^/]+)/result)",
-        guard(public_reads, [this, with_run](const Request& req, Response& res) {
+        guard(public_reads, [this, with_complete_run](const Request& req, Response& res) {
           std::lock_guard<std::mutex> lock(store_mutex_);
           std::optional<RunRecord> r;
-          if (!with_run(req, res, r)) return;
-          if (r->state != RunState::Complete)
-            return send_error(res, 409, "not_complete",
-                              "run " + r->id + " is " + std::string(run_state_name(r->state)) +
-                                  "; its result exists once it is COMPLETE");
+          if (!with_complete_run(req, res, r, "result")) return;
           send_json(res, 200, ordered_json::parse(r->result));
         }));
 

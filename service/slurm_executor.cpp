@@ -125,4 +125,12 @@ void SlurmExecutor::cancel(ExecHandle& h, double) {
   capture("scancel " + h.job_id, status);
 }
 
+std::unique_ptr<Executor> make_executor(const std::string& name,
+                                        const std::filesystem::path& binary) {
+  if (name != "slurm") return std::make_unique<LocalExecutor>(binary);
+  if (!SlurmExecutor::available())
+    throw IoError("--executor slurm: sinfo does not answer (no Slurm cluster configured)");
+  return std::make_unique<SlurmExecutor>(binary);
+}
+
 }  // namespace millsim

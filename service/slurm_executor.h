@@ -7,6 +7,7 @@
 // error (retried); TIMEOUT is the run's own limit.
 #pragma once
 
+#include <memory>
 #include <string>
 
 #include "executor.h"
@@ -32,5 +33,10 @@ class SlurmExecutor : public Executor {
   std::filesystem::path binary_;
   std::string extra_args_;
 };
+
+// The executor a study runner asked for by name: "slurm" (throws IoError when no cluster answers)
+// or "local"; `binary` is the millsim to start (normally /proc/self/exe).
+std::unique_ptr<Executor> make_executor(const std::string& name,
+                                        const std::filesystem::path& binary);
 
 }  // namespace millsim
