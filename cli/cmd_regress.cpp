@@ -20,6 +20,7 @@
 #include "build_info.h"
 #include "cli_args.h"
 #include "commands.h"
+#include "io/text_file.h"
 #include "local_runner.h"
 #include "regression.h"
 #include "results.h"
@@ -316,20 +317,6 @@ int show_history(const RegressArgs& a) {
   return kOk;
 }
 
-// Writes `text` to `path` through a temporary file and a rename (never half-written).
-void write_atomically(const std::filesystem::path& path, const std::string& text) {
-  const std::filesystem::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream out(tmp);
-    out << text;
-    out.flush();
-    if (!out) throw IoError("cannot write " + tmp.string());
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) throw IoError("cannot write " + path.string() + ": " + ec.message());
-}
-
 }  // namespace
 
 int cmd_regress(const std::vector<std::string>& args) {
@@ -390,7 +377,7 @@ int cmd_regress(const std::vector<std::string>& args) {
       std::cout << record.dump(2) << std::endl;
     else
       std::cout << drift_table_text(record) << "recorded as " << id << "\n";
-    if (!a.junit.empty()) write_atomically(a.junit, junit_xml(record));
+    if (!a.junit.empty()) write_text_atomically(a.junit, junit_xml(record));
 
     if (a.update_baseline) {
       for (const auto& [name, outcome] : outcomes)
@@ -402,7 +389,7 @@ int cmd_regress(const std::vector<std::string>& args) {
         }
       const ordered_json next = make_baseline(suite, outcomes, build, iso_utc(now));
       const std::string changes = baseline_changes(baseline, next);
-      write_atomically(suite.baseline_path, next.dump(2) + "\n");
+      write_text_atomically(suite.baseline_path, next.dump(2) + "\n");
       std::fprintf(stderr, "millsim regress: baseline %s written%s\n%s",
                    suite.baseline_path.c_str(), changes.empty() ? " (no value changed)" : ":",
                    changes.c_str());

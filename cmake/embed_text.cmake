@@ -8,11 +8,5 @@ endif()
 set(text "// Generated from ${INPUT} by cmake/embed_text.cmake; do not edit.\n\
 namespace millsim {\nextern const char* const ${SYMBOL};\n\
 const char* const ${SYMBOL} = R\"millsim_text(${content})millsim_text\";\n}  // namespace millsim\n")
-if(EXISTS "${OUTPUT}")
-  file(READ "${OUTPUT}" old)
-else()
-  set(old "")
-endif()
-if(NOT old STREQUAL text)
-  file(WRITE "${OUTPUT}" "${text}")
-endif()
+include(${CMAKE_CURRENT_LIST_DIR}/write_if_changed.cmake)
+write_if_changed("${OUTPUT}" "${text}")

@@ -13,11 +13,5 @@ namespace millsim {\n\
 const char* const kGitCommit = \"${commit}\";\n\
 const char* const kCompiler = \"${COMPILER}\";\n\
 }  // namespace millsim\n")
-if(EXISTS "${OUTPUT}")
-  file(READ "${OUTPUT}" old)
-else()
-  set(old "")
-endif()
-if(NOT old STREQUAL text)
-  file(WRITE "${OUTPUT}" "${text}")
-endif()
+include(${CMAKE_CURRENT_LIST_DIR}/write_if_changed.cmake)
+write_if_changed("${OUTPUT}" "${text}")

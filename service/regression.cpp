@@ -205,58 +205,61 @@ std::string Tolerance::text() const {
   return out;
 }
 
+namespace {
+
+// The derived quantities that are one number of result.json, and what its absence means.
+struct DerivedPointer {
+  const char* name;
+  const char* pointer;
+  const char* missing;
+};
+constexpr DerivedPointer kDerivedPointers[] = {
+    {"outlet_d10", "/outlet_psd/d10_m", "the run has no outlet PSD"},
+    {"outlet_d50", "/outlet_psd/d50_m", "the run has no outlet PSD"},
+    {"outlet_d90", "/outlet_psd/d90_m", "the run has no outlet PSD"},
+    {"total_d50", "/total_psd/d50_m", "the run has no total PSD"},
+    {"mass_balance", "/mass_balance/relative_error", "the run has no mass balance"},
+    {"particles_final", "/particles/final", "no particle count"},
+    {"breakage_events", "/breakage/events", "the run has no breakage"},
+    {"particle_steps_per_second", "/particle_steps_per_second", "no speed"},
+};
+
+}  // namespace
+
 const std::vector<std::string>& derived_quantity_names() {
-  static const std::vector<std::string> names = {"outlet_d10",      "outlet_d50",
-                                                 "outlet_d90",      "total_d50",
-                                                 "mass_balance",    "kinetic_energy_ratio",
-                                                 "contact_count",   "particles_final",
-                                                 "breakage_events", "particle_steps_per_second"};
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> out;
+    for (const DerivedPointer& d : kDerivedPointers) out.push_back(d.name);
+    out.push_back("kinetic_energy_ratio");  // computed below from two numbers
+    out.push_back("contact_count");
+    return out;
+  }();
   return names;
 }
 
 std::optional<double> measure_quantity(const json& doc, const RegressionQuantity& q,
                                        std::string& problem) {
-  std::optional<double> v;
-  if (!q.pointer.empty()) {
-    v = number_at(doc, q.pointer);
-    if (!v) problem = "no number at " + q.pointer;
+  const std::string& name = q.pointer.empty() ? q.derived : q.pointer;
+  std::string pointer = q.pointer, missing = "no number";
+  for (const DerivedPointer& d : kDerivedPointers)
+    if (q.derived == d.name) pointer = d.pointer, missing = d.missing;
+  if (!pointer.empty()) {
+    const std::optional<double> v = number_at(doc, pointer);
+    if (!v) problem = missing + " (" + pointer + ")";
     return v;
   }
-  const std::string& d = q.derived;
-  if (d == "outlet_d10" || d == "outlet_d50" || d == "outlet_d90") {
-    v = number_at(doc, "/outlet_psd/" + d.substr(7) + "_m");
-    if (!v) problem = "the run has no outlet PSD (/outlet_psd/" + d.substr(7) + "_m)";
-  } else if (d == "total_d50") {
-    v = number_at(doc, "/total_psd/d50_m");
-    if (!v) problem = "the run has no total PSD (/total_psd/d50_m)";
-  } else if (d == "mass_balance") {
-    v = number_at(doc, "/mass_balance/relative_error");
-    if (!v) problem = "the run has no mass balance (/mass_balance/relative_error)";
-  } else if (d == "kinetic_energy_ratio") {
+  if (name == "kinetic_energy_ratio") {
     const std::optional<double> before = number_at(doc, "/energy/initial/kinetic_j");
     const std::optional<double> after = number_at(doc, "/energy/final/kinetic_j");
-    if (before && after && *before > 0)
-      v = *after / *before;
-    else
-      problem = "needs /energy/initial/kinetic_j > 0 and /energy/final/kinetic_j";
-  } else if (d == "contact_count") {
+    if (before && after && *before > 0) return *after / *before;
+    problem = "needs /energy/initial/kinetic_j > 0 and /energy/final/kinetic_j";
+  } else if (name == "contact_count") {
     const std::optional<double> pairs = number_at(doc, "/contacts/pairs");
     const std::optional<double> walls = number_at(doc, "/contacts/walls");
-    if (pairs && walls)
-      v = *pairs + *walls;
-    else
-      problem = "needs /contacts/pairs and /contacts/walls";
-  } else if (d == "particles_final") {
-    v = number_at(doc, "/particles/final");
-    if (!v) problem = "no /particles/final";
-  } else if (d == "breakage_events") {
-    v = number_at(doc, "/breakage/events");
-    if (!v) problem = "the run has no breakage (/breakage/events)";
-  } else if (d == "particle_steps_per_second") {
-    v = number_at(doc, "/particle_steps_per_second");
-    if (!v) problem = "no /particle_steps_per_second";
+    if (pairs && walls) return *pairs + *walls;
+    problem = "needs /contacts/pairs and /contacts/walls";
   }
-  return v;
+  return std::nullopt;
 }
 
 RegressionSuite parse_regression_suite(const json& spec, const std::filesystem::path& dir,

@@ -9,6 +9,7 @@
 
 #include "core/build_info.h"
 #include "io/h5_writer.h"
+#include "io/text_file.h"
 #include "process/classification.h"
 
 namespace millsim {
@@ -251,17 +252,6 @@ void write_gas_h5(const Simulation& sim, H5Writer& h5) {
                    {"x_m", "y_m", "z_m", "pressure_pa", "volume_fraction", "velocity_x_m_per_s",
                     "velocity_y_m_per_s", "velocity_z_m_per_s"},
                    cols);
-}
-
-void write_text_atomically(const std::filesystem::path& path, const std::string& text) {
-  const std::filesystem::path partial = path.string() + ".partial";
-  {
-    std::ofstream out(partial, std::ios::trunc);
-    out << text;
-    out.flush();
-    if (!out) throw IoError("cannot write " + partial.string());
-  }
-  std::filesystem::rename(partial, path);
 }
 
 // Steps between outputs; an interval longer than any run (1e300 s) means "never" (the first and
