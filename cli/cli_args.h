@@ -4,6 +4,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -51,6 +52,23 @@ class ArgReader {
       return fail(std::string(name) + " = " + text + ": expected a number in [" +
                   std::to_string(lo) + ", " + std::to_string(hi) + "]");
     out = v;
+    return true;
+  }
+  // The service token: `--token-file FILE` (its first line); `--token T` is refused, because
+  // every user of the machine sees argv in ps. MILLSIM_TOKEN is read by the verb beforehand.
+  bool token_option(std::string& token) {
+    if (is_flag("--token"))
+      return fail(
+          "--token: give the token in MILLSIM_TOKEN or --token-file FILE; on the command "
+          "line every user sees it in ps");
+    std::string file;
+    if (!option("--token-file", file)) return false;
+    std::ifstream in(file);
+    std::string line;
+    std::getline(in, line);
+    if (!in || line.empty())
+      return fail("--token-file = " + file + ": cannot read a token from it");
+    token = line;
     return true;
   }
   // A positional argument (the first non-option), or an error for a second one.

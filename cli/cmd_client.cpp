@@ -4,7 +4,7 @@
 //   millsim results STUDY [--format table|json|csv]
 //   millsim psd RUN
 //   millsim cancel STUDY
-// Each takes --server URL (default http://127.0.0.1:8080) and --token T (or MILLSIM_TOKEN).
+// Each takes --server URL (default http://127.0.0.1:8080) and --token-file FILE (or MILLSIM_TOKEN).
 // `submit` sends the scene inline when the study names a file, so the server needs no access to
 // the client's files.
 #include <unistd.h>
@@ -41,7 +41,7 @@ bool read_client_args(const char* verb, const std::vector<std::string>& args, Cl
   if (const char* t = std::getenv("MILLSIM_TOKEN")) a.token = t;
   ArgReader r(verb, args);
   while (r.next()) {
-    if (r.option("--server", a.server) || r.option("--token", a.token) ||
+    if (r.option("--server", a.server) || r.token_option(a.token) ||
         r.option("--format", a.format) || r.option("--idempotency-key", a.idempotency_key) ||
         r.positional(a.target))
       continue;
@@ -54,7 +54,7 @@ bool read_client_args(const char* verb, const std::vector<std::string>& args, Cl
       continue;
     }
     r.unknown(
-        "--server URL, --token T, --format table|json|csv, --wait, --watch, "
+        "--server URL, --token-file FILE, --format table|json|csv, --wait, --watch, "
         "--idempotency-key K");
   }
   if (a.format != "table" && a.format != "json" && a.format != "csv") {

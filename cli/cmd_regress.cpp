@@ -1,4 +1,4 @@
-// millsim regress SUITE [--local | --server URL] [--token T] [--db FILE] [--out DIR]
+// millsim regress SUITE [--local | --server URL] [--token-file FILE] [--db FILE] [--out DIR]
 //                       [--workers N] [--junit FILE] [--format table|json] [--update-baseline]
 // millsim regress --history CHECK[/QUANTITY] [--suite NAME] [--db FILE | --server URL]
 // Runs a regression suite (docs/regression.md) through the same queue and workers as studies:
@@ -50,7 +50,7 @@ struct RegressArgs {
 };
 
 constexpr const char* kUsage =
-    "usage: millsim regress SUITE.json [--local | --server URL] [--token T] [--db FILE]\n"
+    "usage: millsim regress SUITE.json [--local | --server URL] [--token-file FILE] [--db FILE]\n"
     "                       [--out DIR] [--workers N] [--executor local|slurm]\n"
     "                       [--junit FILE] [--format table|json] [--update-baseline]\n"
     "       millsim regress --history CHECK[/QUANTITY] [--suite NAME] [--db FILE | --server "
@@ -60,7 +60,7 @@ bool parse_args(const std::vector<std::string>& args, RegressArgs& a) {
   if (const char* t = std::getenv("MILLSIM_TOKEN")) a.token = t;
   ArgReader r("regress", args);
   while (r.next()) {
-    if (r.option("--server", a.server) || r.option("--token", a.token) || r.option("--db", a.db) ||
+    if (r.option("--server", a.server) || r.token_option(a.token) || r.option("--db", a.db) ||
         r.option("--out", a.out) || r.option("--junit", a.junit) ||
         r.option("--format", a.format) || r.option("--history", a.history) ||
         r.option("--suite", a.suite_name) || r.option("--executor", a.executor) ||
@@ -75,7 +75,7 @@ bool parse_args(const std::vector<std::string>& args, RegressArgs& a) {
       continue;
     }
     r.unknown(
-        "--local, --server URL, --token T, --db FILE, --out DIR, --workers N, --executor "
+        "--local, --server URL, --token-file FILE, --db FILE, --out DIR, --workers N, --executor "
         "local|slurm, --junit FILE, --format table|json, --update-baseline, --history CHECK, "
         "--suite NAME");
   }

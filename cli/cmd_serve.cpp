@@ -63,23 +63,7 @@ int cmd_serve(const std::vector<std::string>& args) {
   ArgReader r("serve", args);
   while (r.next()) {
     if (r.option("--host", config.host)) continue;
-    if (r.is_flag("--token")) {
-      std::fprintf(stderr,
-                   "millsim serve: --token: give the token in MILLSIM_TOKEN or --token-file FILE; "
-                   "on the command line every user sees it in ps\n");
-      return kBadInput;
-    }
-    std::string token_file;
-    if (r.option("--token-file", token_file)) {
-      std::ifstream in(token_file);
-      std::getline(in, config.token);
-      if (!in || config.token.empty()) {
-        std::fprintf(stderr, "millsim serve: --token-file = %s: cannot read a token from it\n",
-                     token_file.c_str());
-        return kBadInput;
-      }
-      continue;
-    }
+    if (r.token_option(config.token)) continue;
     std::string db, out, scenes;
     if (r.option("--db", db)) {
       config.db = db;

@@ -1,4 +1,4 @@
-// millsim worker [--server URL] [--token T] [--name NAME] [--until-empty]
+// millsim worker [--server URL] [--token-file FILE] [--name NAME] [--until-empty]
 //                [--executor local|slurm] [--slots N] [--sbatch-args "..."]
 // One worker process (service/worker.h): claims runs from the server and executes each as a
 // `millsim run` child (local) or a Slurm batch job (slurm; --slots jobs at once). SIGTERM/SIGINT
@@ -31,7 +31,7 @@ int cmd_worker(const std::vector<std::string>& args) {
   std::string executor_name = "local", sbatch_args, partition, account, qos;
   ArgReader r("worker", args);
   while (r.next()) {
-    if (r.option("--server", config.server) || r.option("--token", config.token) ||
+    if (r.option("--server", config.server) || r.token_option(config.token) ||
         r.option("--name", config.name) || r.option("--executor", executor_name) ||
         r.option("--sbatch-args", sbatch_args) || r.option("--partition", partition) ||
         r.option("--account", account) || r.option("--qos", qos) ||
@@ -42,7 +42,7 @@ int cmd_worker(const std::vector<std::string>& args) {
       continue;
     }
     r.unknown(
-        "--server URL, --token T, --name NAME, --until-empty, --executor local|slurm, "
+        "--server URL, --token-file FILE, --name NAME, --until-empty, --executor local|slurm, "
         "--slots N, --sbatch-args ARGS, --partition P, --account A, --qos Q");
   }
   if (!r.ok()) return kBadInput;

@@ -17,8 +17,9 @@ constexpr const char* kExitCodes[][2] = {
 
 const OptionHelp kServer = {"--server URL", "http://127.0.0.1:8080",
                             "the millsim serve to talk to"};
-const OptionHelp kToken = {"--token T", "$MILLSIM_TOKEN",
-                           "the bearer token (prefer the environment: argv shows in ps)"};
+const OptionHelp kToken = {"--token-file FILE", "$MILLSIM_TOKEN",
+                           "read the bearer token from the file's first line (never on the "
+                           "command line: ps shows argv)"};
 
 // `text` broken into lines of at most `width` characters, each after `indent` spaces (the first
 // line too, unless `first_indent` is false).
@@ -101,7 +102,7 @@ const std::vector<VerbHelp>& verb_help() {
         {"--format F", "table", "table, json or csv"},
         {"--resume STUDY_ID", "", "finish a study a previous runner left"},
         {"--executor E", "local", "local children, or slurm batch jobs"}},
-       "millsim study cases/studies/spiral_jet_mill_quick_scan.json --local"},
+       "millsim study cases/spiral_jet_mill_quick_scan.study.json --local"},
       {"regress",
        "run a regression suite against its baseline",
        "millsim regress SUITE.json [--local | --server URL] [--db FILE] [--out DIR] [--workers "
@@ -141,7 +142,7 @@ const std::vector<VerbHelp>& verb_help() {
         {"--lease S", "30", "seconds a worker's claim lasts without a heartbeat"},
         {"--max-body BYTES", "1048576", "largest request body"},
         {"--max-runs N", "10000", "largest study"},
-        {"--token-file FILE", "$MILLSIM_TOKEN", "read the token from the file's first line"}},
+        kToken},
        "MILLSIM_TOKEN=secret millsim serve --port 8080 --workers 2"},
       {"worker",
        "one worker: claims runs from a server and runs them",
@@ -171,7 +172,7 @@ const std::vector<VerbHelp>& verb_help() {
         {"--wait", "off", "wait for the study and print its results"},
         {"--format F", "table", "table, json or csv (with --wait)"},
         {"--idempotency-key K", "", "submitting again with the same key returns the same study"}},
-       "millsim submit cases/studies/dust_threshold_scan.json --wait"},
+       "millsim submit cases/dust_threshold_scan.study.json --wait"},
       {"status",
        "the server's studies, or one study's progress",
        "millsim status [STUDY] [--watch] [--format table|json|csv] [--server URL]",

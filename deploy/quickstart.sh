@@ -43,7 +43,7 @@ case "$mode" in
   run)
     build build
     # The main job: a whole parameter study run locally on an embedded SQLite file (out/millsim.db).
-    ./build/cli/millsim study cases/studies/spiral_jet_mill_quick_scan.json --local
+    ./build/cli/millsim study cases/spiral_jet_mill_quick_scan.study.json --local
     ;;
   test)
     build build

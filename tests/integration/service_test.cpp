@@ -32,7 +32,9 @@ constexpr const char* kToken = "test-token";
 // A `millsim serve` child on a free loopback port; stopped (SIGTERM, then SIGKILL) by pid.
 class ServerProcess {
  public:
-  ServerProcess(const std::filesystem::path& dir, int workers, double lease_s = 2.0) : dir_(dir) {
+  ServerProcess(const std::filesystem::path& dir, int workers, double lease_s = 2.0,
+                const std::string& scenes = ".")
+      : dir_(dir) {
     const std::filesystem::path log = dir / ("serve-" + std::to_string(++starts_) + ".log");
     pid_ = fork();
     if (pid_ == 0) {
@@ -43,7 +45,7 @@ class ServerProcess {
       setenv("MILLSIM_TOKEN", kToken, 1);  // as a systemd EnvironmentFile gives it
       execl(MILLSIM_BINARY, "millsim", "serve", "--port", "0", "--db", "q.db", "--workers",
             w.c_str(), "--lease", lease.c_str(), "--out", "runs", "--max-body", "200000",
-            static_cast<char*>(nullptr));
+            "--scenes", scenes.c_str(), static_cast<char*>(nullptr));
       _exit(98);
     }
     const std::regex listening("listening on (http://127.0.0.1:[0-9]+)");
@@ -174,7 +176,8 @@ TEST(Service, StudyOverHttpFinishesWithResultsAndPsd) {
 
   // The CLI against the same server.
   test::write_file(dir.path() / "study.json", attrition_study({1e-4, 8e-5}).dump());
-  const std::string common = " --server " + server.url() + " --token " + kToken;
+  test::write_file(dir.path() / "token", std::string(kToken) + "\n");
+  const std::string common = " --server " + server.url() + " --token-file token";
   const test::CommandResult submitted =
       test::run_millsim("submit study.json --wait --format json" + common, dir.path());
   ASSERT_EQ(submitted.exit_code, 0) << submitted.err;
@@ -220,6 +223,50 @@ TEST(Service, BadRequestsGetTheirStatusAndChangeNothing) {
   const json list = json::parse(server.get("/v1/studies")->body);
   EXPECT_TRUE(list["studies"].empty());  // nothing was stored
   EXPECT_EQ(json::parse(server.get("/v1/info")->body)["limits"]["max_body_bytes"], 200000);
+}
+
+// Every shipped study file, POSTed byte for byte to a server whose scenes folder is cases/, is
+// queued with the runs its parameters make, each run holding the scene file it names.
+TEST(Service, ShippedStudiesPostAsTheyAre) {
+  test::TempDir dir;
+  const std::filesystem::path cases = MILLSIM_SOURCE_DIR "/cases";
+  ServerProcess server(dir.path(), 0, 2.0, cases.string());
+  ASSERT_FALSE(server.url().empty());
+  int studies = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(cases)) {
+    const std::string file = entry.path().filename().string();
+    if (file.size() < 11 || file.substr(file.size() - 11) != ".study.json") continue;
+    SCOPED_TRACE(file);
+    ++studies;
+    std::ifstream in(entry.path());
+    std::stringstream text;
+    text << in.rdbuf();
+    const json spec = json::parse(text.str());
+    // The runs a grid or a zip of the parameter lists makes.
+    std::size_t expected = spec.value("combine", "grid") == "zip" ? 0 : 1;
+    for (const json& p : spec["parameters"])
+      expected = spec.value("combine", "grid") == "zip" ? std::max(expected, p["values"].size())
+                                                        : expected * p["values"].size();
+    expected *= spec.value("repeats", 1);
+
+    const auto posted = server.post("/v1/studies", text.str());
+    ASSERT_TRUE(posted);
+    ASSERT_EQ(posted->status, 201) << posted->body;
+    const json reply = json::parse(posted->body);
+    EXPECT_EQ(reply["runs"].get<std::size_t>(), expected);
+    const std::string id = reply["study"];
+    std::ifstream scene_in(cases / spec["scene"].get<std::string>());
+    const json scene = json::parse(scene_in);
+    Store store(dir.path() / "q.db");
+    const std::optional<RunRecord> run = store.run(id + "-r0");
+    ASSERT_TRUE(run);
+    EXPECT_EQ(json::parse(run->scene)["materials"], scene["materials"]);
+    EXPECT_EQ(server.post("/v1/studies/" + id + "/cancel", "{}")->status, 200);
+  }
+  EXPECT_GE(studies, 6);
+  // The same server still refuses a path out of its scenes folder.
+  const json escaping = {{"scene", "../cases/attrition_target.json"}};
+  EXPECT_EQ(server.post("/v1/studies", escaping.dump())->status, 400);
 }
 
 TEST(Service, KilledWorkerLosesItsRunToAnotherAttempt) {
@@ -327,7 +374,8 @@ TEST(Service, RegressionRunsThroughTheServerAndItsHistoryIsServed) {
                             {"tolerance", {{"relative", 0.01}}},
                             {"reason", "e squared"}}}}}}}};
   test::write_file(dir.path() / "nightly.json", suite.dump());
-  const std::string common = " --server " + server.url() + " --token " + kToken;
+  test::write_file(dir.path() / "token", std::string(kToken) + "\n");
+  const std::string common = " --server " + server.url() + " --token-file token";
   test::CommandResult r =
       test::run_millsim("regress nightly.json --update-baseline" + common, dir.path());
   ASSERT_EQ(r.exit_code, 0) << r.err;
@@ -435,7 +483,12 @@ TEST(Service, ServerStartsSafelyAndAnswersByConvention) {
   EXPECT_EQ(res->status, 409);
   EXPECT_EQ(json::parse(res->body)["error"]["code"], "finished");
   const std::string common = " --server " + server.url();
+  // A client verb, like serve, takes no token on its command line (ps shows argv).
   r = test::run_millsim("cancel " + id + common + " --token " + kToken, dir.path());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("MILLSIM_TOKEN or --token-file"), std::string::npos) << r.err;
+  test::write_file(dir.path() / "token", std::string(kToken) + "\n");
+  r = test::run_millsim("cancel " + id + common + " --token-file token", dir.path());
   EXPECT_EQ(r.exit_code, 2) << r.err;
   EXPECT_NE(r.err.find("HTTP 409"), std::string::npos) << r.err;
   EXPECT_EQ(json::parse(server.get("/v1/studies/" + id)->body)["canceled"], false);
