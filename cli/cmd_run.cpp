@@ -1,7 +1,7 @@
-// millsim run SCENE.json [--out DIR] [--quiet]
+// millsim run SCENE.json [--out DIR] [--quiet] [--log-interval S] [--checkpoint-wall S] [--resume]
 // Validates the scene (all errors at once, exit 2, nothing written), runs it with a progress
 // line on a terminal, prints the JSON summary on stdout and writes DIR/{run.h5, run.xdmf,
-// result.json}. Default DIR: out/<scene name>.
+// result.json}, with checkpoints in DIR/checkpoints while it runs. Default DIR: out/<scene name>.
 #include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -29,7 +29,22 @@ struct RunArgs {
   std::string out_dir;
   bool quiet = false;
   double log_interval_s = 10.0;
+  double checkpoint_wall_s = 600.0;
+  bool resume = false;
 };
+
+// A number option's value in [lo, hi], or false after saying what is allowed.
+bool seconds_value(const std::string& option, const std::string& text, double lo, double hi,
+                   double& out) {
+  char* end = nullptr;
+  out = std::strtod(text.c_str(), &end);
+  if (text.empty() || *end != '\0' || !(out >= lo && out <= hi)) {
+    std::fprintf(stderr, "millsim run: %s = %s: expected seconds in [%g, %g]\n", option.c_str(),
+                 text.c_str(), lo, hi);
+    return false;
+  }
+  return true;
+}
 
 bool parse_run_args(const std::vector<std::string>& args, RunArgs& out) {
   for (std::size_t k = 0; k < args.size(); ++k) {
@@ -41,17 +56,15 @@ bool parse_run_args(const std::vector<std::string>& args, RunArgs& out) {
     } else if (a == "--quiet" || a == "-q") {
       out.quiet = true;
     } else if (a == "--log-interval" && k + 1 < args.size()) {
-      char* end = nullptr;
-      out.log_interval_s = std::strtod(args[++k].c_str(), &end);
-      if (*end != '\0' || !(out.log_interval_s >= 0.01 && out.log_interval_s <= 1e6)) {
-        std::fprintf(stderr, "millsim run: --log-interval = %s: expected seconds in [0.01, 1e6]\n",
-                     args[k].c_str());
-        return false;
-      }
+      if (!seconds_value(a, args[++k], 0.01, 1e6, out.log_interval_s)) return false;
+    } else if (a == "--checkpoint-wall" && k + 1 < args.size()) {
+      if (!seconds_value(a, args[++k], 0.0, 1e7, out.checkpoint_wall_s)) return false;
+    } else if (a == "--resume") {
+      out.resume = true;
     } else if (!a.empty() && a[0] == '-') {
       std::fprintf(stderr,
                    "millsim run: unknown option \"%s\"; allowed: --out DIR, --quiet, "
-                   "--log-interval S\n",
+                   "--log-interval S, --checkpoint-wall S, --resume\n",
                    a.c_str());
       return false;
     } else if (out.scene_path.empty()) {
@@ -154,6 +167,8 @@ int cmd_run(const std::vector<std::string>& args) {
       options.scene_text = text.str();
       options.scene_path = run_args.scene_path;
     }
+    options.checkpoint_wall_s = run_args.checkpoint_wall_s;
+    options.resume = run_args.resume;
     std::unique_ptr<ThermoLog> thermo;
     if (isatty(STDERR_FILENO)) {
       if (!run_args.quiet) options.on_progress = print_progress;
@@ -192,6 +207,9 @@ int cmd_run(const std::vector<std::string>& args) {
     return kOk;
   } catch (const InputErrorList& e) {
     std::fprintf(stderr, "%s\n", format_input_errors(run_args.scene_path, e.errors()).c_str());
+    return kBadInput;
+  } catch (const ResumeError& e) {
+    std::fprintf(stderr, "millsim run: --resume: %s\n", e.what());
     return kBadInput;
   } catch (const IoError& e) {
     std::fprintf(stderr, "millsim run: %s\n", e.what());

@@ -76,17 +76,26 @@ const std::vector<VerbHelp>& verb_help() {
   static const std::vector<VerbHelp> verbs = {
       {"run",
        "run one scene",
-       "millsim run SCENE.json [--out DIR] [--quiet] [--log-interval S]",
+       "millsim run SCENE.json [--out DIR] [--quiet] [--log-interval S] [--checkpoint-wall S] "
+       "[--resume]",
        "Validates the scene (every error at once, exit 2, nothing written), runs it with a "
        "progress line on a terminal, prints the JSON summary on stdout and writes DIR/run.h5, "
-       "run.xdmf and result.json. SIGINT, SIGTERM and SIGUSR1 stop it after the step under way "
-       "with every file complete (result.json status \"interrupted\", exit 128 + the signal).",
+       "run.xdmf and result.json. While it runs it keeps its two newest checkpoints in "
+       "DIR/checkpoints, removed when it ends complete. SIGINT, SIGTERM and SIGUSR1 stop it after "
+       "the step under way with a checkpoint and every file complete (result.json status "
+       "\"interrupted\", exit 128 + the signal); --resume continues it bit for bit.",
        {{"--out DIR", "out/<scene name>", "where the run's files go"},
         {"--quiet", "off", "no start line and no progress line on a terminal"},
         {"--log-interval S", "10",
          "seconds of wall time between thermo lines (step, time, particles, contacts, kinetic "
          "energy, time step, particle-steps/s, ETA) on stderr and in DIR/log.txt when stderr is "
-         "not a terminal"}},
+         "not a terminal"},
+        {"--checkpoint-wall S", "600",
+         "seconds of wall time between checkpoints (0: none by wall clock; the scene's "
+         "output.checkpoint_interval_s adds checkpoints by simulated time)"},
+        {"--resume", "off",
+         "continue from the newest valid checkpoint in DIR/checkpoints (the one before when it is "
+         "damaged; from the start when there is none); exit 2 for another scene's or build's"}},
        "millsim run cases/spiral_jet_mill.json --out out/mill"},
       {"study",
        "run a parameter study on this machine",

@@ -39,6 +39,11 @@ struct BreakageStats {
   // fragment, 2 = a fragment of a fragment, ...; generations stop counting at 255).
   std::vector<std::uint64_t> events_by_generation;
   int max_generation = 0;  // of the particles (and dust) the run made
+  template <class A>
+  void checkpoint_io(A& a) {
+    io_all(a, impacts, fatigue_impacts, events, crush_events, fragments, dust_fragments,
+           broken_mass_kg, completed_impacts, events_by_generation, max_generation);
+  }
 };
 
 class Breakage {
@@ -77,6 +82,12 @@ class Breakage {
   const BreakageStats& stats() const { return stats_; }
   const PsdTally& dust() const { return dust_; }
   const Vec3& dust_momentum_kg_m_per_s() const { return dust_momentum_; }
+
+  // Checkpoints: the generator, the dust table and the counters (the rest is the scene's).
+  template <class A>
+  void checkpoint_io(A& a) {
+    io_all(a, rng_, dust_, dust_momentum_, stats_);
+  }
 
  private:
   struct Material {

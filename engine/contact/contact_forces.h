@@ -39,6 +39,13 @@ struct ContactStepStats {
   bool record_impacts = false;
   std::vector<Impact> impacts;
 
+  template <class A>
+  void checkpoint_io(A& a) {
+    io_all(a, touching_pairs, touching_walls, max_overlap_ratio, max_overlap_particle,
+           max_overlap_partner, max_overlap_wall, pairs_over_limit, walls_over_limit,
+           record_impacts, impacts);
+  }
+
   void reset() {
     impacts.clear();
     max_overlap_ratio = 0.0;

@@ -54,6 +54,10 @@ class DemCellFluidTable {
   const FluidCellState& at(const Vec3& x, const GasSolver& gas, bool with_vorticity);
   std::size_t size() const { return states_.size(); }
   std::uint64_t fills() const { return fills_; }
+  template <class A>
+  void checkpoint_io(A& a) {
+    io_all(a, keys_, slot_state_, states_, fills_, last_key_, last_state_);
+  }
 
  private:
   FluidCellState average(long i, long j, long k, const GasSolver& gas, bool with_vorticity) const;
@@ -123,6 +127,12 @@ class GasCoupling {
   const DemCellFluidTable& table() const { return table_; }
   // The mean fluid state a particle at x reads (tests, output).
   const FluidCellState& fluid_at(const Vec3& x);
+
+  // Checkpoints: the gas, the DEM-cell table, the exchange schedule and the counters.
+  template <class A>
+  void checkpoint_io(A& a) {
+    io_all(a, gas_, table_, next_cfd_step_, released_, last_cfd_step_, last_steps_, stats_);
+  }
 
  private:
   void deposit(const ParticleStore& p, double interval_s);

@@ -96,6 +96,17 @@ class GasSolver {
   // Fills the ghost layers of the velocity (boundary conditions, periodic copies).
   void fill_velocity_ghosts(std::array<std::vector<double>, 3>& u) const;
 
+  // Checkpoints: the fields and the counters. The pressure matrix is not kept: it is assembled
+  // again from the face fractions at the next step (one more in stats().matrix_builds).
+  template <class A>
+  void checkpoint_io(A& a) {
+    io_all(a, gravity_m_per_s2_, background_gradient_pa_per_m_, eddy_viscosity_, velocity_,
+           predicted_, source_, exchange_, gradient_, drag_response_, seen_, relief_,
+           face_fraction_, pressure_, fraction_, previous_fraction_, row_of_cell_, cell_of_row_,
+           rhs_, solution_, stats_, continuity_error_, received_impulse_, time_s_);
+    if constexpr (A::kLoading) matrix_stale_ = true;
+  }
+
  private:
   void predictor(double dt);
   bool tvd_stencil(std::size_t f, int a, int b, std::size_t s) const;

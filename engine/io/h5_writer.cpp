@@ -2,6 +2,7 @@
 
 #include <hdf5.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <string_view>
@@ -140,6 +141,59 @@ void H5Writer::write_snapshot(std::int64_t step, double time_s, const ParticleSt
   }
   H5Gclose(g);
   snapshots_.push_back({name, step, time_s, n, p.has_breakage_state});
+}
+
+void H5Writer::flush() {
+  if (H5Fflush(file_, H5F_SCOPE_GLOBAL) < 0) throw IoError("HDF5: cannot flush " + path_.string());
+}
+
+long H5Writer::carry_snapshots(const std::filesystem::path& earlier, std::int64_t up_to_step,
+                               std::int64_t every) {
+  const hid_t old = H5Fopen(earlier.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (old < 0) return -1;
+  const hid_t group = H5Gopen2(old, "/snapshots", H5P_DEFAULT);
+  if (group < 0) {
+    H5Fclose(old);
+    return -1;
+  }
+  hsize_t count = 0;
+  H5Gget_num_objs(group, &count);
+  long carried = 0;
+  for (hsize_t k = 0; k < count; ++k) {
+    char name[64];
+    if (H5Gget_objname_by_idx(group, k, name, sizeof name) <= 0) continue;
+    const hid_t g = H5Gopen2(group, name, H5P_DEFAULT);
+    if (g < 0) continue;
+    std::int64_t step = -1;
+    double time_s = 0.0;
+    hsize_t dims[2] = {0, 0};
+    const hid_t step_attr = H5Aopen(g, "step", H5P_DEFAULT);
+    const hid_t time_attr = H5Aopen(g, "time_s", H5P_DEFAULT);
+    const hid_t diameter = H5Dopen2(g, "diameter", H5P_DEFAULT);
+    const bool readable = step_attr >= 0 && time_attr >= 0 && diameter >= 0 &&
+                          H5Aread(step_attr, H5T_NATIVE_INT64, &step) >= 0 &&
+                          H5Aread(time_attr, H5T_NATIVE_DOUBLE, &time_s) >= 0;
+    if (diameter >= 0) {
+      const hid_t space = H5Dget_space(diameter);
+      H5Sget_simple_extent_dims(space, dims, nullptr);
+      H5Sclose(space);
+      H5Dclose(diameter);
+    }
+    const bool breakage = H5Lexists(g, "generation", H5P_DEFAULT) > 0;
+    if (step_attr >= 0) H5Aclose(step_attr);
+    if (time_attr >= 0) H5Aclose(time_attr);
+    H5Gclose(g);
+    if (!readable || step < 0 || step > up_to_step || step % every != 0) continue;
+    const std::string target = std::string("/snapshots/") + name;
+    if (H5Ocopy(group, name, file_, target.c_str(), H5P_DEFAULT, H5P_DEFAULT) < 0) continue;
+    snapshots_.push_back({target, step, time_s, std::size_t(dims[0]), breakage});
+    ++carried;
+  }
+  H5Gclose(group);
+  H5Fclose(old);
+  std::sort(snapshots_.begin(), snapshots_.end(),
+            [](const SnapshotInfo& a, const SnapshotInfo& b) { return a.step < b.step; });
+  return carried;
 }
 
 void H5Writer::write_timeseries(const std::vector<std::string>& names,

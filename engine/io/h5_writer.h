@@ -48,6 +48,14 @@ class H5Writer {
   // /meta: one string attribute per field (the scene as given, the seed, the build).
   void write_meta(const std::vector<std::pair<std::string, std::string>>& fields);
   void close();  // flushes; throws IoError on failure
+  // Flushes what is written so far to disk (at a checkpoint, so the file is readable up to it).
+  void flush();
+  // Copies the snapshots of steps <= `up_to_step` on the schedule (multiples of `every`) from an
+  // earlier attempt's file into this one (a resumed run); an attempt's closing snapshot at a
+  // stop is off the schedule and left out. Returns how many, or -1 when that file cannot be read
+  // (it is left as it is).
+  long carry_snapshots(const std::filesystem::path& earlier, std::int64_t up_to_step,
+                       std::int64_t every);
 
   const std::vector<SnapshotInfo>& snapshots() const { return snapshots_; }
 

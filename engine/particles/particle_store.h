@@ -8,6 +8,7 @@
 #include <numbers>
 #include <vector>
 
+#include "checkpoint/archive.h"
 #include "core/vec3.h"
 #include "particles/materials.h"
 
@@ -90,6 +91,13 @@ struct ParticleStore {
       f(fluid_cached_force_n);
       f(fluid_impulse_n_s);
     }
+  }
+
+  // Checkpoints (checkpoint/archive.h): the flags first, so the columns they add are read back.
+  template <class A>
+  void checkpoint_io(A& a) {
+    io_all(a, has_breakage_state, has_fluid_state, population_version);
+    for_each_column([&](auto& column) { io(a, column); });
   }
 
   // Adds the breakage column (infinite capacity until the breakage module draws one).

@@ -32,6 +32,10 @@ class Feeder {
   const FeedConfig& config() const { return config_; }
   const FeedStats& stats() const { return stats_; }
   double accrued_mass_kg() const { return accrued_kg_; }
+  template <class A>
+  void checkpoint_io(A& a) {
+    io_all(a, rng_, accrued_kg_, accrued_until_s_, next_diameter_m_, stats_);
+  }
 
  private:
   FeedConfig config_;

@@ -4,6 +4,8 @@
 // distance between two distributions (the service's "error against the reference run").
 #pragma once
 
+#include "checkpoint/archive.h"
+
 #include <nlohmann/json.hpp>
 #include <vector>
 
@@ -20,6 +22,10 @@ struct PsdTally {
   explicit PsdTally(std::vector<double> edges);
   void add(double diameter_m, double mass_kg, double number = 1.0);
   void add(const PsdTally& other);  // same edges
+  template <class A>
+  void checkpoint_io(A& a) {
+    io_all(a, edges_m, count, mass_kg, under_count, under_mass_kg, over_count, over_mass_kg);
+  }
   double total_count() const;
   double total_mass_kg() const;
 };

@@ -217,6 +217,7 @@ struct FeedConfig {
 struct OutputConfig {
   std::optional<double> snapshot_interval_s;    // absent = end/10
   std::optional<double> timeseries_interval_s;  // absent = end/200
+  std::optional<double> checkpoint_interval_s;  // simulated time; absent = by wall clock only
   bool write_h5 = true;
 };
 

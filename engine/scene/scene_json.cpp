@@ -567,6 +567,8 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
         r.optional_number("snapshot_interval_s", NumberRange::positive());
     scene.output.timeseries_interval_s =
         r.optional_number("timeseries_interval_s", NumberRange::positive());
+    scene.output.checkpoint_interval_s =
+        r.optional_number("checkpoint_interval_s", NumberRange::positive());
     scene.output.write_h5 = r.boolean("h5", true);
     r.finish();
   }

@@ -9,6 +9,7 @@
 #include <optional>
 #include <vector>
 
+#include "checkpoint/archive.h"
 #include "contact/walls.h"
 #include "particles/particle_store.h"
 #include "search/hashed_grid.h"
@@ -57,6 +58,10 @@ class HistoryPool {
   Vec3& operator[](std::uint32_t slot) { return values_[slot]; }
   const Vec3& operator[](std::uint32_t slot) const { return values_[slot]; }
   std::size_t in_use() const { return values_.size() - free_.size(); }
+  template <class A>
+  void checkpoint_io(A& a) {
+    io_all(a, values_, free_);
+  }
 
  private:
   std::vector<Vec3> values_;
@@ -148,6 +153,20 @@ class NeighborList {
   std::vector<std::uint32_t> wall_index;
   std::vector<Vec3> wall_history_m;
   std::vector<std::uint8_t> wall_touching;
+
+  // Checkpoints: the lists, their history and every bound and choice the next steps read. The
+  // grids are not kept: a rebuild fills them from the positions alone.
+  template <class A>
+  void checkpoint_io(A& a) {
+    io_all(a, pairs, pair_image, pair_history, history_pool, pair_touching, wall_particle,
+           wall_index, wall_history_m, wall_touching);
+    io_all(a, settings_, division_, division_skin_m_, image_shift_, motion_bound_m_,
+           steps_since_rebuild_, previous_skin_m_, next_skin_m_, population_version_);
+    io_all(a, reference_position_m_, reference_id_, newborn_, overlapping_, band_end_,
+           active_bands_, block_bound_m_, block_bounds_valid_, partner_block_start_,
+           partner_blocks_, band_block_start_, block_active_, blocks_joined_, active_ranges_);
+    io_all(a, reorder_spacing_m_, motion_since_reorder_m_, newborn_ghost_ratio_, stats_);
+  }
 
  private:
   // Largest displacement since the last build; stops early once past skin/2.

@@ -17,6 +17,10 @@ struct PairList {
   std::size_t size() const { return first.size(); }
   void clear() { first.clear(), second.clear(); }
   void push(std::uint32_t i, std::uint32_t j) { first.push_back(i), second.push_back(j); }
+  template <class A>
+  void checkpoint_io(A& a) {
+    io_all(a, first, second);
+  }
 };
 
 // O(N²) reference.

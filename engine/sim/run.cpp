@@ -7,6 +7,7 @@
 #include <fstream>
 #include <memory>
 
+#include "checkpoint/checkpoint_file.h"
 #include "core/build_info.h"
 #include "io/h5_writer.h"
 #include "io/text_file.h"
@@ -261,6 +262,65 @@ std::int64_t steps_per_interval(std::optional<double> interval_s, double fallbac
   return std::int64_t(std::clamp(steps, 1.0, 4e18));
 }
 
+// What the run loop keeps besides the Simulation, in each checkpoint.
+struct LoopState {
+  std::size_t initial_particles = 0;
+  EnergyReport initial_energy;
+  template <class A>
+  void checkpoint_io(A& a, TimeSeries& series) {
+    io_all(a, initial_particles, initial_energy, series.columns);
+  }
+};
+
+struct ResumePoint {
+  std::filesystem::path checkpoint;
+  CheckpointHeader header;
+  std::vector<std::string> skipped;  // damaged newer checkpoints, each with its reason
+};
+
+// Restores the newest usable checkpoint of `dir` into `sim`, `loop` and `series`; none when the
+// folder holds no checkpoint. Throws ResumeError for a foreign or incompatible one, or when
+// every one is damaged.
+std::optional<ResumePoint> resume_from(const std::filesystem::path& dir, std::uint64_t hash,
+                                       Simulation& sim, LoopState& loop, TimeSeries& series) {
+  std::vector<std::string> skipped;
+  for (const std::filesystem::path& path : list_checkpoints(dir)) {
+    Checkpoint c;
+    try {
+      c = read_checkpoint(path);
+    } catch (const CheckpointError& e) {
+      skipped.push_back(path.string() + ": " + e.what());
+      continue;
+    }
+    const CheckpointHeader& h = c.header;
+    if (h.layout != checkpoint_layout())
+      throw ResumeError(path.string() + ": written by millsim " + h.millsim_version + " (commit " +
+                        h.git_commit + "), whose state layout differs from this build's (" +
+                        kMillsimVersion + ", commit " + kGitCommit +
+                        "): continue it with that build, or run again without --resume");
+    if (h.scene_hash != hash)
+      throw ResumeError(path.string() +
+                        ": a checkpoint of another scene (the scene's hash differs, so the scene "
+                        "changed since it was written): resume with the scene it was written "
+                        "for, or run again without --resume");
+    ArchiveReader r(c.state.data(), c.state.size());
+    try {
+      sim.checkpoint_io(r);
+      loop.checkpoint_io(r, series);
+      if (!r.at_end()) throw CheckpointError("its state is longer than this build reads");
+    } catch (const CheckpointError& e) {
+      throw ResumeError(path.string() + ": " + e.what());
+    }
+    return ResumePoint{path, h, skipped};
+  }
+  if (!skipped.empty()) {
+    std::string all = "no usable checkpoint in " + dir.string() + ":";
+    for (const std::string& s : skipped) all += "\n  " + s;
+    throw ResumeError(all);
+  }
+  return std::nullopt;
+}
+
 // "SIGTERM" for 15.
 std::string sigabbrev(int signal) {
   const char* name = sigabbrev_np(signal);
@@ -285,8 +345,19 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
       steps_per_interval(scene.output.snapshot_interval_s, scene.time.end_s / 10.0, dt);
   const std::int64_t series_every =
       steps_per_interval(scene.output.timeseries_interval_s, scene.time.end_s / 200.0, dt);
+  const std::int64_t checkpoint_every =
+      scene.output.checkpoint_interval_s
+          ? steps_per_interval(scene.output.checkpoint_interval_s, 0.0, dt)
+          : 0;
   const bool write_files = !options.out_dir.empty();
   const bool write_h5 = write_files && scene.output.write_h5;
+  const std::filesystem::path checkpoint_dir = options.out_dir / "checkpoints";
+  const std::uint64_t hash = options.scene_text.empty() ? 0 : scene_hash(options.scene_text);
+  LoopState loop{sim.particles().size(), sim.energy()};
+  TimeSeries series(has_product(sim));
+  const std::optional<ResumePoint> resumed =
+      options.resume && write_files ? resume_from(checkpoint_dir, hash, sim, loop, series)
+                                    : std::nullopt;
   if (write_files) {
     std::filesystem::create_directories(options.out_dir);
     // A copy of the scene beside its results (not over itself: the service runs scene.json in
@@ -300,8 +371,20 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
 
   std::unique_ptr<H5Writer> h5;
   const std::filesystem::path h5_partial = options.out_dir / "run.h5.partial";
+  // A resumed run carries the earlier attempts' snapshots up to its checkpoint, from the file
+  // the last attempt left (flushed at each checkpoint) or from the last finished run.h5.
+  const std::filesystem::path h5_source = options.out_dir / "run.h5.resume-source";
+  long carried_snapshots = 0;
+  if (write_h5 && resumed && std::filesystem::exists(h5_partial))
+    std::filesystem::rename(h5_partial, h5_source);
   if (write_h5) {
     h5 = std::make_unique<H5Writer>(h5_partial);
+    if (resumed) {
+      carried_snapshots = -1;
+      for (const std::filesystem::path& earlier : {h5_source, options.out_dir / "run.h5"})
+        if (carried_snapshots < 0 && std::filesystem::exists(earlier))
+          carried_snapshots = h5->carry_snapshots(earlier, resumed->header.step, snapshot_every);
+    }
     h5->write_root_attribute("scene", scene.name);
     h5->write_root_attribute("millsim_version", kMillsimVersion);
     h5->write_meta({{"scene_name", scene.name},
@@ -312,11 +395,33 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
                     {"compiler", kCompiler}});
   }
 
-  const std::size_t initial_particles = sim.particles().size();
-  const EnergyReport initial_energy = sim.energy();
-  TimeSeries series(has_product(sim));
-  series.record(sim);
-  if (h5) h5->write_snapshot(0, 0.0, sim.particles());
+  if (!resumed) {
+    series.record(sim);
+    if (h5) h5->write_snapshot(0, 0.0, sim.particles());
+  }
+  const std::size_t initial_particles = loop.initial_particles;
+  const EnergyReport initial_energy = loop.initial_energy;
+  const double earlier_wall_s = resumed ? resumed->header.wall_time_s : 0.0;
+  int checkpoints_written = 0;
+  std::filesystem::path last_checkpoint;
+  auto last_checkpoint_wall = Clock::now();
+  auto write_state = [&] {
+    ArchiveWriter w;
+    sim.checkpoint_io(w);
+    loop.checkpoint_io(w, series);
+    const CheckpointHeader header{
+        kMillsimVersion,
+        kGitCommit,
+        checkpoint_layout(),
+        hash,
+        sim.step_index(),
+        sim.time_s(),
+        earlier_wall_s + std::chrono::duration<double>(Clock::now() - start).count()};
+    last_checkpoint = write_checkpoint(checkpoint_dir, header, w.data(), options.checkpoints_kept);
+    if (h5) h5->flush();
+    ++checkpoints_written;
+    last_checkpoint_wall = Clock::now();
+  };
 
   RunOutcome outcome;
   auto last_progress = Clock::now();
@@ -338,6 +443,8 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
     const std::int64_t now = sim.step_index();
     std::int64_t next = std::min({total, now + 256, (now / series_every + 1) * series_every});
     if (h5) next = std::min(next, (now / snapshot_every + 1) * snapshot_every);
+    if (checkpoint_every > 0)
+      next = std::min(next, (now / checkpoint_every + 1) * checkpoint_every);
     outcome.failure = sim.advance(next - now);
     const std::int64_t step = sim.step_index();
     if (options.stop_request && !outcome.failure)
@@ -355,6 +462,13 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
       const double elapsed = std::chrono::duration<double>(last_progress - start).count();
       options.on_progress(progress_now(step, elapsed));
     }
+    const bool checkpoint_due = (checkpoint_every > 0 && step % checkpoint_every == 0) ||
+                                (options.checkpoint_wall_s > 0.0 &&
+                                 Clock::now() - last_checkpoint_wall >
+                                     std::chrono::duration<double>(options.checkpoint_wall_s)) ||
+                                outcome.interrupted_by != 0;
+    if (write_files && !outcome.failure && step < total && checkpoint_due)
+      sim.profile().time(Phase::Output, write_state);
     if (outcome.failure || outcome.interrupted_by != 0) break;
   }
   const double wall_s = std::chrono::duration<double>(Clock::now() - start).count();
@@ -396,6 +510,17 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
                               {"time_step_gain", rs->time_step_gain}};
   s["simulated_time_s"] = sim.time_s();
   s["wall_time_s"] = wall_s;
+  if (resumed) {
+    s["wall_time_total_s"] = earlier_wall_s + wall_s;
+    s["resumed"] = {{"checkpoint", resumed->checkpoint.filename().string()},
+                    {"step", resumed->header.step},
+                    {"time_s", resumed->header.time_s},
+                    {"skipped_damaged", resumed->skipped},
+                    {"snapshots_carried", carried_snapshots}};
+  }
+  if (checkpoints_written > 0)
+    s["checkpoints"] = {{"written", checkpoints_written},
+                        {"last", last_checkpoint.filename().string()}};
   const double step_seconds = sim.profile().total();
   s["particle_steps_per_second"] = step_seconds > 0 ? sim.particle_steps() / step_seconds : 0.0;
   nlohmann::ordered_json phases = nlohmann::ordered_json::object();
@@ -439,12 +564,15 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
       h5->write_vertex_index();
       h5->close();
       std::filesystem::rename(h5_partial, options.out_dir / "run.h5");
+      std::filesystem::remove(h5_source);
       write_xdmf(options.out_dir / "run.xdmf", "run.h5", h5->snapshots());
       outputs = {{"h5", "run.h5"}, {"xdmf", "run.xdmf"}, {"snapshots", h5->snapshots().size()}};
     }
     outputs["result"] = "result.json";
     s["outputs"] = outputs;
     write_text_atomically(options.out_dir / "result.json", s.dump(2) + "\n");
+    // A run that reached its end needs its checkpoints no more.
+    if (!outcome.failure && outcome.interrupted_by == 0) remove_checkpoints(checkpoint_dir);
   }
   return outcome;
 }

@@ -9,6 +9,7 @@
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <stdexcept>
 
 #include "scene/scene_config.h"
 #include "sim/simulation.h"
@@ -41,6 +42,21 @@ struct RunOptions {
   // DIR/scene.json (unless that is the file itself).
   std::string scene_text;
   std::filesystem::path scene_path;
+  // Checkpoints in out_dir/checkpoints (checkpoint/checkpoint_file.h, docs/checkpoints.md):
+  // every scene.output.checkpoint_interval_s of simulated time, every checkpoint_wall_s of wall
+  // time (0: none by wall clock), and at a stop request. The newest `checkpoints_kept` stay
+  // until the run ends complete; then all are removed.
+  double checkpoint_wall_s = 600.0;
+  int checkpoints_kept = 2;
+  // Continue from the newest valid checkpoint in out_dir/checkpoints, falling back to the one
+  // before when it is damaged; with none there, the run starts from the beginning.
+  bool resume = false;
+};
+
+// A checkpoint that cannot be continued: another scene's, another build's layout, or every one
+// damaged. Nothing in the run's folder has been changed when it is thrown.
+struct ResumeError : std::runtime_error {
+  using std::runtime_error::runtime_error;
 };
 
 struct RunOutcome {
@@ -49,7 +65,8 @@ struct RunOutcome {
   nlohmann::ordered_json summary;
 };
 
-// Throws IoError when an output file cannot be written.
+// Throws IoError when an output file cannot be written, ResumeError (options.resume) when the
+// run's checkpoints cannot be continued.
 RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOptions& options);
 
 nlohmann::ordered_json energy_json(const EnergyReport& e);

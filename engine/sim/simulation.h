@@ -118,6 +118,12 @@ class Simulation {
   // Σ over steps of the touching particle pairs: contact-steps, for per-contact figures.
   std::uint64_t contact_steps() const { return contact_steps_; }
 
+  // Checkpoints (checkpoint/checkpoint_file.h): everything an exact continuation reads, saved
+  // into or restored from an archive. A restore goes into a Simulation built from the same
+  // scene, which fixes what is not listed here (materials, walls, the modules a scene has).
+  template <class A>
+  void checkpoint_io(A& a);
+
   EnergyReport energy() const;
   // Recomputes forces for the current state after editing particles by hand; the edited state
   // becomes the energy guard's reference.
@@ -179,5 +185,19 @@ class Simulation {
   double feed_kinetic_bound_j_ = 0.0;
   double drag_relaxation_s_ = 1e300;  // Stokes τ of the smallest particle (gas scenes only)
 };
+
+template <class A>
+void Simulation::checkpoint_io(A& a) {
+  io_all(a, particles_, neighbors_, time_, reduced_, total_steps_, step_index_, limiter_events_);
+  io_all(a, energy_reference_j_, energy_scale_j_, check_energy_, contact_stats_, profile_, next_id_,
+         particle_steps_, contact_steps_, block_max_speed_, forces_prepared_, kick_pending_,
+         energy_added_j_);
+  // The modules the scene has: present in both the saved and the restoring run.
+  if (breakage_) io(a, *breakage_);
+  if (gas_) io(a, *gas_);
+  for (Feeder& f : feeders_) io(a, f);
+  io_all(a, outlet_, outlet_mass_kg_, outlet_momentum_, initial_mass_kg_, fed_mass_kg_,
+         last_population_step_, feed_mass_bound_kg_, feed_kinetic_bound_j_, drag_relaxation_s_);
+}
 
 }  // namespace millsim

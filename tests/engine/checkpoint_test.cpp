@@ -1,0 +1,157 @@
+// Checkpoints: a run saved at a step and restored into a fresh Simulation of the same scene goes
+// on bit for bit as the run that never stopped (plain DEM, breakage with feeds, outlet and dust,
+// and the coupled gas); checkpoint files are read back only when whole.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "checkpoint/checkpoint_file.h"
+#include "core/errors.h"
+#include "scene/scene_json.h"
+#include "sim/simulation.h"
+#include "support/process.h"
+#include "support/scenes.h"
+
+namespace millsim {
+namespace {
+
+using nlohmann::json;
+
+SceneConfig shipped_case(const std::string& file, double end_s) {
+  std::ifstream in(std::string(MILLSIM_SOURCE_DIR "/cases/") + file);
+  json doc = json::parse(in);
+  doc["time"]["end_s"] = end_s;
+  InputErrors errors;
+  SceneConfig scene = parse_scene(doc, MILLSIM_SOURCE_DIR "/cases", errors);
+  EXPECT_TRUE(errors.empty()) << file;
+  return scene;
+}
+
+template <class T>
+bool same_bytes(const std::vector<T>& a, const std::vector<T>& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
+}
+
+// Every per-particle column, the tallies and the gas fields, compared byte for byte.
+void expect_identical(Simulation& a, Simulation& b) {
+  ASSERT_EQ(a.step_index(), b.step_index());
+  ASSERT_EQ(a.particles().size(), b.particles().size());
+  int column = 0;
+  std::vector<std::string> a_bytes, b_bytes;
+  a.particles().for_each_column([&](auto& c) {
+    a_bytes.emplace_back(reinterpret_cast<const char*>(c.data()), c.size() * sizeof c[0]);
+  });
+  b.particles().for_each_column([&](auto& c) {
+    b_bytes.emplace_back(reinterpret_cast<const char*>(c.data()), c.size() * sizeof c[0]);
+  });
+  ASSERT_EQ(a_bytes.size(), b_bytes.size());
+  for (; column < int(a_bytes.size()); ++column)
+    EXPECT_TRUE(a_bytes[std::size_t(column)] == b_bytes[std::size_t(column)])
+        << "particle column " << column << " differs";
+  EXPECT_TRUE(same_bytes(a.outlet_tally().mass_kg, b.outlet_tally().mass_kg));
+  EXPECT_EQ(a.energy().total_j(), b.energy().total_j());
+  EXPECT_EQ(a.mass_balance().fed_kg, b.mass_balance().fed_kg);
+  EXPECT_EQ(a.neighbors().stats().rebuilds, b.neighbors().stats().rebuilds);
+  if (a.breakage()) {
+    EXPECT_EQ(a.breakage()->stats().events, b.breakage()->stats().events);
+    EXPECT_TRUE(same_bytes(a.breakage()->dust().mass_kg, b.breakage()->dust().mass_kg));
+  }
+  if (a.gas()) {
+    EXPECT_TRUE(same_bytes(a.gas()->gas().pressure(), b.gas()->gas().pressure()));
+    for (int axis = 0; axis < 3; ++axis)
+      EXPECT_TRUE(same_bytes(a.gas()->gas().velocity()[std::size_t(axis)],
+                             b.gas()->gas().velocity()[std::size_t(axis)]));
+    EXPECT_EQ(a.gas()->stats().cfd_steps, b.gas()->stats().cfd_steps);
+    EXPECT_EQ(a.gas()->stats().drag_reuses, b.gas()->stats().drag_reuses);
+  }
+}
+
+struct Case {
+  const char* file;
+  double end_s;
+};
+
+TEST(Checkpoint, RestoredRunContinuesBitForBit) {
+  for (const Case& c : {Case{"settling_column.json", 0.01}, Case{"attrition_target.json", 3e-4},
+                        Case{"fluidized_bed.json", 0.01}}) {
+    SCOPED_TRACE(c.file);
+    const SceneConfig scene = shipped_case(c.file, c.end_s);
+    Simulation whole(scene);
+    const std::int64_t total = whole.total_steps();
+    ASSERT_FALSE(whole.advance(total));
+    // Split at a third and at an odd step past two thirds (off any rebuild or CFD rhythm).
+    for (const std::int64_t split : {total / 3, 2 * total / 3 + 7}) {
+      SCOPED_TRACE(split);
+      Simulation first(scene);
+      ASSERT_FALSE(first.advance(split));
+      ArchiveWriter saved;
+      first.checkpoint_io(saved);
+
+      Simulation resumed(scene);  // a fresh run of the scene, then the saved state into it
+      ArchiveReader reader(saved.data().data(), saved.data().size());
+      resumed.checkpoint_io(reader);
+      EXPECT_TRUE(reader.at_end());
+      ASSERT_EQ(resumed.step_index(), split);
+      ASSERT_FALSE(resumed.advance(total - split));
+      expect_identical(whole, resumed);
+    }
+    if (std::string(c.file) == "attrition_target.json") {
+      EXPECT_GT(whole.breakage()->stats().events, 0u) << "the case must break something";
+    }
+  }
+}
+
+TEST(Checkpoint, FilesAreReadBackOnlyWhole) {
+  test::TempDir dir;
+  CheckpointHeader header{"0.1.0", "abc", checkpoint_layout(), 42, 100, 1e-3, 2.0};
+  std::string state(1000, '\0');
+  for (std::size_t k = 0; k < state.size(); ++k) state[k] = char(k * 7);
+  write_checkpoint(dir.path(), header, state, 2);
+  header.step = 200;
+  const std::filesystem::path second = write_checkpoint(dir.path(), header, state, 2);
+  header.step = 300;
+  const std::filesystem::path newest = write_checkpoint(dir.path(), header, state, 2);
+  // The newest two are kept, newest first.
+  const std::vector<std::filesystem::path> kept = list_checkpoints(dir.path());
+  ASSERT_EQ(kept.size(), 2u);
+  EXPECT_EQ(kept[0], newest);
+  EXPECT_EQ(kept[1], second);
+
+  const Checkpoint back = read_checkpoint(newest);
+  EXPECT_EQ(back.header.step, 300);
+  EXPECT_EQ(back.header.scene_hash, 42u);
+  EXPECT_EQ(back.header.git_commit, "abc");
+  EXPECT_EQ(back.state, state);
+
+  std::ifstream in(newest, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  auto reason = [&](const std::string& content) {
+    const std::filesystem::path p = dir.path() / "step-000000000999.ckpt";
+    test::write_file(p, content);
+    try {
+      read_checkpoint(p);
+    } catch (const CheckpointError& e) {
+      return std::string(e.what());
+    }
+    return std::string("read");
+  };
+  EXPECT_NE(reason(bytes.substr(0, bytes.size() / 2)).find("checksum"), std::string::npos);
+  EXPECT_NE(reason(bytes.substr(0, 10)).find("truncated"), std::string::npos);
+  std::string flipped = bytes;
+  flipped[bytes.size() / 2] ^= 0x10;
+  EXPECT_NE(reason(flipped).find("checksum"), std::string::npos);
+  std::string foreign = bytes;
+  foreign[0] = 'X';
+  EXPECT_NE(reason(foreign).find("not a millsim checkpoint"), std::string::npos);
+  EXPECT_EQ(reason(bytes), "read");
+}
+
+TEST(Checkpoint, SceneHashIgnoresLayoutButNotValues) {
+  EXPECT_EQ(scene_hash(R"({"a": 1, "b": [1, 2]})"), scene_hash("{\"b\":[1,2],\n \"a\":1}"));
+  EXPECT_NE(scene_hash(R"({"a": 1, "b": [1, 2]})"), scene_hash(R"({"a": 1, "b": [1, 3]})"));
+}
+
+}  // namespace
+}  // namespace millsim

@@ -1,0 +1,184 @@
+// `millsim run --resume` as a user meets it: a run killed with SIGKILL (a crash, a lost node)
+// or stopped by SIGTERM (a batch system's time limit) continues from its newest checkpoint and
+// ends with the same physics in result.json as the run that never stopped; a damaged newest
+// checkpoint falls back to the one before; another scene's checkpoints, or only damaged ones,
+// are refused with exit 2 and change nothing in the run's folder.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "checkpoint/checkpoint_file.h"
+#include "support/process.h"
+#include "support/scenes.h"
+
+namespace millsim {
+namespace {
+
+using nlohmann::json;
+
+// The attrition case (feeds, breakage, dust, an outlet) for 0.6 ms, a checkpoint every 0.1 ms.
+json attrition_scene() {
+  std::ifstream in(MILLSIM_SOURCE_DIR "/cases/attrition_target.json");
+  json scene = json::parse(in);
+  scene["time"]["end_s"] = 6e-4;
+  scene["output"] = {{"checkpoint_interval_s", 1e-4}, {"snapshot_interval_s", 2e-4}};
+  return scene;
+}
+
+// result.json without what depends on the wall clock or on the run having been resumed.
+json physics_of(json result) {
+  for (const char* key : {"wall_time_s", "wall_time_total_s", "particle_steps_per_second",
+                          "phase_seconds", "resumed", "checkpoints", "outputs"})
+    result.erase(key);
+  return result;
+}
+
+// Starts `millsim run ARGS...` in `dir` with stdout and stderr in files; returns its pid.
+pid_t start_run(const std::filesystem::path& dir, const std::vector<std::string>& args) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    if (chdir(dir.c_str()) != 0) _exit(99);
+    freopen("started.out", "w", stdout);
+    freopen("started.err", "w", stderr);
+    std::vector<char*> argv = {const_cast<char*>("millsim"), const_cast<char*>("run")};
+    for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    execv(MILLSIM_BINARY, argv.data());
+    _exit(98);
+  }
+  return pid;
+}
+
+// Waits until `dir` holds `count` checkpoints (or the child ended); false on a timeout.
+bool wait_for_checkpoints(pid_t pid, const std::filesystem::path& dir, std::size_t count) {
+  for (int k = 0; k < 2400; ++k) {
+    if (list_checkpoints(dir).size() >= count) return true;
+    if (waitpid(pid, nullptr, WNOHANG) == pid) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(25));
+  }
+  return false;
+}
+
+// Every file under `dir` with its size and content hash, to see that nothing changed.
+std::map<std::string, std::uint64_t> fingerprint(const std::filesystem::path& dir) {
+  std::map<std::string, std::uint64_t> files;
+  for (const auto& e : std::filesystem::recursive_directory_iterator(dir))
+    if (e.is_regular_file()) {
+      const std::string text = test::read_file(e.path());
+      files[e.path().lexically_relative(dir).string()] = fnv1a64(text.data(), text.size());
+    }
+  return files;
+}
+
+TEST(Checkpoint, KilledRunResumesToTheSameResult) {
+  test::TempDir dir;
+  test::write_file(dir.path() / "scene.json", attrition_scene().dump(2));
+  const test::CommandResult whole =
+      test::run_millsim("run scene.json --out whole --quiet", dir.path());
+  ASSERT_EQ(whole.exit_code, 0) << whole.err;
+  const json reference = json::parse(whole.out);
+  ASSERT_GT(reference["breakage"]["events"].get<int>(), 0);
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "whole/checkpoints"))
+      << "a complete run keeps no checkpoints";
+
+  // A crash: SIGKILL once two checkpoints are on disk.
+  const pid_t pid = start_run(dir.path(), {"scene.json", "--out", "crashed", "--quiet"});
+  ASSERT_TRUE(wait_for_checkpoints(pid, dir.path() / "crashed/checkpoints", 2));
+  kill(pid, SIGKILL);
+  waitpid(pid, nullptr, 0);
+  ASSERT_FALSE(std::filesystem::exists(dir.path() / "crashed/result.json"));
+  std::filesystem::copy(dir.path() / "crashed", dir.path() / "spare",
+                        std::filesystem::copy_options::recursive);
+
+  // The newest checkpoint damaged: the run falls back to the one before and still ends equal.
+  const std::vector<std::filesystem::path> saved =
+      list_checkpoints(dir.path() / "crashed/checkpoints");
+  ASSERT_GE(saved.size(), 2u);
+  {
+    std::fstream f(saved[0], std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(200);
+    f.put('\x5a');
+  }
+  const test::CommandResult resumed =
+      test::run_millsim("run scene.json --out crashed --quiet --resume", dir.path());
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
+  const json result = json::parse(resumed.out);
+  EXPECT_EQ(physics_of(result), physics_of(reference));
+  EXPECT_EQ(result["resumed"]["skipped_damaged"].size(), 1u);
+  EXPECT_EQ(result["resumed"]["checkpoint"], saved[1].filename().string());
+  EXPECT_GE(result["resumed"]["snapshots_carried"].get<int>(), 1);
+  EXPECT_EQ(result["outputs"]["snapshots"], reference["outputs"]["snapshots"]);
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "crashed/checkpoints"));
+
+  // Another scene's checkpoints: refused, and nothing in the folder changes.
+  const auto before = fingerprint(dir.path() / "spare");
+  json other = attrition_scene();
+  other["materials"][0]["restitution"] = 0.45;
+  test::write_file(dir.path() / "other.json", other.dump(2));
+  test::CommandResult refused =
+      test::run_millsim("run other.json --out spare --quiet --resume", dir.path());
+  EXPECT_EQ(refused.exit_code, 2);
+  EXPECT_NE(refused.err.find("another scene"), std::string::npos) << refused.err;
+  EXPECT_EQ(fingerprint(dir.path() / "spare"), before);
+
+  // Only damaged checkpoints: refused with each one's reason, nothing changes.
+  for (const auto& p : list_checkpoints(dir.path() / "spare/checkpoints"))
+    std::filesystem::resize_file(p, std::filesystem::file_size(p) / 2);
+  const auto truncated = fingerprint(dir.path() / "spare");
+  refused = test::run_millsim("run scene.json --out spare --quiet --resume", dir.path());
+  EXPECT_EQ(refused.exit_code, 2);
+  EXPECT_NE(refused.err.find("no usable checkpoint"), std::string::npos) << refused.err;
+  EXPECT_NE(refused.err.find("checksum"), std::string::npos) << refused.err;
+  EXPECT_EQ(fingerprint(dir.path() / "spare"), truncated);
+}
+
+TEST(Checkpoint, SigtermWritesACheckpointAndResumeFinishesTheRun) {
+  test::TempDir dir;
+  json scene = attrition_scene();
+  scene["output"].erase("checkpoint_interval_s");  // only the one the signal asks for
+  test::write_file(dir.path() / "scene.json", scene.dump(2));
+  const test::CommandResult whole =
+      test::run_millsim("run scene.json --out whole --quiet", dir.path());
+  ASSERT_EQ(whole.exit_code, 0) << whole.err;
+
+  const pid_t pid = start_run(
+      dir.path(), {"scene.json", "--out", "stopped", "--quiet", "--log-interval", "0.05"});
+  // Stop it once it is under way: its thermo log (a line every 50 ms) has a step past 0.
+  auto lines = [&] {
+    const std::string log = test::read_file(dir.path() / "stopped/log.txt");
+    return std::count(log.begin(), log.end(), '\n');
+  };
+  for (int k = 0; k < 800 && lines() < 4; ++k)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  kill(pid, SIGTERM);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 128 + SIGTERM);
+  ASSERT_EQ(list_checkpoints(dir.path() / "stopped/checkpoints").size(), 1u);
+
+  const test::CommandResult resumed =
+      test::run_millsim("run scene.json --out stopped --quiet --resume", dir.path());
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
+  const json result = json::parse(resumed.out);
+  EXPECT_EQ(physics_of(result), physics_of(json::parse(whole.out)));
+  EXPECT_TRUE(result["resumed"]["skipped_damaged"].empty());
+  EXPECT_EQ(result["outputs"]["snapshots"], json::parse(whole.out)["outputs"]["snapshots"]);
+
+  // --resume with no checkpoint starts from the beginning.
+  const test::CommandResult fresh =
+      test::run_millsim("run scene.json --out fresh --quiet --resume", dir.path());
+  ASSERT_EQ(fresh.exit_code, 0) << fresh.err;
+  EXPECT_FALSE(json::parse(fresh.out).contains("resumed"));
+}
+
+}  // namespace
+}  // namespace millsim
