@@ -490,6 +490,19 @@ void ApiServer::routes() {
           if (!with_run(req, res, r)) return;
           ordered_json body = run_json(*r, false);
           body["log_tail"] = tail_of_file(std::filesystem::path(r->out_dir) / "log.txt", 40);
+          ordered_json history = ordered_json::array();
+          for (const AttemptRecord& a : store_->attempts(r->id))
+            history.push_back(
+                {{"attempt", a.attempt},
+                 {"worker", a.worker},
+                 {"started_at", a.started_at},
+                 {"finished_at", a.finished_at},
+                 {"state", a.state},
+                 {"exit_code", a.exit_code ? ordered_json(*a.exit_code) : ordered_json()},
+                 {"error", a.error},
+                 {"resumed_from_s",
+                  a.resumed_from_s ? ordered_json(*a.resumed_from_s) : ordered_json()}});
+          body["attempt_history"] = history;
           send_json(res, 200, body);
         }));
 

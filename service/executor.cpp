@@ -58,7 +58,8 @@ ExecHandle LocalExecutor::start(const RunRecord& run, double now) {
     const struct rlimit limit = {memory, memory};
     setrlimit(RLIMIT_AS, &limit);
 #endif
-    execl(binary.c_str(), "millsim", "run", "scene.json", "--out", ".", "--quiet",
+    // --resume: a later attempt continues from the checkpoints an earlier one left.
+    execl(binary.c_str(), "millsim", "run", "scene.json", "--out", ".", "--quiet", "--resume",
           static_cast<char*>(nullptr));
     _exit(4);  // exec failed: an environment error
   }

@@ -1,5 +1,6 @@
 #include "slurm_executor.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -48,6 +49,24 @@ std::string study_options(const SlurmOptions& o) {
   return out;
 }
 
+namespace {
+
+// The batch script: `millsim run --resume` in the background, so the shell can pass on the
+// SIGUSR1 Slurm sends before the time limit (--signal=B:USR1@lead). The run then writes a
+// checkpoint and exits 138, and the job requeues itself: it starts again under the same job id
+// and resumes from that checkpoint. Any other exit is the job's.
+std::string requeue_script(const std::filesystem::path& binary) {
+  return shell_quoted(binary.string()) +
+         " run scene.json --out . --quiet --resume & pid=$!; stopped=0; "
+         "trap 'stopped=1; kill -USR1 $pid 2>/dev/null' USR1; "
+         "wait $pid; rc=$?; while kill -0 $pid 2>/dev/null; do wait $pid; rc=$?; done; "
+         "if [ $stopped = 1 ] && [ $rc = 138 ] && [ -n \"$SLURM_JOB_ID\" ]; then "
+         "echo \"millsim: checkpointed before the time limit; requeueing job $SLURM_JOB_ID\"; "
+         "scontrol requeue \"$SLURM_JOB_ID\" && exit 0; fi; exit $rc";
+}
+
+}  // namespace
+
 bool SlurmExecutor::available() {
   int status = 0;
   capture("sinfo -h -o %P", status);
@@ -60,15 +79,18 @@ ExecHandle SlurmExecutor::start(const RunRecord& run, double now) {
   prepare_run_directory(run);
   const long minutes = std::max(1L, long(std::ceil(run.wall_limit_s / 60.0)));
   const long memory_mb = std::max(16L, long(run.memory_limit_mb));
-  std::string job = "exec " + shell_quoted(binary_.string()) + " run scene.json --out . --quiet";
+  std::string job = requeue_script(binary_);
 #ifndef __SANITIZE_ADDRESS__  // ASan reserves terabytes of address space for its shadow
   job = "ulimit -v " + std::to_string(memory_mb * 1024) + "; " + job;
 #endif
+  // SIGUSR1 this long before the job's time limit: the run checkpoints and the job requeues.
+  const long lead_s = std::clamp(minutes * 60 / 4, 10L, 300L);
   const std::string command =
       "sbatch --parsable --job-name=" + shell_quoted("millsim-" + run.id) +
       " --chdir=" + shell_quoted(h.out_dir.string()) +
       " --output=log.txt --open-mode=append --ntasks=1 --time=" + std::to_string(minutes) +
-      " --mem=" + std::to_string(memory_mb) + " " + extra_args_ + study_options(run.slurm) +
+      " --mem=" + std::to_string(memory_mb) + " --requeue --signal=B:USR1@" +
+      std::to_string(lead_s) + " " + extra_args_ + study_options(run.slurm) +
       " --wrap=" + shell_quoted(job);
   int status = 0;
   // With stderr, so a refusal carries sbatch's own words; the job id is the last line.
@@ -86,6 +108,13 @@ ExecHandle SlurmExecutor::start(const RunRecord& run, double now) {
 
 std::optional<ChildExit> SlurmExecutor::poll(ExecHandle& h, double now) {
   if (now - h.last_checked_at < 1.0) return std::nullopt;
+  // A job that requeues itself gets a fresh time limit each time: the study's wall-time limit
+  // holds over all of them.
+  if (!h.canceled && !h.timed_out && now >= h.deadline + 60.0) {
+    h.timed_out = true;
+    int status = 0;
+    capture("scancel " + h.job_id, status);
+  }
   h.last_checked_at = now;
   int status = 0;
   const std::string state = trim(capture("squeue -h -t all -j " + h.job_id + " -o %T", status));
@@ -105,6 +134,10 @@ std::optional<ChildExit> SlurmExecutor::poll(ExecHandle& h, double now) {
     e.exit_code = signal ? -1 : code;
     e.signal = signal;
   } else if (state == "TIMEOUT" || state == "DEADLINE") {
+    e.timed_out = true;
+    e.exit_code = -1;
+    e.signal = 15;
+  } else if (state == "CANCELLED" && h.timed_out) {
     e.timed_out = true;
     e.exit_code = -1;
     e.signal = 15;

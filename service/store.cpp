@@ -73,6 +73,9 @@ CREATE INDEX regressions_by_suite ON regressions(suite, created_at);
 constexpr const char* kSchemaV3 =
     "ALTER TABLE runs ADD COLUMN executor_options TEXT NOT NULL DEFAULT '{}';";
 
+// Version 4: the simulated time each attempt resumed from (a checkpoint), NULL from the start.
+constexpr const char* kSchemaV4 = "ALTER TABLE attempts ADD COLUMN resumed_from_s REAL;";
+
 constexpr const char* kRunColumns =
     "id, study_id, idx, params, seed, scene, is_reference, state, attempts, max_attempts, "
     "fencing_token, lease_owner, lease_expires_at, created_at, started_at, finished_at, "
@@ -142,6 +145,7 @@ void Store::migrate() {
     if (version < 1) db_.exec(kSchemaV1);
     if (version < 2) db_.exec(kSchemaV2);
     if (version < 3) db_.exec(kSchemaV3);
+    if (version < 4) db_.exec(kSchemaV4);
     db_.exec(("PRAGMA user_version = " + std::to_string(kSchemaVersion)).c_str());
   });
 }
@@ -221,6 +225,18 @@ bool Store::heartbeat(const std::string& run_id, std::int64_t token, double leas
   return db_.changes() == 1;
 }
 
+namespace {
+
+// The simulated time a run's result.json says it resumed from (docs/checkpoints.md).
+std::optional<double> resumed_from_s(const std::string& result) {
+  const nlohmann::json r = nlohmann::json::parse(result, nullptr, false);
+  if (!r.is_object() || !r.contains("resumed") || !r["resumed"].is_object()) return std::nullopt;
+  const nlohmann::json& t = r["resumed"].value("time_s", nlohmann::json());
+  return t.is_number() ? std::optional<double>(t.get<double>()) : std::nullopt;
+}
+
+}  // namespace
+
 bool Store::finish(const std::string& run_id, std::int64_t token, const FinishReport& report,
                    double now) {
   return db_.transaction([&] {
@@ -233,14 +249,19 @@ bool Store::finish(const std::string& run_id, std::int64_t token, const FinishRe
     const bool retry =
         next == RunState::SystemError && report.retryable && r->attempts < r->max_attempts;
     Statement a = db_.prepare(
-        "UPDATE attempts SET finished_at = ?, state = ?, exit_code = ?, error = ? "
-        "WHERE run_id = ? AND attempt = ?");
+        "UPDATE attempts SET finished_at = ?, state = ?, exit_code = ?, error = ?, "
+        "resumed_from_s = ? WHERE run_id = ? AND attempt = ?");
     a.bind(1, now).bind(2, name_of(next));
     if (report.exit_code)
       a.bind(3, std::int64_t(*report.exit_code));
     else
       a.bind(3, std::nullopt);
-    a.bind(4, report.error).bind(5, run_id).bind(6, std::int64_t(r->attempts));
+    a.bind(4, report.error);
+    if (const std::optional<double> t = resumed_from_s(report.result))
+      a.bind(5, *t);
+    else
+      a.bind(5, std::nullopt);
+    a.bind(6, run_id).bind(7, std::int64_t(r->attempts));
     a.run();
     Statement u = db_.prepare(
         "UPDATE runs SET state = ?, lease_owner = NULL, lease_expires_at = 0, finished_at = ?, "
@@ -326,6 +347,27 @@ std::optional<RunRecord> Store::run(const std::string& id) {
   s.bind(1, id);
   if (!s.step()) return std::nullopt;
   return read_run(s);
+}
+
+std::vector<AttemptRecord> Store::attempts(const std::string& run_id) {
+  Statement s = db_.prepare(
+      "SELECT attempt, worker, started_at, finished_at, state, exit_code, error, resumed_from_s "
+      "FROM attempts WHERE run_id = ? ORDER BY attempt");
+  s.bind(1, run_id);
+  std::vector<AttemptRecord> out;
+  while (s.step()) {
+    AttemptRecord a;
+    a.attempt = int(s.integer(0));
+    a.worker = s.text(1);
+    a.started_at = s.real(2);
+    a.finished_at = s.real(3);
+    a.state = s.text(4);
+    if (!s.is_null(5)) a.exit_code = int(s.integer(5));
+    a.error = s.text(6);
+    if (!s.is_null(7)) a.resumed_from_s = s.real(7);
+    out.push_back(std::move(a));
+  }
+  return out;
 }
 
 std::vector<RunRecord> Store::runs(const std::string& study_id,

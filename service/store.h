@@ -20,7 +20,7 @@
 
 namespace millsim {
 
-inline constexpr int kSchemaVersion = 3;
+inline constexpr int kSchemaVersion = 4;
 
 struct RunRecord {
   std::string id;
@@ -78,7 +78,18 @@ struct FinishReport {
   std::optional<int> exit_code;
   std::string error;
   double wall_time_s = 0.0;
-  std::string result;
+  std::string result;  // result.json; its "resumed" section gives the attempt's resumed_from_s
+};
+
+// One attempt at a run, as the attempts table keeps it.
+struct AttemptRecord {
+  int attempt = 0;
+  std::string worker;
+  double started_at = 0.0, finished_at = 0.0;
+  std::string state;
+  std::optional<int> exit_code;
+  std::string error;
+  std::optional<double> resumed_from_s;
 };
 
 struct Progress {
@@ -121,6 +132,7 @@ class Store {
   std::optional<StudyRecord> study(const std::string& id);
   std::vector<StudyRecord> studies(int limit, int offset);
   std::optional<RunRecord> run(const std::string& id);
+  std::vector<AttemptRecord> attempts(const std::string& run_id);
   std::vector<RunRecord> runs(const std::string& study_id,
                               const std::optional<RunState>& state = std::nullopt,
                               int limit = 1000000, int offset = 0);

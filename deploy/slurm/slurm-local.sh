@@ -108,7 +108,8 @@ SlurmUser=${ME}
 SlurmdUser=root
 AuthType=auth/munge
 CredType=cred/munge
-AuthInfo=socket=${MUNGE_SOCK}
+# cred_expire: a requeued job waits this long (+1 s) before it starts again (default 120 s)
+AuthInfo=socket=${MUNGE_SOCK},cred_expire=10
 StateSaveLocation=${DIR}/ctld
 SlurmdSpoolDir=${DIR}/spool
 SlurmctldPidFile=${DIR}/run/slurmctld.pid

@@ -93,14 +93,15 @@ std::filesystem::path write_checkpoint(const std::filesystem::path& dir,
   ArchiveWriter h;
   CheckpointHeader copy = header;
   copy.checkpoint_io(h);
-  std::string file(kMagic, sizeof kMagic);
+  // Written in three pieces, so the state (the bulk) is not copied once more.
+  std::string head(kMagic, sizeof kMagic);
   const std::uint32_t format = kCheckpointFormat;
-  file.append(reinterpret_cast<const char*>(&format), sizeof format);
-  append_u64(file, h.data().size());
-  file += h.data();
-  append_u64(file, state.size());
-  file += state;
-  append_u64(file, fnv1a64(file.data(), file.size()));
+  head.append(reinterpret_cast<const char*>(&format), sizeof format);
+  append_u64(head, h.data().size());
+  head += h.data();
+  append_u64(head, state.size());
+  std::string tail;
+  append_u64(tail, fnv1a64(state.data(), state.size(), fnv1a64(head.data(), head.size())));
 
   char name[64];
   std::snprintf(name, sizeof name, "%s%012lld%s", kPrefix, static_cast<long long>(header.step),
@@ -108,7 +109,8 @@ std::filesystem::path write_checkpoint(const std::filesystem::path& dir,
   const std::filesystem::path path = dir / name, temporary = dir / (std::string(name) + ".tmp");
   const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) throw IoError("cannot write " + temporary.string() + ": " + errno_text());
-  const bool written = write_all(fd, file) && ::fsync(fd) == 0;
+  const bool written =
+      write_all(fd, head) && write_all(fd, state) && write_all(fd, tail) && ::fsync(fd) == 0;
   const std::string why = errno_text();
   ::close(fd);
   if (!written) {

@@ -403,9 +403,11 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
   const EnergyReport initial_energy = loop.initial_energy;
   const double earlier_wall_s = resumed ? resumed->header.wall_time_s : 0.0;
   int checkpoints_written = 0;
+  double checkpoint_seconds = 0.0, checkpoint_bytes = 0.0;
   std::filesystem::path last_checkpoint;
   auto last_checkpoint_wall = Clock::now();
   auto write_state = [&] {
+    const auto started = Clock::now();
     ArchiveWriter w;
     sim.checkpoint_io(w);
     loop.checkpoint_io(w, series);
@@ -420,7 +422,9 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
     last_checkpoint = write_checkpoint(checkpoint_dir, header, w.data(), options.checkpoints_kept);
     if (h5) h5->flush();
     ++checkpoints_written;
+    checkpoint_bytes += double(w.data().size());
     last_checkpoint_wall = Clock::now();
+    checkpoint_seconds += std::chrono::duration<double>(last_checkpoint_wall - started).count();
   };
 
   RunOutcome outcome;
@@ -520,7 +524,9 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
   }
   if (checkpoints_written > 0)
     s["checkpoints"] = {{"written", checkpoints_written},
-                        {"last", last_checkpoint.filename().string()}};
+                        {"last", last_checkpoint.filename().string()},
+                        {"state_bytes_each", checkpoint_bytes / checkpoints_written},
+                        {"seconds", checkpoint_seconds}};
   const double step_seconds = sim.profile().total();
   s["particle_steps_per_second"] = step_seconds > 0 ? sim.particle_steps() / step_seconds : 0.0;
   nlohmann::ordered_json phases = nlohmann::ordered_json::object();

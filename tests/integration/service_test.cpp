@@ -294,6 +294,44 @@ TEST(Service, KilledWorkerLosesItsRunToAnotherAttempt) {
   EXPECT_EQ(retried, 1);
 }
 
+// A lost worker's run goes to another attempt, which continues from the checkpoint the first
+// left (docs/checkpoints.md) instead of from the beginning, and says so in the run's history.
+TEST(Service, NextAttemptResumesFromTheLastCheckpoint) {
+  test::TempDir dir;
+  ServerProcess server(dir.path(), 1, 1.0);
+  ASSERT_FALSE(server.url().empty());
+  json study = attrition_study({1e-4}, 6e-4);
+  study["set"]["output.checkpoint_interval_s"] = 1e-4;
+  auto res = server.post("/v1/studies", study.dump());
+  ASSERT_EQ(res->status, 201) << res->body;
+  const std::string id = json::parse(res->body)["study"], run_id = id + "-r0";
+  std::filesystem::path checkpoints;
+  for (int k = 0; k < 600 && checkpoints.empty(); ++k) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    const std::optional<RunRecord> r = Store(dir.path() / "q.db").run(run_id);
+    if (r && !r->out_dir.empty() &&
+        std::filesystem::exists(std::filesystem::path(r->out_dir) / "checkpoints/"))
+      for (const auto& e :
+           std::filesystem::directory_iterator(std::filesystem::path(r->out_dir) / "checkpoints"))
+        if (e.path().extension() == ".ckpt") checkpoints = e.path().parent_path();
+  }
+  ASSERT_FALSE(checkpoints.empty()) << "the run wrote no checkpoint";
+  for (pid_t w : children_of(server.pid())) kill(w, SIGKILL);  // its engine child dies with it
+  const json finished = server.wait_finished(id);
+  ASSERT_FALSE(finished.is_null());
+  EXPECT_EQ(finished["progress"]["counts"]["COMPLETE"], 1);
+  const json run = json::parse(server.get("/v1/runs/" + run_id)->body);
+  EXPECT_EQ(run["attempts"], 2);
+  ASSERT_EQ(run["attempt_history"].size(), 2u);
+  EXPECT_TRUE(run["attempt_history"][0]["resumed_from_s"].is_null());
+  ASSERT_TRUE(run["attempt_history"][1]["resumed_from_s"].is_number()) << run.dump(1);
+  EXPECT_GT(run["attempt_history"][1]["resumed_from_s"].get<double>(), 0.0);
+  const json result = json::parse(server.get("/v1/runs/" + run_id + "/result")->body);
+  EXPECT_EQ(result["status"], "ok");
+  EXPECT_EQ(result["resumed"]["time_s"], run["attempt_history"][1]["resumed_from_s"]);
+  EXPECT_FALSE(std::filesystem::exists(checkpoints)) << "pruned when the run completed";
+}
+
 TEST(Service, RestartedServerResumesAndCancelStopsRunningChildren) {
   test::TempDir dir;
   std::string id;

@@ -151,5 +151,65 @@ TEST(Slurm, StudyOptionsReachSbatch) {
   EXPECT_NE(refused.error.find("artition"), std::string::npos) << refused.error;
 }
 
+// The batch system's stop before a time limit (sbatch --signal=B:USR1@lead, sent here by hand so
+// the test does not wait on Slurm's minute-grained timer): the run checkpoints, the job requeues
+// itself under the same id, and the run resumes from the checkpoint to its end, all in the
+// service's one attempt.
+TEST(Slurm, SignalledJobCheckpointsRequeuesAndResumes) {
+  if (!SlurmExecutor::available()) GTEST_SKIP() << "no Slurm cluster answers";
+  test::TempDir dir;
+  {
+    // Four empty studies first, so this one is s000005 (a job name of its own).
+    Study placeholder;
+    placeholder.name = "placeholder";
+    placeholder.spec = json::object();
+    Store store(dir.path() / "q.db");
+    for (int k = 0; k < 4; ++k) store.submit(placeholder, std::nullopt, dir.path(), 0.0);
+  }
+  std::ifstream in(MILLSIM_SOURCE_DIR "/cases/attrition_target.json");
+  const json study = {{"name", "requeue"},
+                      {"scene", json::parse(in)},
+                      {"set", {{"time.end_s", 8e-4}, {"output.h5", false}}}};
+  test::write_file(dir.path() / "study.json", study.dump());
+  const pid_t runner = fork();
+  if (runner == 0) {
+    if (chdir(dir.path().c_str()) != 0) _exit(99);
+    freopen("study.out", "w", stdout);
+    freopen("study.err", "w", stderr);
+    execl(MILLSIM_BINARY, "millsim", "study", "study.json", "--local", "--executor", "slurm",
+          "--db", "q.db", "--out", "runs", static_cast<char*>(nullptr));
+    _exit(98);
+  }
+  // Once the job has run a few seconds, Slurm's warning signal to its batch shell.
+  const std::string id = "s000005-r0";
+  for (int k = 0; k < 600 && job_state(id) != "RUNNING"; ++k)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  ASSERT_EQ(job_state(id), "RUNNING");
+  std::this_thread::sleep_for(std::chrono::seconds(3));
+  const test::CommandResult signalled =
+      test::run_shell("scancel --batch --signal=USR1 --name=millsim-" + id + " 2>&1");
+  EXPECT_EQ(signalled.exit_code, 0) << signalled.out;
+  int status = 0;
+  waitpid(runner, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0) << test::read_file(dir.path() / "study.err");
+
+  Store store(dir.path() / "q.db");
+  const RunRecord run = *store.run(id);
+  EXPECT_EQ(run.state, RunState::Complete);
+  EXPECT_EQ(run.attempts, 1);  // the requeue is Slurm's, inside one attempt
+  const json result = json::parse(run.result);
+  EXPECT_EQ(result["status"], "ok");
+  ASSERT_TRUE(result.contains("resumed")) << run.result.substr(0, 400);
+  EXPECT_GT(result["resumed"]["time_s"].get<double>(), 0.0);
+  const std::vector<AttemptRecord> attempts = store.attempts(id);
+  ASSERT_EQ(attempts.size(), 1u);
+  ASSERT_TRUE(attempts[0].resumed_from_s);
+  EXPECT_EQ(*attempts[0].resumed_from_s, result["resumed"]["time_s"].get<double>());
+  const std::string log = test::read_file(std::filesystem::path(run.out_dir) / "log.txt");
+  EXPECT_NE(log.find("interrupted by SIGUSR1"), std::string::npos) << log;
+  EXPECT_NE(log.find("requeueing job"), std::string::npos) << log;
+}
+
 }  // namespace
 }  // namespace millsim
