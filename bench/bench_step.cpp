@@ -2,6 +2,7 @@
 // benchmark scene (shared/bench/FORMAT.md), one core, at the file's time step.
 //
 //   bench_step SCENE.txt [--steps N] [--json] [--skin-dmin F] [--subcells K] [--levels L]
+//              [--checkpoint DIR]  (also times a checkpoint of the final state into DIR)
 //              [--k-scan]
 //   bench_step --generate-mono N OUT.txt   writes a mono-like scene of N particles (d = 100 µm,
 //                                          φ = 0.2, periodic, v ~ N(0, 2 m/s), Table 1, dt as
@@ -27,6 +28,7 @@
 #include <optional>
 #include <string>
 
+#include "checkpoint/checkpoint_file.h"
 #include "core/errors.h"
 #include "particles/particle_sources.h"
 #include "search/hashed_grid.h"
@@ -121,6 +123,7 @@ int main(int argc, char** argv) {
   }
   std::int64_t steps = 1000;
   bool as_json = false, k_scan = false, search_scan = false;
+  std::string checkpoint_dir;
   std::optional<double> skin_dmin;
   std::optional<int> subcells;
   std::optional<int> levels;
@@ -140,6 +143,8 @@ int main(int argc, char** argv) {
       k_scan = true;
     else if (a == "--search-scan")
       search_scan = true;
+    else if (a == "--checkpoint" && k + 1 < argc)
+      checkpoint_dir = argv[++k];
     else {
       std::fprintf(stderr, "bench_step: unknown option %s\n", a.c_str());
       return 2;
@@ -216,6 +221,37 @@ int main(int argc, char** argv) {
     for (std::size_t k = 0; k < kPhaseNames.size(); ++k)
       phases[std::string(kPhaseNames[k])] = sim.profile().seconds[k];
     out["phase_seconds"] = phases;
+    if (!checkpoint_dir.empty()) {
+      // The cost of a checkpoint of this state: archive, write with fsync, read back, restore.
+      using Clock = std::chrono::steady_clock;
+      auto seconds_since = [](Clock::time_point t) {
+        return std::chrono::duration<double>(Clock::now() - t).count();
+      };
+      auto t = Clock::now();
+      ArchiveWriter w;
+      sim.checkpoint_io(w);
+      const double archive_s = seconds_since(t);
+      t = Clock::now();
+      const CheckpointHeader header{"bench",      "", checkpoint_layout(), 0, sim.step_index(),
+                                    sim.time_s(), 0.0};
+      const std::filesystem::path file = write_checkpoint(checkpoint_dir, header, w.data(), 1);
+      const double write_s = seconds_since(t);
+      t = Clock::now();
+      Checkpoint back = read_checkpoint(file);
+      ArchiveReader r(back.state.data(), back.state.size());
+      sim.checkpoint_io(r);
+      const double restore_s = seconds_since(t);
+      const double gb = double(w.data().size()) / 1e9;
+      out["checkpoint"] = {
+          {"bytes", w.data().size()},
+          {"bytes_per_particle", double(w.data().size()) / double(n)},
+          {"archive_s", archive_s},
+          {"write_fsync_s", write_s},
+          {"read_restore_s", restore_s},
+          {"save_s_per_gb", (archive_s + write_s) / gb},
+          {"step_seconds_equivalent", (archive_s + write_s) / (loop_s / double(steps))}};
+      remove_checkpoints(checkpoint_dir);
+    }
     out["kinetic_energy_ratio"] = sim.energy().kinetic_j / ke0;
     out["contacts_final"] = sim.contact_stats().touching_pairs;
     if (as_json) {

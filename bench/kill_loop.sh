@@ -2,8 +2,9 @@
 # Kill -9 loop (issue 18): a run of the attrition case (feeds, breakage, dust, an outlet) killed
 # with SIGKILL at random moments, each time resumed with --resume, until it has been killed KILLS
 # times; then it runs to its end. Its result.json physics must equal the run done in one go.
-# Checkpoints come every 0.3 s of wall time, so some kills land during a checkpoint write (a
-# leftover .tmp file shows it).
+# Checkpoints come every 0.3 s of wall time. Every fourth kill is aimed at a checkpoint write: a
+# watcher sends SIGKILL the moment a checkpoint's temporary file appears (a leftover .tmp file
+# after the kill shows that it landed during the write).
 #   bash bench/kill_loop.sh [KILLS=20] [END_S=0.002]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -27,15 +28,25 @@ echo "one go: $(python3 -c "print(round($(date +%s.%N) - $start, 1))") s"
 killed=0
 during_write=0
 while [ "$killed" -lt "$kills" ]; do
+  rm -f loop/checkpoints/*.tmp  # a write the last kill cut short
   "$millsim" run scene.json --out loop --quiet --resume --checkpoint-wall 0.3 >loop.json 2>>loop.err &
   pid=$!
-  sleep "$(python3 -c "import random; print(round(random.uniform(0.2, 2.0), 3))")"
-  if ! kill -0 "$pid" 2>/dev/null; then
-    wait "$pid" || true
-    break  # it finished before this kill
+  if [ $((killed % 4)) -eq 3 ]; then
+    python3 - "$pid" <<'WATCH' || true
+import glob, os, signal, sys, time
+pid, end = int(sys.argv[1]), time.time() + 5.0
+while time.time() < end:
+    if glob.glob("loop/checkpoints/*.tmp"):
+        os.kill(pid, signal.SIGKILL)
+        break
+WATCH
+  else
+    sleep "$(python3 -c "import random; print(round(random.uniform(0.2, 2.0), 3))")"
   fi
-  kill -9 "$pid"
-  wait "$pid" 2>/dev/null || true
+  kill -9 "$pid" 2>/dev/null || true
+  status=0
+  wait "$pid" 2>/dev/null || status=$?  # bash reports "Killed" on stderr
+  if [ "$status" -ne 137 ]; then break; fi  # it ended on its own before this kill
   killed=$((killed + 1))
   if ls loop/checkpoints/*.tmp >/dev/null 2>&1; then during_write=$((during_write + 1)); fi
 done
@@ -56,6 +67,7 @@ print(f"resumed from step {loop['resumed']['step']} of {loop['steps']}; snapshot
       f"{loop['resumed']['snapshots_carried']}, damaged checkpoints skipped "
       f"{len(loop['resumed']['skipped_damaged'])}")
 print(f"breakage events {b['breakage']['events']}, outlet particles {b['outlet_particles']['count']}")
+print(f"snapshots in run.h5: {loop['outputs']['snapshots']} (one go: {whole['outputs']['snapshots']})")
 print("identical physics" if a == b else "DIFFERENT: " + ", ".join(k for k in a if a[k] != b.get(k)))
 sys.exit(0 if a == b else 1)
 EOF

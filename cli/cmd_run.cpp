@@ -15,6 +15,7 @@
 #include <memory>
 #include <sstream>
 
+#include "checkpoint/checkpoint_file.h"
 #include "commands.h"
 #include "core/errors.h"
 #include "scene/scene_json.h"
@@ -156,10 +157,12 @@ int cmd_run(const std::vector<std::string>& args) {
   if (!parse_run_args(args, run_args)) return kBadInput;
   try {
     const SceneConfig scene = load_scene(run_args.scene_path);
-    Simulation sim(scene);
     RunOptions options;
     options.out_dir = run_args.out_dir.empty() ? std::filesystem::path("out") / scene.name
                                                : std::filesystem::path(run_args.out_dir);
+    // With checkpoints to resume from, the start state is replaced: no gas spin-up for it.
+    Simulation sim(scene,
+                   run_args.resume && !list_checkpoints(options.out_dir / "checkpoints").empty());
     {
       std::ifstream in(run_args.scene_path);
       std::stringstream text;

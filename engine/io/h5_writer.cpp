@@ -34,8 +34,9 @@ bool ends_with(std::string_view s, std::string_view suffix) {
 // unit suffix of the naming convention (_m, _s, _j, _kg, _pa, _m_per_s); "1" for counts and ratios.
 std::string unit_of(std::string_view name) {
   static constexpr std::pair<std::string_view, std::string_view> kNamed[] = {
-      {"position", "m"}, {"velocity", "m/s"}, {"angular_velocity", "rad/s"},
-      {"speed", "m/s"},  {"diameter", "m"},   {"remaining_capacity", "J/kg"}};
+      {"position", "m"},       {"velocity", "m/s"},    {"angular_velocity", "rad/s"},
+      {"speed", "m/s"},        {"diameter", "m"},      {"remaining_capacity", "J/kg"},
+      {"gas_velocity", "m/s"}, {"gas_pressure", "Pa"}, {"points", "m"}};
   for (const auto& [field, unit] : kNamed)
     if (name == field) return std::string(unit);
   static constexpr std::pair<std::string_view, std::string_view> kSuffixes[] = {
@@ -143,6 +144,57 @@ void H5Writer::write_snapshot(std::int64_t step, double time_s, const ParticleSt
   snapshots_.push_back({name, step, time_s, n, p.has_breakage_state});
 }
 
+void H5Writer::write_gas_snapshot(const GasFieldSnapshot& gas) {
+  if (snapshots_.empty()) return;
+  const hid_t g = H5Gopen2(file_, snapshots_.back().group.c_str(), H5P_DEFAULT);
+  if (g < 0)
+    throw IoError("HDF5: cannot open " + snapshots_.back().group + " in " + path_.string());
+  const hsize_t cells[4] = {hsize_t(gas.cells[2]), hsize_t(gas.cells[1]), hsize_t(gas.cells[0]), 3};
+  try {
+    write_dataset(g, "gas_velocity", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, 4, cells,
+                  gas.velocity_m_per_s.data(), path_);
+    write_dataset(g, "gas_pressure", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, 3, cells,
+                  gas.pressure_pa.data(), path_);
+    write_dataset(g, "gas_volume_fraction", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, 3, cells,
+                  gas.volume_fraction.data(), path_);
+    write_dataset(g, "gas_fluid", H5T_NATIVE_INT32, H5T_STD_I32LE, 3, cells, gas.fluid.data(),
+                  path_);
+  } catch (...) {
+    H5Gclose(g);
+    throw;
+  }
+  H5Gclose(g);
+  snapshots_.back().gas = true;
+  extras_.gas_cells = gas.cells;
+  extras_.gas_origin_m = gas.origin_m;
+  extras_.gas_spacing_m = gas.spacing_m;
+}
+
+void H5Writer::write_geometry(const SurfaceMesh& mesh) {
+  if (mesh.triangles.empty()) return;
+  const hid_t g = H5Gcreate2(file_, "/geometry", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (g < 0) throw IoError("HDF5: cannot create /geometry in " + path_.string());
+  std::vector<std::int64_t> triangles;
+  for (const auto& t : mesh.triangles) triangles.insert(triangles.end(), t.begin(), t.end());
+  const hsize_t points[2] = {mesh.points_m.size(), 3}, cells[2] = {mesh.triangles.size(), 3};
+  std::string names;
+  for (const std::string& n : mesh.part_names) names.append(n).append("\n");
+  try {
+    write_dataset(g, "points", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, 2, points, mesh.points_m.data(),
+                  path_);
+    write_dataset(g, "triangles", H5T_NATIVE_INT64, H5T_STD_I64LE, 2, cells, triangles.data(),
+                  path_);
+    write_dataset(g, "part", H5T_NATIVE_INT32, H5T_STD_I32LE, 1, cells, mesh.part.data(), path_);
+    write_string_attribute(g, "parts", names);
+  } catch (...) {
+    H5Gclose(g);
+    throw;
+  }
+  H5Gclose(g);
+  extras_.geometry_points = mesh.points_m.size();
+  extras_.geometry_triangles = mesh.triangles.size();
+}
+
 void H5Writer::flush() {
   if (H5Fflush(file_, H5F_SCOPE_GLOBAL) < 0) throw IoError("HDF5: cannot flush " + path_.string());
 }
@@ -180,13 +232,14 @@ long H5Writer::carry_snapshots(const std::filesystem::path& earlier, std::int64_
       H5Dclose(diameter);
     }
     const bool breakage = H5Lexists(g, "generation", H5P_DEFAULT) > 0;
+    const bool gas = H5Lexists(g, "gas_pressure", H5P_DEFAULT) > 0;
     if (step_attr >= 0) H5Aclose(step_attr);
     if (time_attr >= 0) H5Aclose(time_attr);
     H5Gclose(g);
     if (!readable || step < 0 || step > up_to_step || step % every != 0) continue;
     const std::string target = std::string("/snapshots/") + name;
     if (H5Ocopy(group, name, file_, target.c_str(), H5P_DEFAULT, H5P_DEFAULT) < 0) continue;
-    snapshots_.push_back({target, step, time_s, std::size_t(dims[0]), breakage});
+    snapshots_.push_back({target, step, time_s, std::size_t(dims[0]), breakage, gas});
     ++carried;
   }
   H5Gclose(group);
@@ -230,19 +283,42 @@ void H5Writer::close() {
   check(status, "closing the file", path_);
 }
 
+namespace {
+
+// One HDF5 dataset as an XDMF DataItem.
+void hdf_item(std::ostream& out, const std::string& h5_name, const std::string& path,
+              const std::string& dims, const char* type, int precision) {
+  out << "       <DataItem Dimensions=\"" << dims << "\" NumberType=\"" << type << "\" Precision=\""
+      << precision << "\" Format=\"HDF\">" << h5_name << ":" << path << "</DataItem>\n";
+}
+
+void attribute_item(std::ostream& out, const std::string& h5_name, const char* name, bool vector,
+                    const char* center, const std::string& path, const std::string& dims,
+                    const char* type, int precision) {
+  out << "     <Attribute Name=\"" << name << "\" AttributeType=\""
+      << (vector ? "Vector" : "Scalar") << "\" Center=\"" << center << "\">\n";
+  hdf_item(out, h5_name, path, dims, type, precision);
+  out << "     </Attribute>\n";
+}
+
+void open_xdmf(std::ofstream& out, const std::filesystem::path& path) {
+  if (!out) throw IoError("cannot write " + path.string());
+  out.precision(17);  // times and coordinates as written in run.h5, to the last bit
+  out << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n";
+}
+
+void close_xdmf(std::ofstream& out, const std::filesystem::path& path) {
+  out << " </Domain>\n</Xdmf>\n";
+  if (!out) throw IoError("cannot write " + path.string());
+}
+
+}  // namespace
+
 void write_xdmf(const std::filesystem::path& xdmf_path, const std::string& h5_name,
                 const std::vector<SnapshotInfo>& snapshots) {
   std::ofstream out(xdmf_path);
-  if (!out) throw IoError("cannot write " + xdmf_path.string());
-  out.precision(17);  // times as written in run.h5, to the last bit
-  out << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n"
-         "  <Grid Name=\"particles\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
-  auto item = [&](const SnapshotInfo& s, const char* field, const std::string& dims,
-                  const char* type, int precision) {
-    out << "      <DataItem Dimensions=\"" << dims << "\" NumberType=\"" << type
-        << "\" Precision=\"" << precision << "\" Format=\"HDF\">" << h5_name << ":" << s.group
-        << "/" << field << "</DataItem>\n";
-  };
+  open_xdmf(out, xdmf_path);
+  out << "  <Grid Name=\"particles\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
   struct Field {
     const char* name;  // dataset and attribute name
     bool vector;       // n × 3
@@ -279,19 +355,70 @@ void write_xdmf(const std::filesystem::path& xdmf_path, const std::string& h5_na
           << "\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">" << h5_name
           << ":/vertex_index</DataItem>\n      </DataItem>\n";
     out << "    </Topology>\n    <Geometry GeometryType=\"XYZ\">\n";
-    item(s, "position", n3, "Float", 8);
+    hdf_item(out, h5_name, s.group + "/position", n3, "Float", 8);
     out << "    </Geometry>\n";
-    for (const Field& f : kFields) {
-      if (f.breakage_only && !s.breakage) continue;
-      out << "    <Attribute Name=\"" << f.name << "\" AttributeType=\""
-          << (f.vector ? "Vector" : "Scalar") << "\" Center=\"Node\">\n";
-      item(s, f.name, f.vector ? n3 : n, f.type, f.precision);
-      out << "    </Attribute>\n";
-    }
+    for (const Field& f : kFields)
+      if (!f.breakage_only || s.breakage)
+        attribute_item(out, h5_name, f.name, f.vector, "Node", s.group + "/" + f.name,
+                       f.vector ? n3 : n, f.type, f.precision);
     out << "   </Grid>\n";
   }
-  out << "  </Grid>\n </Domain>\n</Xdmf>\n";
-  if (!out) throw IoError("cannot write " + xdmf_path.string());
+  out << "  </Grid>\n";
+  close_xdmf(out, xdmf_path);
+}
+
+void write_gas_xdmf(const std::filesystem::path& xdmf_path, const std::string& h5_name,
+                    const std::vector<SnapshotInfo>& snapshots, const XdmfExtras& extras) {
+  std::ofstream out(xdmf_path);
+  open_xdmf(out, xdmf_path);
+  const std::array<int, 3>& c = extras.gas_cells;
+  const std::string cells =
+      std::to_string(c[2]) + " " + std::to_string(c[1]) + " " + std::to_string(c[0]);
+  const Vec3& o = extras.gas_origin_m;
+  const Vec3& h = extras.gas_spacing_m;
+  out << "  <Grid Name=\"gas\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  for (const SnapshotInfo& s : snapshots) {
+    if (!s.gas) continue;
+    // The gas cells: a uniform grid of (nx+1)(ny+1)(nz+1) corners, the fields at the cells.
+    out << "   <Grid Name=\"" << s.group.substr(s.group.rfind('/') + 1)
+        << "\" GridType=\"Uniform\">\n"
+        << "    <Time Value=\"" << s.time_s << "\"/>\n"
+        << "    <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"" << c[2] + 1 << " "
+        << c[1] + 1 << " " << c[0] + 1 << "\"/>\n"
+        << "    <Geometry GeometryType=\"ORIGIN_DXDYDZ\">\n"
+        << "       <DataItem Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">"
+        << o.z << " " << o.y << " " << o.x << "</DataItem>\n"
+        << "       <DataItem Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">"
+        << h.z << " " << h.y << " " << h.x << "</DataItem>\n"
+        << "    </Geometry>\n";
+    attribute_item(out, h5_name, "velocity", true, "Cell", s.group + "/gas_velocity", cells + " 3",
+                   "Float", 8);
+    attribute_item(out, h5_name, "pressure", false, "Cell", s.group + "/gas_pressure", cells,
+                   "Float", 8);
+    attribute_item(out, h5_name, "volume_fraction", false, "Cell", s.group + "/gas_volume_fraction",
+                   cells, "Float", 8);
+    attribute_item(out, h5_name, "fluid", false, "Cell", s.group + "/gas_fluid", cells, "Int", 4);
+    out << "   </Grid>\n";
+  }
+  out << "  </Grid>\n";
+  close_xdmf(out, xdmf_path);
+}
+
+void write_geometry_xdmf(const std::filesystem::path& xdmf_path, const std::string& h5_name,
+                         const XdmfExtras& extras) {
+  std::ofstream out(xdmf_path);
+  open_xdmf(out, xdmf_path);
+  const std::string t = std::to_string(extras.geometry_triangles);
+  out << "  <Grid Name=\"geometry\" GridType=\"Uniform\">\n"
+      << "    <Topology TopologyType=\"Triangle\" NumberOfElements=\"" << t << "\">\n";
+  hdf_item(out, h5_name, "/geometry/triangles", t + " 3", "Int", 8);
+  out << "    </Topology>\n    <Geometry GeometryType=\"XYZ\">\n";
+  hdf_item(out, h5_name, "/geometry/points", std::to_string(extras.geometry_points) + " 3", "Float",
+           8);
+  out << "    </Geometry>\n";
+  attribute_item(out, h5_name, "part", false, "Cell", "/geometry/part", t, "Int", 4);
+  out << "  </Grid>\n";
+  close_xdmf(out, xdmf_path);
 }
 
 }  // namespace millsim

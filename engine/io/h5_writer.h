@@ -3,18 +3,24 @@
 //
 // Layout:  /snapshots/sNNNNNNNNN/{position, velocity, angular_velocity (N×3), diameter (N),
 //                                  id (N, uint64), material (N, int32)}, attributes step, time_s
+//          + with gas: gas_velocity (nz×ny×nx×3), gas_pressure, gas_volume_fraction,
+//            gas_fluid (nz×ny×nx, cell centres; 1 = fluid cell, 0 = solid)
+//          /geometry/{points (P×3), triangles (T×3), part (T)}, attribute "parts" (the part
+//                     names, one per line): walls, outlets, gas patches and jets
 //          /timeseries/<column> (one 1-D dataset per column; "time_s" first)
 //          /psd/<column> (outlet PSD, when the scene has outlets or breakage: edges_m, outlet and
 //                         dust count and mass per class, product cumulative mass)
 //          root attributes: scene, millsim_version
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "geometry/surface_mesh.h"
 #include "particles/particle_store.h"
 
 namespace millsim {
@@ -25,6 +31,23 @@ struct SnapshotInfo {
   double time_s;
   std::size_t particle_count;
   bool breakage = false;  // the snapshot has remaining_capacity and generation
+  bool gas = false;       // the snapshot has the gas field
+};
+
+// The gas grid the snapshots' gas fields live on, and the geometry's size, for run.xdmf.
+struct XdmfExtras {
+  std::array<int, 3> gas_cells{0, 0, 0};  // nx, ny, nz; 0 = no gas
+  Vec3 gas_origin_m, gas_spacing_m;
+  std::size_t geometry_points = 0, geometry_triangles = 0;
+};
+
+// One snapshot's gas field at the cell centres, x fastest, then y, then z.
+struct GasFieldSnapshot {
+  std::array<int, 3> cells{0, 0, 0};
+  Vec3 origin_m, spacing_m;
+  std::vector<Vec3> velocity_m_per_s;
+  std::vector<double> pressure_pa, volume_fraction;
+  std::vector<std::int32_t> fluid;
 };
 
 class H5Writer {
@@ -37,6 +60,10 @@ class H5Writer {
 
   void write_root_attribute(const std::string& name, const std::string& value);
   void write_snapshot(std::int64_t step, double time_s, const ParticleStore& particles);
+  // The gas field into the last snapshot's group.
+  void write_gas_snapshot(const GasFieldSnapshot& gas);
+  // /geometry, once.
+  void write_geometry(const SurfaceMesh& mesh);
   void write_timeseries(const std::vector<std::string>& names,
                         const std::vector<std::vector<double>>& columns);
   // One 1-D double dataset per name under a new group (e.g. "/psd").
@@ -58,15 +85,25 @@ class H5Writer {
                        std::int64_t every);
 
   const std::vector<SnapshotInfo>& snapshots() const { return snapshots_; }
+  const XdmfExtras& extras() const { return extras_; }
 
  private:
   std::filesystem::path path_;
   std::int64_t file_ = -1;
   std::vector<SnapshotInfo> snapshots_;
+  XdmfExtras extras_;
 };
 
-// Writes the XDMF 3 index for `h5_name` (a path relative to the XDMF file).
+// The XDMF 3 indexes of run.h5 (`h5_name`, a path relative to them), one per kind of data so that
+// ParaView's default reader makes each its own pipeline object: the particles (run.xdmf), the gas
+// field (gas.xdmf, a uniform grid with the fields at its cells) and the geometry (geometry.xdmf,
+// triangles with their part). Xdmf3 merges grids that share one file into unnamed pieces of one
+// data set, where the gas box would cover the particles.
 void write_xdmf(const std::filesystem::path& xdmf_path, const std::string& h5_name,
                 const std::vector<SnapshotInfo>& snapshots);
+void write_gas_xdmf(const std::filesystem::path& xdmf_path, const std::string& h5_name,
+                    const std::vector<SnapshotInfo>& snapshots, const XdmfExtras& extras);
+void write_geometry_xdmf(const std::filesystem::path& xdmf_path, const std::string& h5_name,
+                         const XdmfExtras& extras);
 
 }  // namespace millsim

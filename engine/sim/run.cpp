@@ -9,6 +9,7 @@
 
 #include "checkpoint/checkpoint_file.h"
 #include "core/build_info.h"
+#include "geometry/surface_mesh.h"
 #include "io/h5_writer.h"
 #include "io/text_file.h"
 #include "process/classification.h"
@@ -255,6 +256,35 @@ void write_gas_h5(const Simulation& sim, H5Writer& h5) {
                    cols);
 }
 
+// The gas field at the cell centres for a snapshot (solid cells: zero velocity, fluid = 0).
+GasFieldSnapshot gas_field(const GasSolver& gas) {
+  const GasGrid& g = gas.grid();
+  GasFieldSnapshot f;
+  f.cells = {g.n[0], g.n[1], g.n[2]};
+  f.origin_m = g.origin_m;
+  f.spacing_m = g.h_m;
+  const std::size_t n = std::size_t(g.n[0]) * std::size_t(g.n[1]) * std::size_t(g.n[2]);
+  f.velocity_m_per_s.reserve(n), f.pressure_pa.reserve(n), f.volume_fraction.reserve(n);
+  f.fluid.reserve(n);
+  for (int k = 1; k <= g.n[2]; ++k)
+    for (int j = 1; j <= g.n[1]; ++j)
+      for (int i = 1; i <= g.n[0]; ++i) {
+        const std::size_t c = g.index(i, j, k);
+        const bool fluid = g.fluid[c] != 0;
+        f.velocity_m_per_s.push_back(fluid ? gas.velocity_at(g.cell_center(i, j, k)) : Vec3{});
+        f.pressure_pa.push_back(fluid ? gas.pressure()[c] : 0.0);
+        f.volume_fraction.push_back(fluid ? gas.volume_fraction()[c] : 0.0);
+        f.fluid.push_back(fluid ? 1 : 0);
+      }
+  return f;
+}
+
+// One snapshot: the particles, and the gas field when the scene has gas.
+void write_snapshot(H5Writer& h5, const Simulation& sim) {
+  h5.write_snapshot(sim.step_index(), sim.time_s(), sim.particles());
+  if (const GasCoupling* gas = sim.gas()) h5.write_gas_snapshot(gas_field(gas->gas()));
+}
+
 // Steps between outputs; an interval longer than any run (1e300 s) means "never" (the first and
 // last states are written anyway), not an overflowed count.
 std::int64_t steps_per_interval(std::optional<double> interval_s, double fallback_s, double dt) {
@@ -371,19 +401,27 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
 
   std::unique_ptr<H5Writer> h5;
   const std::filesystem::path h5_partial = options.out_dir / "run.h5.partial";
-  // A resumed run carries the earlier attempts' snapshots up to its checkpoint, from the file
-  // the last attempt left (flushed at each checkpoint) or from the last finished run.h5.
+  // A resumed run carries the earlier attempts' snapshots up to its checkpoint. It takes them
+  // from the first readable of: the file the last attempt left (flushed before each of its
+  // checkpoints), the source the attempt before it carried from, the last finished run.h5. The
+  // one it read is kept as the next attempt's source until this run completes.
   const std::filesystem::path h5_source = options.out_dir / "run.h5.resume-source";
+  const std::filesystem::path h5_last_attempt = options.out_dir / "run.h5.last-attempt";
   long carried_snapshots = 0;
   if (write_h5 && resumed && std::filesystem::exists(h5_partial))
-    std::filesystem::rename(h5_partial, h5_source);
+    std::filesystem::rename(h5_partial, h5_last_attempt);
   if (write_h5) {
     h5 = std::make_unique<H5Writer>(h5_partial);
     if (resumed) {
       carried_snapshots = -1;
-      for (const std::filesystem::path& earlier : {h5_source, options.out_dir / "run.h5"})
-        if (carried_snapshots < 0 && std::filesystem::exists(earlier))
-          carried_snapshots = h5->carry_snapshots(earlier, resumed->header.step, snapshot_every);
+      for (const std::filesystem::path& earlier :
+           {h5_last_attempt, h5_source, options.out_dir / "run.h5"}) {
+        if (carried_snapshots >= 0 || !std::filesystem::exists(earlier)) continue;
+        carried_snapshots = h5->carry_snapshots(earlier, resumed->header.step, snapshot_every);
+        if (carried_snapshots >= 0 && earlier == h5_last_attempt)
+          std::filesystem::rename(h5_last_attempt, h5_source);
+      }
+      std::filesystem::remove(h5_last_attempt);
     }
     h5->write_root_attribute("scene", scene.name);
     h5->write_root_attribute("millsim_version", kMillsimVersion);
@@ -393,12 +431,15 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
                     {"millsim_version", kMillsimVersion},
                     {"git_commit", kGitCommit},
                     {"compiler", kCompiler}});
+    h5->write_geometry(
+        scene_geometry(scene, sim.walls(), sim.box(), sim.gas() ? &sim.gas()->config() : nullptr));
   }
 
   if (!resumed) {
     series.record(sim);
-    if (h5) h5->write_snapshot(0, 0.0, sim.particles());
+    if (h5) write_snapshot(*h5, sim);
   }
+  if (h5) h5->flush();  // readable from the start, should this attempt be killed too
   const std::size_t initial_particles = loop.initial_particles;
   const EnergyReport initial_energy = loop.initial_energy;
   const double earlier_wall_s = resumed ? resumed->header.wall_time_s : 0.0;
@@ -419,8 +460,8 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
         sim.step_index(),
         sim.time_s(),
         earlier_wall_s + std::chrono::duration<double>(Clock::now() - start).count()};
+    if (h5) h5->flush();  // first: a checkpoint on disk means run.h5 holds what came before it
     last_checkpoint = write_checkpoint(checkpoint_dir, header, w.data(), options.checkpoints_kept);
-    if (h5) h5->flush();
     ++checkpoints_written;
     checkpoint_bytes += double(w.data().size());
     last_checkpoint_wall = Clock::now();
@@ -457,8 +498,7 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
     if (step % series_every == 0 || last)
       sim.profile().time(Phase::Output, [&] { series.record(sim); });
     if (h5 && (step % snapshot_every == 0 || last))
-      sim.profile().time(Phase::Output,
-                         [&] { h5->write_snapshot(step, sim.time_s(), sim.particles()); });
+      sim.profile().time(Phase::Output, [&] { write_snapshot(*h5, sim); });
     if (options.on_progress &&
         (last || Clock::now() - last_progress >
                      std::chrono::duration<double>(options.progress_interval_s))) {
@@ -573,6 +613,14 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
       std::filesystem::remove(h5_source);
       write_xdmf(options.out_dir / "run.xdmf", "run.h5", h5->snapshots());
       outputs = {{"h5", "run.h5"}, {"xdmf", "run.xdmf"}, {"snapshots", h5->snapshots().size()}};
+      if (h5->extras().gas_cells[0] > 0) {
+        write_gas_xdmf(options.out_dir / "gas.xdmf", "run.h5", h5->snapshots(), h5->extras());
+        outputs["gas_xdmf"] = "gas.xdmf";
+      }
+      if (h5->extras().geometry_triangles > 0) {
+        write_geometry_xdmf(options.out_dir / "geometry.xdmf", "run.h5", h5->extras());
+        outputs["geometry_xdmf"] = "geometry.xdmf";
+      }
     }
     outputs["result"] = "result.json";
     s["outputs"] = outputs;

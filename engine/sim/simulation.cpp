@@ -134,7 +134,7 @@ std::vector<double> default_psd_edges(const SceneConfig& scene, double d_min, do
 
 }  // namespace
 
-Simulation::Simulation(const SceneConfig& scene)
+Simulation::Simulation(const SceneConfig& scene, bool for_restore)
     : materials_(scene), contact_(scene.contact), gravity_m_per_s2_(scene.gravity_m_per_s2) {
   InputErrors errors;
   box_ = {scene.domain.min_m, scene.domain.max_m, scene.domain.periodic};
@@ -285,11 +285,11 @@ Simulation::Simulation(const SceneConfig& scene)
        scene.search.cell_size_m, scene.search.subcells_per_axis, scene.search.grid_levels,
        time_.step_s, scene.search.conventional_nbs ? SearchMethod::Nbs : SearchMethod::Hashed});
   neighbors_.update(particles_, box_, walls_, true);
-  if (gas_)
+  if (gas_ && !for_restore)
     if (auto failure = gas_->spin_up())
       throw InputErrorList({{"/gas/spin_up_s", concat(scene.gas->spin_up_s),
                              "the gas failed while spinning up alone: " + *failure}});
-  if (gas_)
+  if (gas_ && !for_restore)
     if (auto failure = gas_->advance(particles_, time_.step_s, 0))
       throw InputErrorList({{"/gas", "", "the first gas step failed: " + *failure}});
   compute_all_forces();

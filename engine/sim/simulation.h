@@ -67,8 +67,9 @@ class Simulation {
  public:
   // Throws InputErrorList when the scene cannot be built (bad particle files, overfull
   // packings, a time step above the stable bound, particles outside the domain or overlapping
-  // past the penetration limit at the start, ...).
-  explicit Simulation(const SceneConfig& scene);
+  // past the penetration limit at the start, ...). `for_restore`: a checkpoint's state goes in
+  // next (checkpoint_io), so the gas is not spun up first (seconds on a mill).
+  explicit Simulation(const SceneConfig& scene, bool for_restore = false);
   // Modules keep pointers to the material table: a simulation stays where it was built.
   Simulation(const Simulation&) = delete;
   Simulation& operator=(const Simulation&) = delete;

@@ -89,7 +89,7 @@ TEST(Checkpoint, RestoredRunContinuesBitForBit) {
       ArchiveWriter saved;
       first.checkpoint_io(saved);
 
-      Simulation resumed(scene);  // a fresh run of the scene, then the saved state into it
+      Simulation resumed(scene, true);  // a fresh run of the scene, then the saved state into it
       ArchiveReader reader(saved.data().data(), saved.data().size());
       resumed.checkpoint_io(reader);
       EXPECT_TRUE(reader.at_end());

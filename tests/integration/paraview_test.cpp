@@ -51,17 +51,28 @@ TEST(ParaView, EveryShippedCaseOpensWithTheDefaultReader) {
     const json result = json::parse(run.out);
     const bool breakage = result.contains("breakage");
 
-    // In a subshell of its own, so ParaView's stderr goes to pv.err, not into the JSON.
-    const auto [status, out] = test::run_shell("(cd " + dir.path().string() +
-                                               " && xvfb-run -a pvpython " MILLSIM_SOURCE_DIR
-                                               "/tests/paraview/read_xdmf.py out/run.xdmf "
-                                               "2>pv.err)")
-                                   .status_and_output();
-    ASSERT_EQ(status, 0) << out;
-    const json shown = json::parse(out.substr(out.find('{')));
-    EXPECT_EQ(shown["reader"], "Xdmf3ReaderS");
-    const json& steps = shown["steps"];
-    ASSERT_EQ(steps.size(), result["outputs"]["snapshots"].get<std::size_t>());
+    // What ParaView's default reader shows of one XDMF file of the run: one block per time.
+    auto open_in_paraview = [&](const std::string& file) {
+      // In a subshell of its own, so ParaView's stderr goes to pv.err, not into the JSON.
+      const auto [status, out] = test::run_shell("(cd " + dir.path().string() +
+                                                 " && xvfb-run -a pvpython " MILLSIM_SOURCE_DIR
+                                                 "/tests/paraview/read_xdmf.py out/" +
+                                                 file + " 2>pv.err)")
+                                     .status_and_output();
+      EXPECT_EQ(status, 0) << out;
+      const json shown = json::parse(out.substr(out.find('{')));
+      EXPECT_EQ(shown["reader"], "Xdmf3ReaderS");
+      std::vector<json> blocks;
+      for (const json& step : shown["steps"]) {
+        EXPECT_EQ(step["blocks"].size(), 1u) << file;
+        blocks.push_back(step["blocks"].begin().value());
+        blocks.back()["time"] = step["time"];
+      }
+      return blocks;
+    };
+    const json& outputs = result["outputs"];
+    const std::vector<json> steps = open_in_paraview("run.xdmf");
+    ASSERT_EQ(steps.size(), outputs["snapshots"].get<std::size_t>());
     EXPECT_EQ(steps.front()["points"], result["particles"]["initial"]);
     EXPECT_EQ(steps.back()["points"], result["particles"]["final"]);
     EXPECT_DOUBLE_EQ(steps.back()["time"].get<double>(), result["simulated_time_s"].get<double>());
@@ -72,6 +83,44 @@ TEST(ParaView, EveryShippedCaseOpensWithTheDefaultReader) {
       std::set<std::string> expected = common;
       if (breakage) expected.insert({"generation", "remaining_capacity"});
       EXPECT_EQ(arrays, expected);
+    }
+
+    // The gas field at every snapshot time, on the gas grid of the scene.
+    ASSERT_EQ(outputs.contains("gas_xdmf"), scene.contains("gas") || scene.contains("mill"));
+    if (outputs.contains("gas_xdmf")) {
+      const std::vector<json> gas = open_in_paraview("gas.xdmf");
+      ASSERT_EQ(gas.size(), steps.size());
+      const std::vector<int> n = result["gas"]["cells"].get<std::vector<int>>();
+      for (std::size_t k = 0; k < gas.size(); ++k) {
+        EXPECT_EQ(gas[k]["cells"], n[0] * n[1] * n[2]);
+        EXPECT_EQ(gas[k]["points"], (n[0] + 1) * (n[1] + 1) * (n[2] + 1));
+        EXPECT_EQ(gas[k]["cell_arrays"].get<std::set<std::string>>(),
+                  (std::set<std::string>{"fluid", "pressure", "velocity", "volume_fraction"}));
+        EXPECT_DOUBLE_EQ(gas[k]["time"].get<double>(), steps[k]["time"].get<double>());
+        for (int a = 0; a < 3; ++a) {  // the grid spans the domain
+          EXPECT_NEAR(gas[k]["bounds"][2 * a].get<double>(),
+                      scene["domain"]["min_m"][a].get<double>(), 1e-12);
+          EXPECT_NEAR(gas[k]["bounds"][2 * a + 1].get<double>(),
+                      scene["domain"]["max_m"][a].get<double>(), 1e-12);
+        }
+      }
+    }
+
+    // The walls, outlets and inlets as triangles, inside the domain (to the nozzles' radius).
+    if (outputs.contains("geometry_xdmf")) {
+      const std::vector<json> geometry = open_in_paraview("geometry.xdmf");
+      ASSERT_EQ(geometry.size(), 1u);
+      EXPECT_GT(geometry[0]["cells"].get<int>(), 0);
+      EXPECT_EQ(geometry[0]["cell_arrays"], json::array({"part"}));
+      for (int a = 0; a < 3; ++a) {
+        const double lo = scene["domain"]["min_m"][a], hi = scene["domain"]["max_m"][a];
+        // Nozzle exits on a curved mantle stand out of it by up to their radius.
+        const double slack = 0.02 * (hi - lo);
+        EXPECT_GE(geometry[0]["bounds"][2 * a].get<double>(), lo - slack);
+        EXPECT_LE(geometry[0]["bounds"][2 * a + 1].get<double>(), hi + slack);
+      }
+    } else {
+      EXPECT_FALSE(scene.contains("mill") || scene.contains("outlets")) << "geometry expected";
     }
   }
 }

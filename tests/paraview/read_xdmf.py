@@ -1,6 +1,7 @@
 """Opens a run's XDMF with ParaView's default reader, as a user pressing Apply would, and prints
-what it shows as JSON: the reader, the time steps, and at each time the points, cells and
-point arrays. Run with pvpython (under xvfb-run on a machine without a display).
+what it shows as JSON: the reader, the time steps, and at each time, for each block (particles,
+gas, geometry), its points, cells, point arrays and cell arrays. Run with pvpython (under
+xvfb-run on a machine without a display).
 
 usage: pvpython read_xdmf.py RUN.xdmf
 """
@@ -9,6 +10,35 @@ import sys
 
 from paraview import servermanager
 from paraview.simple import OpenDataFile
+from vtkmodules.vtkCommonDataModel import vtkCompositeDataSet
+
+
+def arrays(field_data):
+    return sorted(field_data.GetArrayName(i) for i in range(field_data.GetNumberOfArrays()))
+
+
+def blocks(data, name, out):
+    """Every leaf data set under `data`, by its block name."""
+    if data is None:
+        return
+    if data.IsA("vtkMultiBlockDataSet"):
+        for i in range(data.GetNumberOfBlocks()):
+            meta = data.GetMetaData(i) if data.HasMetaData(i) else None
+            child = meta.Get(vtkCompositeDataSet.NAME()) if meta else None
+            blocks(data.GetBlock(i), child or name, out)
+        return
+    if data.IsA("vtkMultiPieceDataSet"):  # one piece per block on a single process
+        for i in range(data.GetNumberOfPieces()):
+            blocks(data.GetPiece(i), name, out)
+        return
+    out[name] = {
+        "points": data.GetNumberOfPoints(),
+        "cells": data.GetNumberOfCells(),
+        "arrays": arrays(data.GetPointData()),
+        "cell_arrays": arrays(data.GetCellData()),
+        "bounds": list(data.GetBounds()),
+    }
+
 
 reader = OpenDataFile(sys.argv[1])
 times = list(reader.TimestepValues) if reader.TimestepValues else [0.0]
@@ -16,14 +46,7 @@ steps = []
 for t in times:
     # The proxy's own UpdatePipeline: paraview.simple's drops a time of 0.0 (it tests `if time`).
     reader.UpdatePipeline(t)
-    data = servermanager.Fetch(reader)
-    if data.IsA("vtkMultiBlockDataSet"):
-        data = data.GetBlock(0)
-    point_data = data.GetPointData()
-    steps.append({
-        "time": t,
-        "points": data.GetNumberOfPoints(),
-        "cells": data.GetNumberOfCells(),
-        "arrays": sorted(point_data.GetArrayName(i) for i in range(point_data.GetNumberOfArrays())),
-    })
+    found = {}
+    blocks(servermanager.Fetch(reader), "data", found)
+    steps.append({"time": t, "blocks": found})
 print(json.dumps({"reader": reader.GetXMLName(), "steps": steps}))
