@@ -22,6 +22,10 @@
 namespace millsim {
 
 extern const char* const kOpenApiYaml;  // docs/openapi.yaml (generated openapi_yaml.cpp)
+// The dashboard, service/web/ (generated web_*.cpp).
+extern const char* const kWeb_index_html;
+extern const char* const kWeb_dashboard_js;
+extern const char* const kWeb_dashboard_css;
 
 namespace {
 
@@ -673,6 +677,23 @@ void ApiServer::routes() {
            send_json(res, 200, {{"recorded", true}});
          }));
 
+  // The dashboard: static files, no data (its script reads the API with the token it is given).
+  // The policy lets the page load only its own script, style and images (plots as blobs).
+  auto web = [](const char* body, const char* type) {
+    return [body, type](const Request&, Response& res) {
+      res.set_header("Content-Security-Policy",
+                     "default-src 'none'; script-src 'self'; style-src 'self'; "
+                     "img-src 'self' blob:; connect-src 'self'; form-action 'none'; "
+                     "frame-ancestors 'none'; base-uri 'none'");
+      res.set_header("X-Content-Type-Options", "nosniff");
+      res.set_header("Cache-Control", "no-cache");
+      res.set_content(body, type);
+    };
+  };
+  s.Get("/", web(kWeb_index_html, "text/html; charset=utf-8"));
+  s.Get("/dashboard.js", web(kWeb_dashboard_js, "text/javascript; charset=utf-8"));
+  s.Get("/dashboard.css", web(kWeb_dashboard_css, "text/css; charset=utf-8"));
+
   s.Get("/v1/openapi.yaml", guard(public_reads, [](const Request&, Response& res) {
           res.set_content(kOpenApiYaml, "application/yaml");
         }));
@@ -684,6 +705,9 @@ void ApiServer::routes() {
     const char* allow;
   };
   static constexpr Route kKnown[] = {
+      {"/", "GET"},
+      {"/dashboard.js", "GET"},
+      {"/dashboard.css", "GET"},
       {"/v1/health", "GET"},
       {"/v1/info", "GET"},
       {"/v1/openapi.yaml", "GET"},

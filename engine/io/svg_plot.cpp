@@ -87,21 +87,50 @@ std::string tick_text(double v, double span) {
   return out.str();
 }
 
+// Where each series' legend entry goes: entries flow left to right in rows above the plot, each
+// as wide as its text (about 7 px a character). Returns x and row per series.
+std::vector<std::pair<double, int>> legend_layout(const PlotPanel& panel, double left,
+                                                  double right) {
+  std::vector<std::pair<double, int>> at;
+  double x = left;
+  int row = 0;
+  for (const PlotSeries& series : panel.series) {
+    const double entry = 36.0 + 7.0 * double(series.name.size());
+    if (x > left && x + entry > right) x = left, ++row;
+    at.emplace_back(x, row);
+    x += entry;
+  }
+  return at;
+}
+
+int legend_rows(const std::vector<std::pair<double, int>>& at) {
+  return at.empty() ? 0 : at.back().second;
+}
+
 }  // namespace
 
 std::string render_svg(const std::vector<PlotPanel>& panels, int w, int plot_h) {
   std::ostringstream svg;
   const int width = w * int(panels.size());
   std::size_t most_notes = 0;
-  for (const PlotPanel& p : panels) most_notes = std::max(most_notes, p.notes.size());
-  const int h = plot_h + 16 * int(most_notes);
+  int extra_rows = 0;  // legend rows past the first, in the panel that has most
+  for (std::size_t k = 0; k < panels.size(); ++k) {
+    most_notes = std::max(most_notes, panels[k].notes.size());
+    extra_rows =
+        std::max(extra_rows,
+                 legend_rows(legend_layout(panels[k], double(k) * w + 70, double(k + 1) * w - 20)));
+  }
+  const int h = plot_h + 16 * int(most_notes) + 16 * extra_rows;
   svg << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << width << "\" height=\"" << h
       << "\" font-family=\"sans-serif\" font-size=\"12\">\n"
       << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
   for (std::size_t k = 0; k < panels.size(); ++k) {
     const PlotPanel& panel = panels[k];
-    const double left = double(k) * w + 70, right = double(k + 1) * w - 20, top = 56,
-                 bottom = plot_h - 50;
+    const double left = double(k) * w + 70, right = double(k + 1) * w - 20;
+    // The plot starts below the legend's last row.
+    const std::vector<std::pair<double, int>> legend_at = legend_layout(panel, left, right);
+    const int rows = legend_rows(legend_at);
+    const double top = 56 + 16.0 * rows, bottom = plot_h - 50 + 16.0 * rows;
     const Axis ax = fit_axis(panel.series, true, panel.log_x);
     const Axis ay = fit_axis(panel.series, false, panel.log_y);
     svg << "<text x=\"" << (left + right) / 2
@@ -121,11 +150,12 @@ std::string render_svg(const std::vector<PlotPanel>& panels, int w, int plot_h) 
           << "\" stroke=\"black\"/><text x=\"" << left - 8 << "\" y=\"" << y + 4
           << "\" text-anchor=\"end\">" << tick_text(t, ay.hi - ay.lo) << "</text>\n";
     }
-    svg << "<text x=\"" << (left + right) / 2 << "\" y=\"" << plot_h - 12
+    svg << "<text x=\"" << (left + right) / 2 << "\" y=\"" << plot_h - 12 + 16 * rows
         << "\" text-anchor=\"middle\">" << escape(panel.x_label) << "</text>\n";
     for (std::size_t n = 0; n < panel.notes.size(); ++n)
-      svg << "<text x=\"" << double(k) * w + 16 << "\" y=\"" << plot_h + 4 + 16 * double(n)
-          << "\" font-size=\"11\">" << escape(panel.notes[n]) << "</text>\n";
+      svg << "<text x=\"" << double(k) * w + 16 << "\" y=\""
+          << plot_h + 4 + 16 * double(n + std::size_t(rows)) << "\" font-size=\"11\">"
+          << escape(panel.notes[n]) << "</text>\n";
     svg << "<text transform=\"translate(" << double(k) * w + 16 << "," << (top + bottom) / 2
         << ") rotate(-90)\" text-anchor=\"middle\">" << escape(panel.y_label) << "</text>\n";
     for (std::size_t s = 0; s < panel.series.size(); ++s) {
@@ -147,8 +177,8 @@ std::string render_svg(const std::vector<PlotPanel>& panels, int w, int plot_h) 
         svg << "<text x=\"" << ax.map(series.x[i], left, right) + 6 << "\" y=\""
             << ay.map(series.y[i], bottom, top) - 6 << "\" font-size=\"11\" fill=\"#333\">"
             << escape(series.labels[i]) << "</text>\n";
-      // The legend: a row above the plot area, one entry per series.
-      const double lx = left + 140.0 * double(s), ly = top - 8;
+      // The legend entry, in its row above the plot area.
+      const double lx = legend_at[s].first, ly = 48 + 16.0 * legend_at[s].second;
       svg << "<line x1=\"" << lx << "\" y1=\"" << ly - 4 << "\" x2=\"" << lx + 20 << "\" y2=\""
           << ly - 4 << "\" stroke=\"" << series.color << "\" stroke-width=\"2\"/><text x=\""
           << lx + 26 << "\" y=\"" << ly << "\">" << escape(series.name) << "</text>\n";

@@ -665,5 +665,83 @@ TEST(Service, EveryResponseConformsToTheOpenApiSpec) {
   EXPECT_NE(text.find(" responses, 0 problems"), std::string::npos) << text;
 }
 
+// The dashboard at / in a real headless Chromium (tests/web/dashboard_check.py drives it over
+// the DevTools protocol): the studies with their progress, a submit with the token typed into
+// the page, a cancel, a finished study's results and plots, and a run's PSD and log tail. What
+// the page shows is checked against the API; a study's name with markup in it stays text.
+TEST(Dashboard, ChromiumShowsStudiesSubmitsAndCancels) {
+  if (test::run_shell("command -v chromium >/dev/null").exit_code != 0)
+    GTEST_SKIP() << "chromium is not installed (Debian chromium)";
+  test::TempDir dir;
+  ServerProcess server(dir.path(), 1);
+  ASSERT_FALSE(server.url().empty());
+  auto res = server.post("/v1/studies", attrition_study({1e-4, 8e-5}).dump());
+  ASSERT_EQ(res->status, 201) << res->body;
+  const std::string finished = json::parse(res->body)["study"];
+  ASSERT_FALSE(server.wait_finished(finished).is_null());
+  json slow = slow_study(3, 0.5);
+  slow["name"] = "slow <img src=x onerror=alert(1)>";
+  test::write_file(dir.path() / "slow.json", slow.dump());
+
+  const auto [status, out] =
+      test::run_shell("python3 " MILLSIM_SOURCE_DIR "/tests/web/dashboard_check.py " +
+                      server.url() + " " + kToken + " " + (dir.path() / "slow.json").string() +
+                      " " + finished + " 2>&1")
+          .status_and_output();
+  ASSERT_EQ(status, 0) << out;
+  const json seen = json::parse(out.substr(out.find('{')));
+
+  ASSERT_EQ(seen["studies"].size(), 1u);
+  EXPECT_EQ(seen["studies"][0]["id"], finished);
+  EXPECT_EQ(seen["studies"][0]["complete"], "2/2");
+  EXPECT_TRUE(seen["studies"][0]["bar"].get<bool>());
+
+  // The study submitted through the page exists with its runs, and the page's cancel reached it.
+  const std::string submitted = seen["submitted_hash"].get<std::string>().substr(10);
+  const json api_study = json::parse(server.get("/v1/studies/" + submitted)->body);
+  EXPECT_EQ(api_study["name"], slow["name"]);
+  EXPECT_EQ(seen["submitted_rows"], 3);
+  EXPECT_EQ(api_study["progress"]["total"], 3);
+  EXPECT_TRUE(seen["canceled_shown"].get<bool>());
+  EXPECT_TRUE(api_study["canceled"].get<bool>());
+
+  // The finished study's rows as the API gives them.
+  const json results = json::parse(server.get("/v1/studies/" + finished + "/results")->body);
+  ASSERT_EQ(seen["finished_rows"].size(), results["runs"].size());
+  for (std::size_t k = 0; k < results["runs"].size(); ++k) {
+    const json& row = results["runs"][k];
+    EXPECT_EQ(seen["finished_rows"][k]["run"], row["run"]);
+    EXPECT_EQ(seen["finished_rows"][k]["state"], "COMPLETE");
+    char d50[32];
+    std::snprintf(d50, sizeof d50, "%.1f", row["d50_m"].get<double>() * 1e6);
+    EXPECT_EQ(seen["finished_rows"][k]["d50"], d50);
+  }
+  EXPECT_EQ(seen["plots"], json::array({"error against run time", "outlet PSD of every run"}));
+
+  // A run's details: its PSD (one point per class edge) and its log.
+  const std::string first_run = results["runs"][0]["run"];
+  const json psd = json::parse(server.get("/v1/runs/" + first_run + "/psd")->body)["outlet_psd"];
+  EXPECT_NE(seen["run_details"]["title"].get<std::string>().find(first_run), std::string::npos);
+  EXPECT_EQ(seen["run_details"]["psd_points"], psd["edges_m"].size());
+  EXPECT_NE(seen["run_details"]["psd"].get<std::string>().find("d50"), std::string::npos);
+  EXPECT_GT(seen["run_details"]["log_tail"].get<int>(), 0);
+
+  // Markup in a name is shown as the text it is.
+  bool found = false;
+  for (const json& st : seen["studies_after"])
+    if (st["id"] == submitted) {
+      found = true;
+      EXPECT_EQ(st["name"], slow["name"]);
+      EXPECT_EQ(st["markup_in_name"], 0);
+      EXPECT_EQ(st["state"], "canceled");
+    }
+  EXPECT_TRUE(found);
+  // The page's own policy: nothing loads from anywhere else.
+  const auto page = server.get("/");
+  ASSERT_TRUE(page && page->status == 200);
+  EXPECT_NE(page->get_header_value("Content-Security-Policy").find("script-src 'self'"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace millsim

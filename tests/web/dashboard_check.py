@@ -1,0 +1,185 @@
+"""Drives the dashboard in a real headless Chromium, as a user would, through the DevTools
+protocol (a minimal WebSocket client on the standard library, so nothing beyond Debian's
+chromium and python3 is needed). Prints what it saw as JSON for the C++ test to check.
+
+usage: python3 dashboard_check.py URL TOKEN STUDY_FILE FINISHED_STUDY_ID
+  URL: the server; TOKEN: its token; STUDY_FILE: a study to submit through the page (one whose
+  runs take long enough to cancel); FINISHED_STUDY_ID: a study whose runs are complete.
+"""
+import base64
+import json
+import os
+import shutil
+import signal
+import socket
+import struct
+import subprocess
+import sys
+import tempfile
+import time
+import urllib.request
+
+
+class Page:
+    """One page over the DevTools WebSocket: evaluate JavaScript, wait for conditions."""
+
+    def __init__(self, ws_url):
+        host_port, path = ws_url[len("ws://"):].split("/", 1)
+        host, port = host_port.split(":")
+        self.sock = socket.create_connection((host, int(port)), timeout=30)
+        key = base64.b64encode(os.urandom(16)).decode()
+        self.sock.sendall((f"GET /{path} HTTP/1.1\r\nHost: {host_port}\r\nUpgrade: websocket\r\n"
+                           f"Connection: Upgrade\r\nSec-WebSocket-Key: {key}\r\n"
+                           "Sec-WebSocket-Version: 13\r\n\r\n").encode())
+        reply = b""
+        while b"\r\n\r\n" not in reply:
+            reply += self.sock.recv(4096)
+        if b" 101 " not in reply.split(b"\r\n")[0]:
+            raise RuntimeError("no WebSocket upgrade: " + reply.decode(errors="replace"))
+        self.buffer = reply.split(b"\r\n\r\n", 1)[1]
+        self.next_id = 0
+
+    def _send(self, text):
+        data = text.encode()
+        mask = os.urandom(4)
+        header = bytes([0x81])
+        if len(data) < 126:
+            header += bytes([0x80 | len(data)])
+        elif len(data) < 65536:
+            header += bytes([0x80 | 126]) + struct.pack(">H", len(data))
+        else:
+            header += bytes([0x80 | 127]) + struct.pack(">Q", len(data))
+        self.sock.sendall(header + mask + bytes(b ^ mask[i % 4] for i, b in enumerate(data)))
+
+    def _read(self, n):
+        while len(self.buffer) < n:
+            chunk = self.sock.recv(65536)
+            if not chunk:
+                raise RuntimeError("the browser closed the connection")
+            self.buffer += chunk
+        out, self.buffer = self.buffer[:n], self.buffer[n:]
+        return out
+
+    def _receive(self):
+        message = b""
+        while True:
+            b0, b1 = self._read(2)
+            length = b1 & 0x7F
+            if length == 126:
+                length = struct.unpack(">H", self._read(2))[0]
+            elif length == 127:
+                length = struct.unpack(">Q", self._read(8))[0]
+            message += self._read(length)
+            if b0 & 0x80:
+                return json.loads(message)
+
+    def call(self, method, **params):
+        self.next_id += 1
+        self._send(json.dumps({"id": self.next_id, "method": method, "params": params}))
+        while True:
+            reply = self._receive()
+            if reply.get("id") == self.next_id:
+                if "error" in reply:
+                    raise RuntimeError(f"{method}: {reply['error']}")
+                return reply["result"]
+
+    def js(self, expression):
+        result = self.call("Runtime.evaluate", expression=expression, awaitPromise=True,
+                           returnByValue=True)
+        if "exceptionDetails" in result:
+            raise RuntimeError(f"{expression}: {result['exceptionDetails']}")
+        return result["result"].get("value")
+
+    def wait(self, expression, timeout=30.0):
+        """Polls until the expression is truthy; returns its value, or None on a timeout."""
+        end = time.time() + timeout
+        while time.time() < end:
+            value = self.js(expression)
+            if value:
+                return value
+            time.sleep(0.1)
+        return None
+
+
+def main():
+    url, token, study_file, finished = sys.argv[1:5]
+    profile = tempfile.mkdtemp(prefix="millsim-chromium-")
+    browser = subprocess.Popen(
+        ["chromium", "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
+         f"--user-data-dir={profile}", "--remote-debugging-port=0", "about:blank"],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    seen = {}
+    try:
+        port_file = os.path.join(profile, "DevToolsActivePort")
+        for _ in range(300):
+            if os.path.exists(port_file) and open(port_file).read().strip():
+                break
+            time.sleep(0.1)
+        port = int(open(port_file).read().split()[0])
+        targets = json.load(urllib.request.urlopen(f"http://127.0.0.1:{port}/json/list"))
+        page = Page(next(t for t in targets if t["type"] == "page")["webSocketDebuggerUrl"])
+        page.call("Page.navigate", url=url + "/")
+
+        # The studies: each with its progress bar; names as text, never as markup.
+        seen["studies"] = page.wait(
+            "Array.from(document.querySelectorAll('#studies tr.study')).map(r => ({"
+            "id: r.dataset.id, name: r.cells[1].textContent, markup_in_name: r.cells[1].children.length,"
+            "complete: r.cells[4].textContent, bar: r.querySelector('.bar') !== null}))"
+            ".filter(s => s.complete.length > 0)")
+
+        # Submit through the page with the token, then land on the new study.
+        study_text = open(study_file).read()
+        page.js(f"document.getElementById('token').value = {json.dumps(token)};"
+                "document.getElementById('token').dispatchEvent(new Event('change'));"
+                "true")
+        page.wait("document.getElementById('study-text') !== null")
+        page.js(f"document.getElementById('study-text').value = {json.dumps(study_text)};"
+                "document.getElementById('submit').click(); true")
+        seen["submitted_hash"] = page.wait(
+            "location.hash.startsWith('#/studies/') && document.querySelector('#results') "
+            "? location.hash : ''")
+        seen["submitted_rows"] = page.js("document.querySelectorAll('#results tr.clickable').length")
+
+        # Cancel it from its page.
+        page.wait("document.querySelector('button.cancel') !== null")
+        page.js("document.querySelector('button.cancel').click(); true")
+        seen["canceled_shown"] = bool(page.wait(
+            "document.querySelector('#main h1') && document.getElementById('main').textContent"
+            ".includes('(canceled)')"))
+
+        # A finished study: results, both plots, and a run's PSD and log tail on a click.
+        page.js(f"location.hash = '#/studies/{finished}'; true")
+        page.wait("document.querySelectorAll('#results tr.clickable').length > 0 && "
+                  f"document.querySelector('#main h1').textContent.includes('{finished}')")
+        seen["finished_rows"] = page.js(
+            "Array.from(document.querySelectorAll('#results tr.clickable')).map(r => ({"
+            "run: r.dataset.run, state: r.cells[2].textContent, d50: r.cells[6].textContent,"
+            "error: r.cells[8].textContent}))")
+        seen["plots"] = page.wait(
+            "Array.from(document.querySelectorAll('.plots img')).filter(i => i.complete && "
+            "i.naturalWidth > 0).map(i => i.alt)")
+        page.js("document.querySelector('#results tr.clickable').click(); true")
+        seen["run_details"] = page.wait(
+            "document.getElementById('run-details') && document.getElementById('log-tail') ? {"
+            "title: document.querySelector('#run-details h2').textContent,"
+            "psd: (document.getElementById('run-details').textContent"
+            ".match(/outlet PSD: d10 [^µ]*µm, d50 [^µ]*µm, d90 [^µ]*µm/) || [''])[0],"
+            "psd_points: document.querySelector('#run-details svg.psd polyline') ? "
+            "document.querySelector('#run-details svg.psd polyline').getAttribute('points').split(' ').length : 0,"
+            "log_tail: document.getElementById('log-tail').textContent.length} : null")
+
+        # Back to the list: the submitted study's name, whatever it holds, is text.
+        page.js("location.hash = '#/'; true")
+        seen["studies_after"] = page.wait(
+            "document.querySelectorAll('#studies tr.study').length > 1 && "
+            "Array.from(document.querySelectorAll('#studies tr.study')).map(r => ({"
+            "id: r.dataset.id, name: r.cells[1].textContent, markup_in_name: r.cells[1].children.length,"
+            "state: r.cells[5].textContent}))")
+    finally:
+        os.killpg(browser.pid, signal.SIGKILL)
+        browser.wait()
+        shutil.rmtree(profile, ignore_errors=True)
+    print(json.dumps(seen))
+
+
+main()
