@@ -411,6 +411,13 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
   if (write_h5 && resumed && std::filesystem::exists(h5_partial))
     std::filesystem::rename(h5_partial, h5_last_attempt);
   if (write_h5) {
+    // The name table of the `material` array: "0 salt", "1 steel", one per line.
+    std::string material_names;
+    for (std::size_t m = 0; m < scene.materials.size(); ++m)
+      material_names.append(std::to_string(m))
+          .append(" ")
+          .append(scene.materials[m].name)
+          .append("\n");
     h5 = std::make_unique<H5Writer>(h5_partial);
     if (resumed) {
       carried_snapshots = -1;
@@ -430,7 +437,8 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
                     {"seed", std::to_string(scene.seed)},
                     {"millsim_version", kMillsimVersion},
                     {"git_commit", kGitCommit},
-                    {"compiler", kCompiler}});
+                    {"compiler", kCompiler},
+                    {"materials", material_names}});
     h5->write_geometry(
         scene_geometry(scene, sim.walls(), sim.box(), sim.gas() ? &sim.gas()->config() : nullptr));
   }

@@ -305,6 +305,10 @@ TEST(CliRun, RunFilesDescribeThemselves) {
             nlohmann::json::parse(r.out)["millsim_version"]);
   EXPECT_FALSE(string_attribute(meta, "git_commit").empty());
   EXPECT_FALSE(string_attribute(meta, "compiler").empty());
+  std::string names;  // the material array's name table, from the scene's own list
+  for (std::size_t m = 0; m < scene["materials"].size(); ++m)
+    names += std::to_string(m) + " " + scene["materials"][m]["name"].get<std::string>() + "\n";
+  EXPECT_EQ(string_attribute(meta, "materials"), names);
   H5Gclose(meta);
   H5Fclose(file);
 }
