@@ -19,6 +19,7 @@
 
 #include "cli_args.h"
 #include "commands.h"
+#include "core/json_reader.h"
 #include "help.h"
 #include "results.h"
 
@@ -179,7 +180,7 @@ void print_study_list(const json& list, const std::string& format) {
   for (const json& s : list["studies"]) {
     const json& c = s["progress"]["counts"];
     std::printf("%-8s %-32s %5d %9d %8d %7d %7d%s\n", s["id"].get<std::string>().c_str(),
-                s["name"].get<std::string>().substr(0, 32).c_str(),
+                std::string(utf8_prefix(s["name"].get<std::string>(), 32)).c_str(),
                 s["progress"]["total"].get<int>(), c["COMPLETE"].get<int>(),
                 c["RUNNING"].get<int>(), c["QUEUED"].get<int>(), failed_runs(s),
                 s["canceled"].get<bool>() ? "  (canceled)" : "");
@@ -243,9 +244,18 @@ int cmd_submit(const std::vector<std::string>& args) {
   }
   std::stringstream text;
   text << in.rdbuf();
-  json spec = json::parse(text.str(), nullptr, false);
+  // The study and its scene as the server will parse them (nesting at most kMaxJsonDepth).
+  auto parse = [](const std::string& t) {
+    try {
+      return parse_untrusted_json(t);
+    } catch (const std::exception&) {
+      return json(json::value_t::discarded);
+    }
+  };
+  json spec = parse(text.str());
   if (spec.is_discarded()) {
-    std::fprintf(stderr, "millsim submit: %s is not valid JSON\n", a.target.c_str());
+    std::fprintf(stderr, "millsim submit: %s is not valid JSON (or nests deeper than %d levels)\n",
+                 a.target.c_str(), kMaxJsonDepth);
     return kBadInput;
   }
   if (spec.is_object() && spec.contains("scene") && spec["scene"].is_string()) {
@@ -254,7 +264,7 @@ int cmd_submit(const std::vector<std::string>& args) {
     std::ifstream s(scene);
     std::stringstream scene_text;
     scene_text << s.rdbuf();
-    json inline_scene = json::parse(scene_text.str(), nullptr, false);
+    json inline_scene = parse(scene_text.str());
     if (!s || inline_scene.is_discarded()) {
       std::fprintf(stderr, "millsim submit: /scene: cannot read the scene %s\n",
                    scene.string().c_str());

@@ -14,6 +14,7 @@
 #include <string_view>
 
 #include "core/errors.h"
+#include "core/json_reader.h"
 #include "executor.h"
 #include "regression.h"
 #include "results.h"
@@ -104,7 +105,9 @@ bool is_run_id(std::string_view s) {
 
 void send_json(Response& res, int status, const ordered_json& body) {
   res.status = status;
-  res.set_content(body.dump(2) + "\n", "application/json");
+  // Stored text is valid UTF-8 (checked on input); `replace` is the net under that.
+  res.set_content(body.dump(2, ' ', false, ordered_json::error_handler_t::replace) + "\n",
+                  "application/json");
 }
 
 void send_error(Response& res, int status, const std::string& code, const std::string& message,
@@ -134,8 +137,11 @@ bool query_int(const Request& req, Response& res, const char* name, int fallback
 
 bool parse_body(const Request& req, Response& res, json& out) {
   try {
-    out = json::parse(req.body);
+    out = parse_untrusted_json(req.body);
     return true;
+  } catch (const JsonTooDeep& e) {
+    send_error(res, 400, "invalid_json", std::string("the body is too deeply nested: ") + e.what());
+    return false;
   } catch (const json::exception& e) {  // syntax, or a number beyond a double (1e999)
     send_error(res, 400, "invalid_json", std::string("the body is not valid JSON: ") + e.what());
     return false;

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "core/errors.h"
+#include "core/json_reader.h"
 
 namespace millsim {
 
@@ -114,8 +115,8 @@ std::string tail_of_file(const std::filesystem::path& path, std::size_t max_line
     if (lines.size() > max_lines) lines.erase(lines.begin());
   }
   std::string out;
-  for (const std::string& l : lines) out += l + "\n";
-  return out;
+  for (const std::string& l : lines) out.append(l).append("\n");
+  return valid_utf8(out);  // a log may hold any bytes; what is served is JSON text
 }
 
 FinishReport report_from_exit(const ChildExit& e, const std::filesystem::path& out_dir) {

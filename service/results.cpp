@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <optional>
 
+#include "core/json_reader.h"
 #include "io/svg_plot.h"
 #include "process/psd.h"
 
@@ -135,7 +136,7 @@ ordered_json results_table(Store& store, const std::string& study_id) {
     if (result.is_object() && reference.is_object())
       error = error_against(result, reference, metric);
     row["error"] = error ? ordered_json(*error) : ordered_json(nullptr);
-    row["message"] = r.state == RunState::Complete ? "" : r.error.substr(0, 400);
+    row["message"] = r.state == RunState::Complete ? "" : std::string(utf8_prefix(r.error, 400));
     rows.push_back(row);
   }
   table["runs"] = rows;

@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "core/errors.h"
+#include "core/json_reader.h"
 
 namespace millsim {
 namespace {
@@ -99,7 +100,7 @@ ExecHandle SlurmExecutor::start(const RunRecord& run, double now) {
       out.substr(out.find_last_of('\n') == std::string::npos ? 0 : out.find_last_of('\n') + 1);
   const std::string id = last.substr(0, last.find(';'));  // "jobid[;cluster]"
   if (status != 0 || id.empty() || id.find_first_not_of("0123456789") != std::string::npos)
-    throw IoError("sbatch failed (status " + std::to_string(status) + "): " + out);
+    throw IoError("sbatch failed (status " + std::to_string(status) + "): " + valid_utf8(out));
   h.job_id = id;
   h.started_at = now;
   h.deadline = now + run.wall_limit_s;

@@ -155,7 +155,8 @@ void absolutize_paths(json& scene, const std::filesystem::path& scene_dir) {
     if (s.is_object() && s.value("type", "") == "file" && s.contains("path") &&
         s["path"].is_string()) {
       const std::filesystem::path p = s["path"].get<std::string>();
-      if (p.is_relative()) s["path"] = (scene_dir / p).lexically_normal().string();
+      if (p.is_relative())
+        s["path"] = (std::filesystem::absolute(scene_dir) / p).lexically_normal().string();
     }
 }
 
@@ -165,9 +166,11 @@ json read_json_file(const std::filesystem::path& path, const std::string& what) 
   std::stringstream text;
   text << in.rdbuf();
   try {
-    return json::parse(text.str());
+    return parse_untrusted_json(text.str());
   } catch (const json::exception& e) {  // syntax, or a number beyond a double (1e999)
     throw InputErrorList({{what, path.string(), std::string("not valid JSON: ") + e.what()}});
+  } catch (const JsonTooDeep& e) {
+    throw InputErrorList({{what, path.string(), e.what()}});
   }
 }
 

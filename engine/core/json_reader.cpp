@@ -55,9 +55,82 @@ std::string NumberRange::describe(bool integer) const {
 }
 
 std::string json_value_text(const nlohmann::json& value) {
-  std::string text = value.dump();
-  if (text.size() > 80) text = text.substr(0, 77) + "...";
+  std::string text = value.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  if (text.size() > 80) text = std::string(utf8_prefix(text, 77)) + "...";
   return text;
+}
+
+nlohmann::json parse_untrusted_json(std::string_view text) {
+  int depth = 0;
+  bool in_string = false;
+  for (std::size_t k = 0; k < text.size(); ++k) {
+    const char c = text[k];
+    if (in_string) {
+      if (c == '\\')
+        ++k;  // the escaped character, whatever it is
+      else if (c == '"')
+        in_string = false;
+    } else if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > kMaxJsonDepth)
+        throw JsonTooDeep("arrays and objects nest deeper than " + std::to_string(kMaxJsonDepth) +
+                          " levels at byte " + std::to_string(k) + "; at most " +
+                          std::to_string(kMaxJsonDepth) + " are allowed");
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
+  return nlohmann::json::parse(text);
+}
+
+namespace {
+
+// The length of the well-formed UTF-8 character at text[k], or 0 when it is ill-formed.
+std::size_t utf8_length(std::string_view text, std::size_t k) {
+  const auto byte = [&](std::size_t i) { return static_cast<unsigned char>(text[i]); };
+  const unsigned char b = byte(k);
+  std::size_t n = b < 0x80           ? 1
+                  : (b >> 5) == 0x6  ? 2
+                  : (b >> 4) == 0xE  ? 3
+                  : (b >> 3) == 0x1E ? 4
+                                     : 0;
+  if (n == 0 || k + n > text.size()) return 0;
+  for (std::size_t i = 1; i < n; ++i)
+    if ((byte(k + i) >> 6) != 0x2) return 0;
+  if (n == 2 && b < 0xC2) return 0;                          // overlong
+  if (n == 3 && b == 0xE0 && byte(k + 1) < 0xA0) return 0;   // overlong
+  if (n == 3 && b == 0xED && byte(k + 1) >= 0xA0) return 0;  // surrogates
+  if (n == 4 &&
+      (b > 0xF4 || (b == 0xF0 && byte(k + 1) < 0x90) || (b == 0xF4 && byte(k + 1) >= 0x90)))
+    return 0;  // overlong or past U+10FFFF
+  return n;
+}
+
+}  // namespace
+
+std::string valid_utf8(std::string_view text) {
+  std::string out;
+  out.reserve(text.size());
+  for (std::size_t k = 0; k < text.size();) {
+    const std::size_t n = utf8_length(text, k);
+    if (n == 0) {
+      out += "\xEF\xBF\xBD";  // U+FFFD
+      ++k;
+    } else {
+      out.append(text.substr(k, n));
+      k += n;
+    }
+  }
+  return out;
+}
+
+std::string_view utf8_prefix(std::string_view text, std::size_t max_bytes) {
+  if (text.size() <= max_bytes) return text;
+  std::size_t end = max_bytes;
+  // Back off past continuation bytes (10xxxxxx) to the start of the cut character.
+  while (end > 0 && (static_cast<unsigned char>(text[end]) >> 6) == 0x2) --end;
+  return text.substr(0, end);
 }
 
 std::string json_pointer_join(const std::string& path, std::string_view key) {

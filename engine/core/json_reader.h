@@ -8,6 +8,7 @@
 #include <array>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -36,6 +37,27 @@ struct NumberRange {
 };
 
 std::string json_value_text(const nlohmann::json& value);
+
+// Documents from outside (scene, study and suite files, request bodies) may nest their arrays and
+// objects at most this deep; the scene format itself needs 5.
+inline constexpr int kMaxJsonDepth = 64;
+
+struct JsonTooDeep : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+// Parses a document from outside. Its nesting is measured first, by a scan without recursion, so
+// no input can exhaust the stack here or in anything that walks the document later. Throws
+// JsonTooDeep past kMaxJsonDepth (the message names the byte and the limit), or
+// nlohmann::json::exception when the text is not JSON (ill-formed UTF-8 in a string included).
+nlohmann::json parse_untrusted_json(std::string_view text);
+
+// Text from outside that is not JSON (particle files, logs, other programs' messages): the same
+// text with every ill-formed UTF-8 sequence replaced by U+FFFD, so it can go into JSON.
+std::string valid_utf8(std::string_view text);
+
+// The longest prefix of `text` of at most `max_bytes` that does not cut a UTF-8 character.
+std::string_view utf8_prefix(std::string_view text, std::size_t max_bytes);
 std::string json_pointer_join(const std::string& path, std::string_view key);
 std::string json_pointer_join(const std::string& path, std::size_t index);
 

@@ -1,5 +1,7 @@
 #include "particles/particle_sources.h"
 
+#include "core/json_reader.h"
+
 #include <algorithm>
 #include <charconv>
 #include <cmath>
@@ -56,9 +58,11 @@ ParticleFile read_particle_file(const std::filesystem::path& path) {
     std::istringstream fields(line);
     double id, x, y, z, d, vx, vy, vz;  // id is read for the column count, then dropped
     if (!(fields >> id >> x >> y >> z >> d >> vx >> vy >> vz)) {
-      errors.push_back({where, line.substr(0, 60), "expected 8 numbers: id x y z d vx vy vz"});
+      errors.push_back(
+          {where, valid_utf8(utf8_prefix(line, 60)), "expected 8 numbers: id x y z d vx vy vz"});
     } else if (!(d > 0.0) || !std::isfinite(x + y + z + vx + vy + vz)) {
-      errors.push_back({where, line.substr(0, 60), "expected finite values and a diameter > 0"});
+      errors.push_back(
+          {where, valid_utf8(utf8_prefix(line, 60)), "expected finite values and a diameter > 0"});
     } else {
       file.particles.push_back({{x, y, z}, {vx, vy, vz}, {}, d});
     }
@@ -74,7 +78,7 @@ ParticleFile read_particle_file(const std::filesystem::path& path) {
     const auto [end, ec] = std::from_chars(first, last, count);
     if (ec != std::errc() || end != last || count != file.particles.size())
       throw InputErrorList(
-          {{path.filename().string() + ": header 'N'", n->second.substr(0, 60),
+          {{path.filename().string() + ": header 'N'", valid_utf8(utf8_prefix(n->second, 60)),
             concat("expected the number of particle lines, ", file.particles.size())}});
   }
   return file;

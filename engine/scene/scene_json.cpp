@@ -294,7 +294,8 @@ std::vector<SourceConfig> parse_sources(JsonObjectReader& top,
       std::error_code status_error;  // a name too long for the filesystem, say
       if (!file.empty() && !std::filesystem::is_regular_file(s.file_path, status_error))
         errors.push_back(
-            {r.path_of("path"), "\"" + file.substr(0, 200) + (file.size() > 200 ? "…\"" : "\""),
+            {r.path_of("path"),
+             "\"" + std::string(utf8_prefix(file, 200)) + (file.size() > 200 ? "…\"" : "\""),
              "expected a readable particle file" +
                  (status_error ? " (" + status_error.message() + ")" : std::string())});
     } else if (type == "random") {
@@ -617,9 +618,11 @@ SceneConfig load_scene(const std::filesystem::path& path) {
   text << in.rdbuf();
   json doc;
   try {
-    doc = json::parse(text.str());
+    doc = parse_untrusted_json(text.str());
   } catch (const json::exception& e) {  // syntax, or a number beyond a double (1e999)
     throw InputErrorList({{"", "", std::string("not valid JSON: ") + e.what()}});
+  } catch (const JsonTooDeep& e) {
+    throw InputErrorList({{"", "", e.what()}});
   }
   InputErrors errors;
   SceneConfig scene = parse_scene(doc, path.parent_path(), errors);

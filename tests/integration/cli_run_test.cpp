@@ -108,6 +108,43 @@ TEST(CliRun, NumbersBeyondADoubleAndOverlongPathsAreBadInput) {
   EXPECT_NE(header.err.find("header 'N'"), std::string::npos) << header.err;
 }
 
+// Nesting past the documented limit (64) is bad input, found before anything walks the document:
+// 10^5 levels crashed the loader's and the error printer's recursion before.
+TEST(CliRun, DeeplyNestedJsonIsBadInputNotACrash) {
+  test::TempDir dir;
+  const std::string deep = std::string(100000, '[') + std::string(100000, ']');
+  write_file(dir.path() / "deep.json", "{\"name\": " + deep + "}");
+  const CommandResult run = run_millsim("run deep.json --out a", dir.path());
+  EXPECT_EQ(run.exit_code, 2) << run.err;
+  EXPECT_NE(run.err.find("deeper than 64 levels at byte 72"), std::string::npos) << run.err;
+  write_file(dir.path() / "study.json", "{\"scene\": {\"materials\": " + deep + "}}");
+  const CommandResult study = run_millsim("study study.json --local --db q.db", dir.path());
+  EXPECT_EQ(study.exit_code, 2) << study.err;
+  EXPECT_NE(study.err.find("deeper than 64"), std::string::npos) << study.err;
+  // 64 levels are read (and then judged by the scene format as usual).
+  write_file(dir.path() / "edge.json",
+             "{\"name\": " + std::string(63, '[') + std::string(63, ']') + "}");
+  const CommandResult edge = run_millsim("run edge.json --out b", dir.path());
+  EXPECT_EQ(edge.exit_code, 2);
+  EXPECT_EQ(edge.err.find("deeper than"), std::string::npos) << edge.err;
+}
+
+// A particle file with bytes that are not UTF-8: its error quotes the line as valid text (U+FFFD
+// for each bad byte), so it can go into JSON (the server's test sends it over HTTP).
+TEST(CliRun, NonUtf8BytesInAParticleFileAreReportedAsText) {
+  test::TempDir dir;
+  write_file(dir.path() / "p.txt", "# N: 1\n1 5e-4 5e-4 \xff\xfe 1e-4 0 0 0\n");
+  std::ifstream in(MILLSIM_SOURCE_DIR "/cases/impact_two_spheres.json");
+  nlohmann::json scene = nlohmann::json::parse(in);
+  scene["sources"] = {
+      {{"type", "file"}, {"material", scene["materials"][0]["name"]}, {"path", "p.txt"}}};
+  write_file(dir.path() / "scene.json", scene.dump());
+  const CommandResult run = run_millsim("run scene.json --out a", dir.path());
+  EXPECT_EQ(run.exit_code, 2) << run.err;
+  EXPECT_NE(run.err.find("\xEF\xBF\xBD"), std::string::npos) << run.err;  // U+FFFD
+  EXPECT_EQ(run.err.find("\xff"), std::string::npos);
+}
+
 TEST(CliRun, MalformedJsonAndMissingFileAreBadInput) {
   test::TempDir dir;
   write_file(dir.path() / "broken.json", "{\"name\": ");

@@ -215,6 +215,11 @@ TEST(Service, BadRequestsGetTheirStatusAndChangeNothing) {
   bad = {{"scene", "../../etc/passwd"}};  // a path trick
   EXPECT_EQ(code(server.post("/v1/studies", bad.dump())), 400);
   EXPECT_EQ(code(server.post("/v1/studies", std::string(300000, ' '))), 413);  // huge body
+  // Nested past the limit (64): a 400 naming it, and the server lives on.
+  r = server.post("/v1/studies", std::string(50000, '[') + std::string(50000, ']'));
+  EXPECT_EQ(code(r), 400);
+  EXPECT_NE(r->body.find("deeper than 64 levels"), std::string::npos) << r->body;
+  EXPECT_EQ(code(server.get("/v1/health")), 200);
   EXPECT_EQ(code(server.get("/v1/runs/..%2F..%2Fetc%2Fpasswd")), 404);
   EXPECT_EQ(code(server.get("/v1/runs/s000001-r0;drop")), 404);
   EXPECT_EQ(code(server.get("/v1/studies/s999999")), 404);
@@ -267,6 +272,37 @@ TEST(Service, ShippedStudiesPostAsTheyAre) {
   // The same server still refuses a path out of its scenes folder.
   const json escaping = {{"scene", "../cases/attrition_target.json"}};
   EXPECT_EQ(server.post("/v1/studies", escaping.dump())->status, 400);
+}
+
+// A run whose particle file holds bytes that are not UTF-8 fails once, as bad input: its error
+// (the log's tail, which quotes the line) reaches the API as valid JSON with U+FFFD for the bad
+// bytes. Before, the worker crashed while reporting it and the run went round its leases.
+TEST(Service, NonUtf8BytesInARunsLogReachTheApiAsText) {
+  test::TempDir dir;
+  ServerProcess server(dir.path(), 1);
+  ASSERT_FALSE(server.url().empty());
+  test::write_file(dir.path() / "p.txt", "# N: 1\n1 5e-4 5e-4 \xff\xfe 1e-4 0 0 0\n");
+  std::ifstream in(MILLSIM_SOURCE_DIR "/cases/impact_two_spheres.json");
+  json study = {{"name", "bytes"}, {"scene", json::parse(in)}};
+  study["scene"]["sources"] = {
+      {{"type", "file"}, {"material", study["scene"]["materials"][0]["name"]}, {"path", "p.txt"}}};
+  auto res = server.post("/v1/studies", study.dump());
+  ASSERT_TRUE(res);
+  if (res->status == 400) {  // refused at submission: the refusal itself must be JSON
+    EXPECT_FALSE(json::parse(res->body, nullptr, false).is_discarded()) << res->body;
+    EXPECT_NE(res->body.find("\xEF\xBF\xBD"), std::string::npos) << res->body;
+    return;
+  }
+  ASSERT_EQ(res->status, 201) << res->body;
+  const std::string id = json::parse(res->body)["study"];
+  ASSERT_FALSE(server.wait_finished(id, 60.0).is_null());
+  const auto run = server.get("/v1/runs/" + id + "-r0");
+  ASSERT_TRUE(run && run->status == 200);
+  const json r = json::parse(run->body, nullptr, false);
+  ASSERT_FALSE(r.is_discarded()) << run->body;
+  EXPECT_EQ(r["state"], "EXECUTOR_ERROR");
+  EXPECT_EQ(r["attempts"], 1);
+  EXPECT_NE(r["error"].get<std::string>().find("\xEF\xBF\xBD"), std::string::npos) << r["error"];
 }
 
 TEST(Service, KilledWorkerLosesItsRunToAnotherAttempt) {
