@@ -351,11 +351,18 @@ void ApiServer::routes() {
           study = expand_study(spec, config_.scenes_root, config_.max_runs_per_study);
         } catch (const InputErrorList& e) {
           ordered_json details = ordered_json::array();
-          for (const InputError& err : e.errors())
+          const std::size_t shown = std::min(e.errors().size(), kMaxReportedErrors);
+          for (std::size_t k = 0; k < shown; ++k) {
+            const InputError& err = e.errors()[k];
             details.push_back({{"path", err.path}, {"value", err.value}, {"allowed", err.allowed}});
-          return send_error(
-              res, 400, "invalid_study",
-              concat(e.errors().size(), " problem(s) in the study; nothing was queued"), details);
+          }
+          return send_error(res, 400, "invalid_study",
+                            concat(e.errors().size(), " problem(s) in the study",
+                                   shown < e.errors().size()
+                                       ? concat(" (the first ", shown, " are listed)")
+                                       : std::string(),
+                                   "; nothing was queued"),
+                            details);
         }
         std::optional<std::string> key;
         if (req.has_header("Idempotency-Key")) key = req.get_header_value("Idempotency-Key");

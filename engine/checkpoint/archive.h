@@ -29,7 +29,10 @@ struct CheckpointError : std::runtime_error {
 class ArchiveWriter {
  public:
   static constexpr bool kLoading = false;
-  void bytes(void* data, std::size_t n) { out_.append(static_cast<const char*>(data), n); }
+  // An empty vector's data() may be null: nothing is copied for it.
+  void bytes(void* data, std::size_t n) {
+    if (n > 0) out_.append(static_cast<const char*>(data), n);
+  }
   const std::string& data() const { return out_; }
 
  private:
@@ -41,6 +44,7 @@ class ArchiveReader {
   static constexpr bool kLoading = true;
   ArchiveReader(const char* data, std::size_t size) : at_(data), end_(data + size) {}
   void bytes(void* data, std::size_t n) {
+    if (n == 0) return;  // memcpy takes no null pointer, even for 0 bytes
     need(n);
     std::memcpy(data, at_, n);
     at_ += n;

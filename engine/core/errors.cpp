@@ -1,5 +1,7 @@
 #include "core/errors.h"
 
+#include <algorithm>
+
 namespace millsim {
 
 std::string format_input_error(const InputError& error) {
@@ -12,7 +14,10 @@ std::string format_input_error(const InputError& error) {
 std::string format_input_errors(const std::string& source, const InputErrors& errors) {
   std::string text = source + ": " + std::to_string(errors.size()) +
                      (errors.size() == 1 ? " error" : " errors") + "; nothing was run or written";
-  for (const InputError& e : errors) text += "\n  " + format_input_error(e);
+  const std::size_t shown = std::min(errors.size(), kMaxReportedErrors);
+  for (std::size_t k = 0; k < shown; ++k) text += "\n  " + format_input_error(errors[k]);
+  if (errors.size() > shown)
+    text += "\n  ... and " + std::to_string(errors.size() - shown) + " more";
   return text;
 }
 

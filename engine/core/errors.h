@@ -21,6 +21,8 @@ struct InputError {
 using InputErrors = std::vector<InputError>;
 
 std::string format_input_error(const InputError& error);
+// Problems listed in one report (CLI or HTTP); the count says how many there were in all.
+inline constexpr std::size_t kMaxReportedErrors = 100;
 std::string format_input_errors(const std::string& source, const InputErrors& errors);
 
 // Thrown only at load boundaries (scene loading, particle files) to carry a full error list.

@@ -1,6 +1,7 @@
 #include "scene/scene_json.h"
 
 #include <cmath>
+#include <set>
 #include <fstream>
 #include <sstream>
 
@@ -108,6 +109,7 @@ MaterialBreakageConfig parse_material_breakage(const json& v, const std::string&
 
 std::vector<MaterialConfig> parse_materials(JsonObjectReader& top, InputErrors& errors) {
   std::vector<MaterialConfig> out;
+  std::set<std::string> names;
   const json* list = top.array("materials");
   if (!list) {
     if (top.is_object() && !top.has("materials"))
@@ -132,10 +134,9 @@ std::vector<MaterialConfig> parse_materials(JsonObjectReader& top, InputErrors& 
       errors.push_back({r.path_of("frozen"), "true",
                         "a frozen material cannot break: remove /breakage or set frozen false"});
     r.finish();
-    for (const MaterialConfig& earlier : out)
-      if (!m.name.empty() && earlier.name == m.name)
-        errors.push_back({json_pointer_join(r.path(), "name"), "\"" + m.name + "\"",
-                          "material names must be unique"});
+    if (!m.name.empty() && !names.insert(m.name).second)  // once per repeated entry
+      errors.push_back({json_pointer_join(r.path(), "name"), "\"" + m.name + "\"",
+                        "material names must be unique"});
     out.push_back(m);
   }
   return out;

@@ -145,6 +145,23 @@ TEST(CliRun, NonUtf8BytesInAParticleFileAreReportedAsText) {
   EXPECT_EQ(run.err.find("\xff"), std::string::npos);
 }
 
+// Thousands of repeated names: one problem per repeated entry (not per pair: 3,000 gave 4.5 M
+// before), and a report lists the first 100 and counts the rest.
+TEST(CliRun, RepeatedNamesAreReportedOncePerEntryAndReportsAreCapped) {
+  test::TempDir dir;
+  std::ifstream in(MILLSIM_SOURCE_DIR "/cases/impact_two_spheres.json");
+  nlohmann::json scene = nlohmann::json::parse(in);
+  const nlohmann::json material = scene["materials"][0];
+  scene["materials"] = nlohmann::json::array();
+  for (int k = 0; k < 3000; ++k) scene["materials"].push_back(material);
+  write_file(dir.path() / "repeated.json", scene.dump());
+  const CommandResult r = run_millsim("run repeated.json --out a", dir.path());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("2999 errors"), std::string::npos) << r.err.substr(0, 300);
+  EXPECT_NE(r.err.find("... and 2899 more"), std::string::npos);
+  EXPECT_LT(r.err.size(), 20000u);
+}
+
 TEST(CliRun, MalformedJsonAndMissingFileAreBadInput) {
   test::TempDir dir;
   write_file(dir.path() / "broken.json", "{\"name\": ");

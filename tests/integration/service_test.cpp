@@ -220,6 +220,15 @@ TEST(Service, BadRequestsGetTheirStatusAndChangeNothing) {
   EXPECT_EQ(code(r), 400);
   EXPECT_NE(r->body.find("deeper than 64 levels"), std::string::npos) << r->body;
   EXPECT_EQ(code(server.get("/v1/health")), 200);
+  // 2,000 copies of one bad parameter: a reply of 100 listed problems, not hundreds of MB.
+  bad = attrition_study({1e-4});
+  bad["parameters"] = json::array();
+  for (int k = 0; k < 2000; ++k)
+    bad["parameters"].push_back({{"path", "dust.nothing"}, {"values", {1}}});
+  r = server.post("/v1/studies", bad.dump());
+  EXPECT_EQ(code(r), 400);
+  EXPECT_LE(json::parse(r->body)["error"]["details"].size(), 100u);
+  EXPECT_LT(r->body.size(), 100000u);
   EXPECT_EQ(code(server.get("/v1/runs/..%2F..%2Fetc%2Fpasswd")), 404);
   EXPECT_EQ(code(server.get("/v1/runs/s000001-r0;drop")), 404);
   EXPECT_EQ(code(server.get("/v1/studies/s999999")), 404);
