@@ -356,13 +356,13 @@ void ApiServer::routes() {
             const InputError& err = e.errors()[k];
             details.push_back({{"path", err.path}, {"value", err.value}, {"allowed", err.allowed}});
           }
-          return send_error(res, 400, "invalid_study",
-                            concat(e.errors().size(), " problem(s) in the study",
-                                   shown < e.errors().size()
-                                       ? concat(" (the first ", shown, " are listed)")
-                                       : std::string(),
-                                   "; nothing was queued"),
-                            details);
+          return send_error(
+              res, 400, "invalid_study",
+              concat(e.errors().size(), " problem(s) in the study",
+                     shown < e.errors().size() ? concat(" (the first ", shown, " are listed)")
+                                               : std::string(),
+                     "; nothing was queued"),
+              details);
         }
         std::optional<std::string> key;
         if (req.has_header("Idempotency-Key")) key = req.get_header_value("Idempotency-Key");

@@ -1,8 +1,8 @@
 #include "scene/scene_json.h"
 
 #include <cmath>
-#include <set>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 #include "core/json_reader.h"
