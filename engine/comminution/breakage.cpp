@@ -1,6 +1,7 @@
 #include "comminution/breakage.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include "comminution/fragment_spawn.h"
 #include "comminution/strength.h"
@@ -24,6 +25,7 @@ Breakage::Breakage(const SceneConfig& scene, const MaterialTable& materials,
     else
       material_.emplace_back();
   }
+  pools_.resize(material_.size());
 }
 
 void Breakage::draw_strength(ParticleStore& p, std::size_t slot) {
@@ -136,6 +138,43 @@ void Breakage::complete_impact(const Impact& impact, const std::vector<Wall>& wa
   stats_.completed_impacts += 1;
 }
 
+std::uint64_t Breakage::spread_below_threshold(const FragmentSizeSampler& sampler, double parent_d,
+                                               double density, double mass) {
+  // By the size classes of the dust table below the threshold, each class's share from B, at the
+  // class's geometric centre; the share below the first edge goes to the underflow.
+  const double top = dust_threshold_m_ / parent_d;
+  const double total = sampler.drawn_cumulative(top);
+  if (total <= 0.0 || mass <= 0.0) return 0;
+  double count = 0.0, lower_ratio = 0.0, lower_b = 0.0;
+  const auto add_share = [&](double upper_ratio, double representative_d) {
+    const double upper_b = sampler.drawn_cumulative(upper_ratio);
+    const double share_mass = mass * (upper_b - lower_b) / total;
+    if (share_mass > 0.0) {
+      const double number = share_mass / sphere_mass_kg(density, representative_d);
+      dust_.add(representative_d, share_mass, number);
+      count += number;
+    }
+    lower_ratio = upper_ratio;
+    lower_b = upper_b;
+  };
+  const std::vector<double>& edges = dust_.edges_m;
+  const double smallest = std::max(sampler.min_ratio(), 1e-5) * parent_d;
+  if (smallest < edges.front()) {
+    const double upper_d = std::min(edges.front(), top * parent_d);
+    add_share(upper_d / parent_d, std::sqrt(smallest * upper_d));
+  }
+  for (std::size_t k = 0; k + 1 < edges.size() && lower_ratio < top; ++k) {
+    if (edges[k + 1] / parent_d <= lower_ratio) continue;
+    const double lo_d = std::max(edges[k], lower_ratio * parent_d);
+    const double hi_d = std::min(edges[k + 1], top * parent_d);
+    if (hi_d <= lo_d) continue;
+    add_share(hi_d / parent_d, std::sqrt(lo_d * hi_d));
+  }
+  if (lower_ratio < top)
+    add_share(top, std::sqrt(std::max(edges.back(), lower_ratio * parent_d) * top * parent_d));
+  return std::uint64_t(std::llround(count));
+}
+
 void Breakage::break_particle(std::size_t slot, double dt_s, ParticleStore& p, ParticleId& next_id,
                               std::vector<Newborn>& newborn, const ParticleHook& after_addition) {
   const int material = p.material[slot];
@@ -156,19 +195,31 @@ void Breakage::break_particle(std::size_t slot, double dt_s, ParticleStore& p, P
   const int generation = std::min(parent_generation + 1, 255);
   stats_.max_generation = std::max(stats_.max_generation, generation);
 
+  // Fragments below the dust threshold are never created: a last fragment below it goes to the
+  // dust table as it is, and the breakage function's share below it is spread there by B.
+  const FragmentDraw draw =
+      m.sampler.draw(parent_d, dust_threshold_m_ / parent_d, pools_[std::size_t(material)], rng_);
   std::vector<double> kept_d;
-  for (double ratio : m.sampler.draw_ratios(rng_)) {
+  double kept_mass = 0.0, dust_fragment_mass = 0.0;
+  for (double ratio : draw.ratios) {
     const double d = ratio * parent_d;
+    const double mass = sphere_mass_kg(density, d);
     if (d >= dust_threshold_m_) {
       kept_d.push_back(d);
+      kept_mass += mass;
       continue;
     }
-    const double mass = sphere_mass_kg(density, d);
     dust_.add(d, mass);
-    // The dust leaves with the parent's velocity and its share of the force in flight.
-    dust_momentum_ += v * mass + force * (0.5 * dt_s * mass / parent_mass);
+    dust_fragment_mass += mass;
     ++stats_.dust_fragments;
   }
+  // The spread share is what the fragments leave of the parent: mass conserved to rounding.
+  const double spread_mass = std::max(parent_mass - kept_mass - dust_fragment_mass, 0.0);
+  if (draw.below_floor_volume > 0.0)
+    stats_.dust_fragments += spread_below_threshold(m.sampler, parent_d, density, spread_mass);
+  const double dust_mass = dust_fragment_mass + spread_mass;
+  // The dust leaves with the parent's velocity and its share of the force in flight.
+  dust_momentum_ += v * dust_mass + force * (0.5 * dt_s * dust_mass / parent_mass);
   const std::vector<Vec3> offset = place_fragments(kept_d, parent_d, placement_attempts_, rng_);
   for (std::size_t k = 0; k < kept_d.size(); ++k) {
     const double scale =

@@ -83,10 +83,11 @@ class Breakage {
   const PsdTally& dust() const { return dust_; }
   const Vec3& dust_momentum_kg_m_per_s() const { return dust_momentum_; }
 
-  // Checkpoints: the generator, the dust table and the counters (the rest is the scene's).
+  // Checkpoints: the generator, the fragment pools, the dust table and the counters (the rest is
+  // the scene's).
   template <class A>
   void checkpoint_io(A& a) {
-    io_all(a, rng_, dust_, dust_momentum_, stats_);
+    io_all(a, rng_, dust_, dust_momentum_, stats_, pools_);
   }
 
  private:
@@ -102,6 +103,10 @@ class Breakage {
   // between two particles; the wall takes its impulse), before the fragments are spawned.
   void complete_impact(const Impact& impact, const std::vector<Wall>& walls, const PeriodicBox& box,
                        ParticleStore& p);
+  // Adds `mass` below the dust threshold to the dust table, spread over its classes by the
+  // breakage function; returns the number of particles that mass stands for.
+  std::uint64_t spread_below_threshold(const FragmentSizeSampler& sampler, double parent_d,
+                                       double density, double mass);
   void break_particle(std::size_t slot, double dt_s, ParticleStore& p, ParticleId& next_id,
                       std::vector<Newborn>& newborn, const ParticleHook& after_addition);
 
@@ -112,6 +117,7 @@ class Breakage {
   double dust_threshold_m_;
   std::optional<double> reduced_threshold_m_;
   Rng rng_;
+  std::vector<FragmentPool> pools_;  // per material: draws kept for later breakages
   PsdTally dust_;
   Vec3 dust_momentum_;
   BreakageStats stats_;

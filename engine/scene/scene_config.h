@@ -37,15 +37,21 @@ struct StrengthConfig {
 enum class FragmentModel {
   PowerLaw,           // mass-cumulative B(r) ∝ r^q on [r_min, r_max] (Gates–Gaudin–Schuhmann)
   BroadbentCallcott,  // B(r) ∝ 1 − exp(−r) on [r_min, r_max] (Broadbent & Callcott 1956)
+  AustinLuckie,       // B(r) ∝ φ r^γ + (1 − φ) r^β (Austin & Luckie 1972)
+  VogelPeukert,       // B(r, y) = ½ r^q [1 + tanh((y − y′)/y′)] (Vogel & Peukert 2003)
   Equal,              // n equal fragments of diameter n^(−1/3)
 };
 
 struct FragmentConfig {
   FragmentModel model = FragmentModel::PowerLaw;
-  double exponent = 1.0;     // power-law q
-  double min_ratio = 0.05;   // r_min: smallest fragment / parent diameter
-  double max_ratio = 0.7;    // r_max: largest fragment / parent diameter (< 1)
-  int count = 8;             // equal: fragments per breakage
+  double exponent = 1.0;             // power law, Vogel–Peukert: q
+  double fine_fraction = 0.5;        // Austin–Luckie φ
+  double fine_exponent = 1.0;        // Austin–Luckie γ
+  double coarse_exponent = 3.0;      // Austin–Luckie β
+  double chipping_diameter_m = 0.0;  // Vogel–Peukert y′
+  double min_ratio = 0.05;           // r_min: smallest fragment / parent diameter (0 allowed)
+  double max_ratio = 0.7;            // r_max: largest fragment / parent diameter (< 1)
+  int count = 8;                     // equal: fragments per breakage
   int max_fragments = 5000;  // per breakage event; the rest of the volume is one last fragment
 };
 

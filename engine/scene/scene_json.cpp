@@ -65,16 +65,27 @@ StrengthConfig parse_strength(const json& v, const std::string& path, InputError
 FragmentConfig parse_fragments(const json& v, const std::string& path, InputErrors& errors) {
   FragmentConfig f;
   JsonObjectReader r(v, path, errors);
-  const std::string model =
-      r.required_string("model", {"power_law", "broadbent_callcott", "equal"});
+  const std::string model = r.required_string(
+      "model", {"power_law", "broadbent_callcott", "austin_luckie", "vogel_peukert", "equal"});
   if (model == "equal") {
     f.model = FragmentModel::Equal;
     f.count = int(r.integer("count", 8, 2, 100000));
   } else {
-    f.model = model == "power_law" ? FragmentModel::PowerLaw : FragmentModel::BroadbentCallcott;
-    if (f.model == FragmentModel::PowerLaw)
+    f.model = model == "power_law"            ? FragmentModel::PowerLaw
+              : model == "broadbent_callcott" ? FragmentModel::BroadbentCallcott
+              : model == "austin_luckie"      ? FragmentModel::AustinLuckie
+                                              : FragmentModel::VogelPeukert;
+    if (f.model == FragmentModel::PowerLaw || f.model == FragmentModel::VogelPeukert)
       f.exponent = r.number("exponent", 1.0, NumberRange::closed(0.05, 10.0));
-    f.min_ratio = r.number("min_ratio", 0.05, NumberRange::open(0.0, 0.9));
+    if (f.model == FragmentModel::AustinLuckie) {
+      f.fine_fraction = r.required_number("fine_fraction", NumberRange::closed(0.0, 1.0));
+      f.fine_exponent = r.required_number("fine_exponent", NumberRange::closed(0.05, 10.0));
+      f.coarse_exponent = r.required_number("coarse_exponent", NumberRange::closed(0.05, 10.0));
+    }
+    if (f.model == FragmentModel::VogelPeukert)
+      f.chipping_diameter_m =
+          r.required_number("chipping_diameter_m", NumberRange::open_closed(0.0, 10.0));
+    f.min_ratio = r.number("min_ratio", 0.05, NumberRange::closed(0.0, 0.9));
     f.max_ratio = r.number("max_ratio", 0.7, NumberRange::open_closed(0.0, 0.9));
     if (f.max_ratio <= f.min_ratio)
       errors.push_back({r.path_of("max_ratio"), concat(f.max_ratio),

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numeric>
 
 #include "comminution/strength.h"
 #include "sim/simulation.h"
@@ -70,6 +71,49 @@ TEST(Breakage, WallImpactsBreakTheSelectionFraction) {
   EXPECT_NEAR(double(b.events) / n, p, 3.0 * std::sqrt(p * (1 - p) / n));
   EXPECT_EQ(b.dust_fragments, 8 * b.events);
   EXPECT_EQ(sim.particles().size(), std::size_t(n - b.events));
+}
+
+// Every sphere breaks on the floor by a power law on its published domain (min_ratio 0): what
+// lands in the dust table below the threshold follows B(x/y) = (x/y)/0.9 class by class, and
+// parent mass = fragments + dust. The dust is the breakage function's share below the threshold,
+// spread over the table's classes by B, plus the few last fragments that fall below it.
+TEST(Breakage, DustBelowTheThresholdFollowsTheBreakageFunction) {
+  const double d = 1e-4, v = 10.0, w = 0.5 * v * v, w_min = 10.0;
+  const double f_mat = 50.0 / (d * (w - w_min));  // P = 1 − e^−50: every sphere breaks
+  const int side = 20;
+  const double pitch = 3 * d;
+  SceneConfig s = test::empty_scene(
+      {0, 0, 0}, {side * pitch, side * pitch, 4 * d},
+      breakable_material(f_mat, w_min * d, test::power_law_fragments(1.0, 0.0, 0.9)));
+  const double threshold = 0.45 * d;
+  enable_breakage(s, threshold);
+  s.psd.edges_m.clear();
+  for (double e = 2e-6; e < 1.5 * d; e *= 1.25) s.psd.edges_m.push_back(e);
+  for (int i = 0; i < side; ++i)
+    for (int j = 0; j < side; ++j)
+      test::add_particle(s, {(i + 0.5) * pitch, (j + 0.5) * pitch, 0.55 * d}, {0, 0, -v}, d);
+  s.time.end_s = 2e-6;
+  Simulation sim(s);
+  while (sim.step_index() < sim.total_steps()) ASSERT_TRUE(step_ok(sim));
+  const BreakageStats& b = sim.breakage()->stats();
+  ASSERT_EQ(b.events, std::uint64_t(side * side));
+  const PsdTally& dust = sim.breakage()->dust();
+  const double parent_mass = sphere_mass_kg(s.materials[0].density_kg_per_m3, d);
+  const double total = b.events * parent_mass;
+  double below = dust.under_mass_kg;
+  for (std::size_t k = 0; k + 1 < dust.edges_m.size() && dust.edges_m[k + 1] <= threshold; ++k) {
+    below += dust.mass_kg[k];
+    EXPECT_NEAR(below / total, dust.edges_m[k + 1] / d / 0.9, 0.01)
+        << "x = " << dust.edges_m[k + 1];
+  }
+  double fragment_mass = 0.0;
+  for (std::size_t i = 0; i < sim.particles().size(); ++i)
+    fragment_mass += sim.particles().mass_kg[i];
+  const double dust_mass = dust.under_mass_kg + dust.over_mass_kg +
+                           std::accumulate(dust.mass_kg.begin(), dust.mass_kg.end(), 0.0);
+  EXPECT_NEAR(fragment_mass + dust_mass, total, 1e-12 * total);
+  // Half a parent's mass lies below 0.45 of its diameter: B(0.5) = 0.5.
+  EXPECT_NEAR(dust_mass / total, 0.5, 0.01);
 }
 
 // A sphere that breaks as it hits the floor at v: its fragments leave the impact as the sphere

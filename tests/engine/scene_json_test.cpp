@@ -118,6 +118,34 @@ TEST(SceneJson, MissingRequiredFieldsAreNamed) {
   EXPECT_NE(find_error(errors, "/time"), nullptr);
 }
 
+// The published breakage functions: each model's own parameters are required and named when
+// missing or out of range; min_ratio may be 0 (the published domain), max_ratio stays below 1.
+TEST(SceneJson, BreakageFunctionsNameTheirParameters) {
+  json doc = valid_scene();
+  doc["dust"] = {{"threshold_diameter_m", 1e-5}};
+  doc["materials"][0]["breakage"] = json::parse(R"({
+    "strength": {"model": "vogel_peukert", "f_mat_kg_per_j_m": 8, "x_w_min_j_m_per_kg": 0.1},
+    "fragments": {"model": "austin_luckie", "fine_fraction": 1.5, "fine_exponent": 0.8,
+                  "min_ratio": 0}})");
+  InputErrors errors = errors_of(doc);
+  const InputError* range = find_error(errors, "/materials/0/breakage/fragments/fine_fraction");
+  ASSERT_NE(range, nullptr);
+  EXPECT_EQ(range->value, "1.5");
+  EXPECT_NE(find_error(errors, "/materials/0/breakage/fragments/coarse_exponent"), nullptr);
+  EXPECT_EQ(find_error(errors, "/materials/0/breakage/fragments/min_ratio"), nullptr);
+  EXPECT_EQ(errors.size(), 2u);
+
+  doc["materials"][0]["breakage"]["fragments"] =
+      json::parse(R"({"model": "vogel_peukert", "exponent": 1.2, "max_ratio": 0.95})");
+  errors = errors_of(doc);
+  EXPECT_NE(find_error(errors, "/materials/0/breakage/fragments/chipping_diameter_m"), nullptr);
+  EXPECT_NE(find_error(errors, "/materials/0/breakage/fragments/max_ratio"), nullptr);
+
+  doc["materials"][0]["breakage"]["fragments"] = json::parse(
+      R"({"model": "vogel_peukert", "exponent": 1.2, "chipping_diameter_m": 5e-5, "min_ratio": 0})");
+  EXPECT_TRUE(errors_of(doc).empty());
+}
+
 TEST(SceneJson, UnknownMaterialNameListsTheDefinedOnes) {
   json doc = valid_scene();
   doc["sources"][0]["material"] = "steel";
