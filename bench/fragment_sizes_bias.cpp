@@ -1,4 +1,9 @@
-// Mass-weighted B of the fragments at x/y = 0.1..0.8 for the old and the new sampler.
+// Fragment sizes against the breakage function (bench/RESULTS.md, "Fragment sizes against the
+// breakage function"): the mass-weighted share of fragments below x/y over 20 000 breakages, next
+// to B. Not part of the CMake build, because it also compiles against the sampler of commit
+// 46c50a0 (without -DNEW, that commit's fragment_sizes.{h,cpp} first on the include path):
+//   g++ -std=c++20 -O2 -DNEW -Iengine bench/fragment_sizes_bias.cpp \
+//       engine/comminution/fragment_sizes.cpp
 #include <cmath>
 #include <cstdio>
 #include <vector>

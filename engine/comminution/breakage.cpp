@@ -144,7 +144,11 @@ std::uint64_t Breakage::spread_below_threshold(const FragmentSizeSampler& sample
   // class's geometric centre; the share below the first edge goes to the underflow.
   const double top = dust_threshold_m_ / parent_d;
   const double total = sampler.drawn_cumulative(top);
-  if (total <= 0.0 || mass <= 0.0) return 0;
+  if (mass <= 0.0) return 0;
+  if (total <= 0.0) {  // rounding left over where B has no mass: at the threshold
+    dust_.add(dust_threshold_m_ * (1.0 - 1e-12), mass, 0.0);
+    return 0;
+  }
   double count = 0.0, lower_ratio = 0.0, lower_b = 0.0;
   const auto add_share = [&](double upper_ratio, double representative_d) {
     const double upper_b = sampler.drawn_cumulative(upper_ratio);
@@ -215,8 +219,7 @@ void Breakage::break_particle(std::size_t slot, double dt_s, ParticleStore& p, P
   }
   // The spread share is what the fragments leave of the parent: mass conserved to rounding.
   const double spread_mass = std::max(parent_mass - kept_mass - dust_fragment_mass, 0.0);
-  if (draw.below_floor_volume > 0.0)
-    stats_.dust_fragments += spread_below_threshold(m.sampler, parent_d, density, spread_mass);
+  stats_.dust_fragments += spread_below_threshold(m.sampler, parent_d, density, spread_mass);
   const double dust_mass = dust_fragment_mass + spread_mass;
   // The dust leaves with the parent's velocity and its share of the force in flight.
   dust_momentum_ += v * dust_mass + force * (0.5 * dt_s * dust_mass / parent_mass);

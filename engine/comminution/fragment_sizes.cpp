@@ -164,9 +164,11 @@ FragmentDraw FragmentSizeSampler::draw(double parent_diameter_m, double floor_ra
     std::sort(pool.begin(), pool.end(), std::greater<>());
     pool.resize(kMaxPool);
   }
-  // The volume still free: one last fragment, or if it is below the floor, more of the share
-  // below the floor, repaid by later breakages.
-  if (free_volume >= floor_volume) {
+  // The volume still free: one last fragment, or, if it lies below a floor under which B has
+  // mass, more of the share below the floor, repaid by later breakages. (Below min_ratio B has
+  // none: there the last fragment is what it is, smaller than the model allows.)
+  const bool spreadable = drawn_cumulative(floor) > 0.0;
+  if (free_volume >= floor_volume || (free_volume > 0.0 && !spreadable)) {
     out.ratios.push_back(std::cbrt(free_volume));
   } else if (free_volume > 0.0) {
     out.below_floor_volume += free_volume;

@@ -43,7 +43,9 @@ struct FragmentPool {
 };
 
 struct FragmentDraw {
-  std::vector<double> ratios;       // fragments, largest first, none below the floor
+  // Fragments, largest first; only the last may lie below the floor, and then only below
+  // min_ratio too (where B has no mass to spread it by).
+  std::vector<double> ratios;
   double below_floor_volume = 0.0;  // share of the parent's volume below the floor, spread as B
 };
 

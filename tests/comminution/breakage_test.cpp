@@ -219,8 +219,14 @@ TEST(Breakage, SpawningConservesMassMomentumAndCentreOfMass) {
 
 // A periodic gas of weak particles shatters through thousands of events: mass (particles + dust)
 // and momentum (particles + dust) stay what they were; no particle is below the dust threshold.
-TEST(Breakage, MassAndMomentumConservedThroughThousandsOfEvents) {
-  const FragmentConfig f = test::power_law_fragments(1.0, 0.1, 0.7);
+// min_ratio 0.1: the threshold (0.15–0.2 of a fed parent) lies above it, and the breakage
+// function's share below the threshold goes to the dust table spread by B. min_ratio 0.25: the
+// threshold lies below it for fed parents (B has no mass there; a last fragment may be dust) and
+// above it for their fragments.
+class BreakageConservation : public ::testing::TestWithParam<double> {};
+
+TEST_P(BreakageConservation, MassAndMomentumConservedThroughThousandsOfEvents) {
+  const FragmentConfig f = test::power_law_fragments(1.0, GetParam(), 0.7);
   MaterialConfig m = breakable_material(2e4, 2e-4, f);  // W_min = 1 J/kg at 200 µm
   SizeDistribution sizes;
   sizes.kind = SizeDistributionKind::Uniform;
@@ -260,6 +266,8 @@ TEST(Breakage, MassAndMomentumConservedThroughThousandsOfEvents) {
   EXPECT_EQ(dust.over_count, 0.0);
   EXPECT_GT(dust.count[0] + dust.under_count, 1000.0);
 }
+
+INSTANTIATE_TEST_SUITE_P(Breakage, BreakageConservation, ::testing::Values(0.1, 0.25));
 
 }  // namespace
 }  // namespace millsim
