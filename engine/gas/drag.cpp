@@ -45,6 +45,30 @@ double gidaspow_beta(const DragInput& in) {
   return schiller_naumann_beta(d, re, s, rho, mu) * std::pow(eps, re < 1000.0 ? -2.65 : -1.65);
 }
 
+double koch_hill_beta(const DragInput& in) {
+  const double eps = in.volume_fraction, phi = 1.0 - eps;
+  const double re = eps * particle_reynolds(in);
+  double f0 = 1.0;
+  if (phi >= 0.4)
+    f0 = 10.0 * phi / (eps * eps * eps);
+  else if (phi > 0.0)
+    f0 = (1.0 + 3.0 * std::sqrt(0.5 * phi) + 135.0 / 64.0 * phi * std::log(phi) + 16.14 * phi) /
+         (1.0 + 0.681 * phi - 8.48 * phi * phi + 8.16 * phi * phi * phi);
+  const double f3 = 0.0673 + 0.212 * phi + 0.0232 / std::pow(eps, 5.0);
+  return 3.0 * kPi * in.viscosity_pa_s * in.diameter_m * eps * eps * (f0 + 0.5 * f3 * re);
+}
+
+double beetstra_beta(const DragInput& in) {
+  const double eps = in.volume_fraction, phi = 1.0 - eps;
+  const double re = eps * particle_reynolds(in);
+  double f = 10.0 * phi / (eps * eps) + eps * eps * (1.0 + 1.5 * std::sqrt(phi));
+  if (re > 0.0)  // the inertial term, which vanishes as Re → 0
+    f += 0.413 * re / (24.0 * eps * eps) *
+         (1.0 / eps + 3.0 * eps * phi + 8.4 * std::pow(re, -0.343)) /
+         (1.0 + std::pow(10.0, 3.0 * phi) * std::pow(re, -0.5 * (1.0 + 4.0 * phi)));
+  return 3.0 * kPi * in.viscosity_pa_s * in.diameter_m * eps * f;
+}
+
 }  // namespace
 
 double drag_coefficient_kg_per_s(DragLaw law, const DragInput& in) {
@@ -56,6 +80,10 @@ double drag_coefficient_kg_per_s(DragLaw law, const DragInput& in) {
       return di_felice_beta(in);
     case DragLaw::Gidaspow:
       return gidaspow_beta(in);
+    case DragLaw::KochHill:
+      return koch_hill_beta(in);
+    case DragLaw::Beetstra:
+      return beetstra_beta(in);
   }
   return 0.0;
 }

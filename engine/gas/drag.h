@@ -7,6 +7,16 @@
 //     χ = 3.7 − 0.65 exp(−(1.5 − log10 Re)²/2), Re = ε ρ d |s| / μ.
 //   Gidaspow (1994): Ergun (1952) below ε = 0.8, Wen & Yu (1966) above;
 //     per particle β = V_p β_vol / (1 − ε).
+//   Koch & Hill (2001; Hill, Koch & Ladd 2001), CFDEM's default: total force on a particle over
+//     3π μ d U (U = ε |s| the superficial slip) F = F0(φ) + ½ F3(φ) Re, Re = ε ρ d |s| / μ,
+//     φ = 1 − ε, F0 = (1 + 3√(φ/2) + (135/64) φ ln φ + 16.14 φ) / (1 + 0.681 φ − 8.48 φ² +
+//     8.16 φ³) below φ = 0.4 and 10 φ / ε³ above, F3 = 0.0673 + 0.212 φ + 0.0232 / ε⁵.
+//     The drag is ε times the total force (the rest is the pressure gradient's): β = 3π μ d ε² F.
+//   Beetstra, van der Hoef & Kuipers (2007): drag over 3π μ d U, F = 10 φ/ε² + ε² (1 + 1.5 √φ)
+//     + 0.413 Re / (24 ε²) (1/ε + 3 ε φ + 8.4 Re^−0.343) / (1 + 10^(3φ) Re^−(1+4φ)/2);
+//     β = 3π μ d ε F.
+//   In a packed bed at Re → 0 both give the Carman–Kozeny pressure drop (Beetstra plus its
+//   ε² (1 + 1.5 √φ) term); for ε = 1 and Re → 0 both are Stokes drag.
 // Saffman (1965) lift, in the form of Crowe et al.: F = 1.615 d² √(ρ μ / |ω|) (s × ω).
 #pragma once
 

@@ -72,7 +72,7 @@ struct GasJetConfig {
 };
 
 // Drag laws (gas/drag.h gives each formula and its source).
-enum class DragLaw { SchillerNaumann, DiFelice, Gidaspow };
+enum class DragLaw { SchillerNaumann, DiFelice, Gidaspow, KochHill, Beetstra };
 
 // What a particle keeps between drag evaluations (§3.1, Fig. 5).
 enum class DragCacheStore {

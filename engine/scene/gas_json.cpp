@@ -161,10 +161,13 @@ GasConfig parse_gas(const json& v, const DomainConfig& domain, InputErrors& erro
       g.solids.push_back(parse_solid((*list)[i], json_pointer_join("/gas/solids", i), errors));
   g.two_way = r.string("coupling", "two_way", {"two_way", "one_way"}) == "two_way";
   const std::string drag =
-      r.string("drag", "schiller_naumann", {"schiller_naumann", "di_felice", "gidaspow"});
-  g.drag = drag == "di_felice"  ? DragLaw::DiFelice
-           : drag == "gidaspow" ? DragLaw::Gidaspow
-                                : DragLaw::SchillerNaumann;
+      r.string("drag", "schiller_naumann",
+               {"schiller_naumann", "di_felice", "gidaspow", "koch_hill", "beetstra"});
+  g.drag = drag == "di_felice"   ? DragLaw::DiFelice
+           : drag == "gidaspow"  ? DragLaw::Gidaspow
+           : drag == "koch_hill" ? DragLaw::KochHill
+           : drag == "beetstra"  ? DragLaw::Beetstra
+                                 : DragLaw::SchillerNaumann;
   if (const json* cache = r.child("drag_cache")) {
     JsonObjectReader c(*cache, "/gas/drag_cache", errors);
     g.cache_threshold = c.number("threshold", 0.05, NumberRange::closed(0.0, 1.0));

@@ -62,6 +62,67 @@ TEST(DragLaws, GidaspowDenseBranchIsErgunPerUnitBedVolume) {
   EXPECT_NEAR(gradient, ergun, 1e-9 * ergun);
 }
 
+// Koch–Hill and Beetstra written out from their papers, as the dimensionless force over
+// 3π μ d U (U = ε |s|): Koch–Hill's is the total force (drag = ε of it), Beetstra's the drag.
+double koch_hill_total(double eps, double re) {
+  const double phi = 1 - eps;
+  const double f0 =
+      phi < 0.4 ? (1 + 3 * std::sqrt(phi / 2) + 135.0 / 64 * phi * std::log(phi) + 16.14 * phi) /
+                      (1 + 0.681 * phi - 8.48 * phi * phi + 8.16 * std::pow(phi, 3))
+                : 10 * phi / std::pow(eps, 3);
+  return f0 + 0.5 * (0.0673 + 0.212 * phi + 0.0232 / std::pow(eps, 5)) * re;
+}
+
+double beetstra_drag(double eps, double re) {
+  const double phi = 1 - eps;
+  return 10 * phi / (eps * eps) + eps * eps * (1 + 1.5 * std::sqrt(phi)) +
+         0.413 * re / (24 * eps * eps) * (1 / eps + 3 * eps * phi + 8.4 * std::pow(re, -0.343)) /
+             (1 + std::pow(10.0, 3 * phi) * std::pow(re, -(1 + 4 * phi) / 2));
+}
+
+TEST(DragLaws, KochHillAndBeetstraFollowTheirPublishedForms) {
+  const double d = 2e-4;
+  for (double eps : {0.95, 0.8, 0.65, 0.5, 0.4})
+    for (double re : {0.1, 1.0, 10.0, 100.0, 500.0}) {
+      const double slip = re * kAirViscosity / (eps * kAirDensity * d);  // Re = ε ρ d |s| / μ
+      const DragInput in{d, slip, eps, kAirDensity, kAirViscosity};
+      const double stokes = 3 * kPi * kAirViscosity * d;
+      EXPECT_NEAR(drag_coefficient_kg_per_s(DragLaw::KochHill, in) / (stokes * eps * eps),
+                  koch_hill_total(eps, re), 1e-9 * koch_hill_total(eps, re))
+          << "eps " << eps << " Re " << re;
+      EXPECT_NEAR(drag_coefficient_kg_per_s(DragLaw::Beetstra, in) / (stokes * eps),
+                  beetstra_drag(eps, re), 1e-9 * beetstra_drag(eps, re))
+          << "eps " << eps << " Re " << re;
+    }
+}
+
+// The limits that tie both laws to first principles: a single slow sphere feels Stokes drag, and
+// a slowly flowed dense bed the Carman–Kozeny gradient 180 φ² μ U / (ε³ d²) (β n (U/ε) = ε ∇p, as
+// for Ergun above); Beetstra adds its ε²(1 + 1.5 √φ) term to it. Koch–Hill's two branches meet at
+// φ = 0.4 within 1.1 %.
+TEST(DragLaws, KochHillAndBeetstraReachStokesAndCarmanKozeny) {
+  const double d = 2e-4, stokes = 3 * kPi * kAirViscosity * d;
+  const DragInput single{d, 1e-9, 1.0, kAirDensity, kAirViscosity};
+  EXPECT_NEAR(drag_coefficient_kg_per_s(DragLaw::KochHill, single), stokes, 1e-6 * stokes);
+  EXPECT_NEAR(drag_coefficient_kg_per_s(DragLaw::Beetstra, single), stokes, 1e-6 * stokes);
+
+  const double eps = 0.45, phi = 1 - eps, U = 1e-7;
+  const double n = phi / (kPi * d * d * d / 6.0);
+  const double carman_kozeny = 180 * phi * phi * kAirViscosity * U / (std::pow(eps, 3) * d * d);
+  const DragInput bed{d, U / eps, eps, kAirDensity, kAirViscosity};
+  const double kh = drag_coefficient_kg_per_s(DragLaw::KochHill, bed) * n * (U / eps) / eps;
+  EXPECT_NEAR(kh, carman_kozeny, 1e-6 * carman_kozeny);
+  const double extra = eps * eps * (1 + 1.5 * std::sqrt(phi)) / (10 * phi / (eps * eps));
+  const double bs = drag_coefficient_kg_per_s(DragLaw::Beetstra, bed) * n * (U / eps) / eps;
+  EXPECT_NEAR(bs, carman_kozeny * (1 + extra), 1e-6 * carman_kozeny);
+
+  const DragInput below{d, 1e-9, 0.6 + 1e-9, kAirDensity, kAirViscosity};
+  const DragInput above{d, 1e-9, 0.6 - 1e-9, kAirDensity, kAirViscosity};
+  const double low = drag_coefficient_kg_per_s(DragLaw::KochHill, below);
+  const double high = drag_coefficient_kg_per_s(DragLaw::KochHill, above);
+  EXPECT_NEAR(low / high, 1.0, 0.011);
+}
+
 // Terminal velocity from (ρ_p − ρ_g) g V = ½ ρ_g C_d(Re) A v², solved by bisection.
 double schiller_naumann_terminal(double d) {
   const double weight = (kSaltDensity - kAirDensity) * 9.81 * kPi * d * d * d / 6.0;
