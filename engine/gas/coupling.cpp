@@ -358,6 +358,16 @@ void GasCoupling::add_fluid_forces(ParticleStore& p, double dt, bool accumulate)
       const DragInput in{d, norm(slip), st.volume_fraction, st.density_kg_per_m3,
                          st.viscosity_pa_s};
       const double beta = drag_coefficient_kg_per_s(config_.drag, in);
+      // β's slope in the squared slip speed, so the cached β follows the slip to first order
+      // between evaluations (a second evaluation at 0.1 % more slip; only when caching).
+      double slope = 0.0;
+      if (threshold > 0.0 && !store_force && in.slip_speed_m_per_s > 0.0) {
+        DragInput faster = in;
+        faster.slip_speed_m_per_s *= 1.001;
+        const double ds2 = norm2(slip) * (1.001 * 1.001 - 1.0);
+        slope = (drag_coefficient_kg_per_s(config_.drag, faster) - beta) / ds2;
+      }
+      p.fluid_coefficient_slope[i] = slope;
       const Vec3 lift_force = lift ? saffman_lift_n(d, slip, st.vorticity_per_s,
                                                     st.density_kg_per_m3, st.viscosity_pa_s)
                                    : Vec3{};
@@ -367,9 +377,11 @@ void GasCoupling::add_fluid_forces(ParticleStore& p, double dt, bool accumulate)
       p.fluid_cached_force_n[i] = store_force ? slip * beta + lift_force : lift_force;
       ++evaluations;
     }
-    const Vec3 exchange = store_force
-                              ? p.fluid_cached_force_n[i]
-                              : slip * p.fluid_coefficient_kg_per_s[i] + p.fluid_cached_force_n[i];
+    const double beta_now =
+        p.fluid_coefficient_kg_per_s[i] +
+        p.fluid_coefficient_slope[i] * (norm2(slip) - norm2(p.fluid_cached_slip_m_per_s[i]));
+    const Vec3 exchange =
+        store_force ? p.fluid_cached_force_n[i] : slip * beta_now + p.fluid_cached_force_n[i];
     Vec3 force = exchange;
     if (pressure) force -= st.pressure_gradient_pa_per_m * (std::numbers::pi / 6.0 * d * d * d);
     p.load[i].force_n += force;

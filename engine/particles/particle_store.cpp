@@ -59,6 +59,7 @@ std::size_t ParticleStore::add(const MaterialTable& materials, int material_inde
   if (has_breakage_state) remaining_capacity_j_per_kg.push_back(1e300), generation.push_back(0);
   if (has_fluid_state) {
     fluid_coefficient_kg_per_s.push_back(-1.0);
+    fluid_coefficient_slope.push_back(0.0);
     fluid_cached_slip_m_per_s.push_back({});
     fluid_cached_fraction.push_back(1.0);
     fluid_cached_force_n.push_back({});

@@ -64,6 +64,7 @@ struct ParticleStore {
   // particle took from the gas since the last CFD step (given back to the gas then). Empty, and
   // not columns, unless enable_fluid_state().
   std::vector<double> fluid_coefficient_kg_per_s;  // cached β: drag = β (u − v)
+  std::vector<double> fluid_coefficient_slope;     // dβ/d|u − v|² there, kg s/m² (coupling.h)
   std::vector<Vec3> fluid_cached_slip_m_per_s;     // u − v when β (and the lift) were computed
   std::vector<double> fluid_cached_fraction;       // the gas volume fraction ε then
   std::vector<Vec3> fluid_cached_force_n;          // cached drag + lift (force store) or lift
@@ -87,7 +88,8 @@ struct ParticleStore {
     f(material), f(mass_kg), f(id);
     if (has_breakage_state) f(remaining_capacity_j_per_kg), f(generation);
     if (has_fluid_state) {
-      f(fluid_coefficient_kg_per_s), f(fluid_cached_slip_m_per_s), f(fluid_cached_fraction);
+      f(fluid_coefficient_kg_per_s), f(fluid_coefficient_slope), f(fluid_cached_slip_m_per_s);
+      f(fluid_cached_fraction);
       f(fluid_cached_force_n);
       f(fluid_impulse_n_s);
     }
@@ -111,6 +113,7 @@ struct ParticleStore {
   void enable_fluid_state() {
     has_fluid_state = true;
     fluid_coefficient_kg_per_s.assign(size(), -1.0);  // < 0: nothing cached
+    fluid_coefficient_slope.assign(size(), 0.0);
     fluid_cached_slip_m_per_s.assign(size(), {});
     fluid_cached_fraction.assign(size(), 1.0);
     fluid_cached_force_n.assign(size(), {});
