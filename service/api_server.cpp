@@ -348,7 +348,8 @@ void ApiServer::routes() {
           return send_error(res, 400, "invalid_study", problem);
         Study study;
         try {
-          study = expand_study(spec, config_.scenes_root, config_.max_runs_per_study);
+          study = expand_study(spec, config_.scenes_root, config_.max_runs_per_study,
+                               &config_.scenes_root);
         } catch (const InputErrorList& e) {
           ordered_json details = ordered_json::array();
           const std::size_t shown = std::min(e.errors().size(), kMaxReportedErrors);

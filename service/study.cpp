@@ -1,5 +1,6 @@
 #include "study.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -160,6 +161,41 @@ void absolutize_paths(json& scene, const std::filesystem::path& scene_dir) {
     }
 }
 
+// Why `text`, a file path named by a scene in `scene_dir`, may not be opened under `root`
+// (empty when it may). Decided from the names alone, and from symlinks inside the root.
+std::string file_outside_root(const std::string& text, const std::filesystem::path& scene_dir,
+                              const std::filesystem::path& root) {
+  const std::filesystem::path p = text;
+  if (p.is_absolute()) return "a file path must be relative to the server's scenes root";
+  for (const auto& part : p)
+    if (part == "..") return "a file path must not leave the server's scenes root (no \"..\")";
+  std::error_code ec;
+  const std::filesystem::path real_root = std::filesystem::weakly_canonical(root, ec);
+  const std::filesystem::path real = std::filesystem::weakly_canonical(scene_dir / p, ec);
+  if (ec) return "a file path that cannot be resolved inside the server's scenes root";
+  const auto [root_end, unused] =
+      std::mismatch(real_root.begin(), real_root.end(), real.begin(), real.end());
+  if (root_end != real_root.end())
+    return "a file path must stay inside the server's scenes root (it leads out by a symlink)";
+  return {};
+}
+
+// Every file source of `scene` checked against `root`; problems as input errors under `prefix`.
+void check_files_inside_root(const json& scene, const std::filesystem::path& scene_dir,
+                             const std::filesystem::path& root, const std::string& prefix,
+                             InputErrors& errors) {
+  if (!scene.contains("sources") || !scene["sources"].is_array()) return;
+  for (std::size_t k = 0; k < scene["sources"].size(); ++k) {
+    const json& s = scene["sources"][k];
+    if (!s.is_object() || !s.contains("path") || !s["path"].is_string()) continue;
+    const std::string text = s["path"].get<std::string>();
+    const std::string problem = file_outside_root(text, scene_dir, root);
+    if (!problem.empty())
+      errors.push_back({concat(prefix, "/sources/", k, "/path"),
+                        "\"" + std::string(utf8_prefix(valid_utf8(text), 200)) + "\"", problem});
+  }
+}
+
 json read_json_file(const std::filesystem::path& path, const std::string& what) {
   std::ifstream in(path);
   if (!in) throw InputErrorList({{what, path.string(), "cannot read this file"}});
@@ -205,7 +241,8 @@ std::vector<std::string> parameter_keys(const std::string& path) {
   return keys;
 }
 
-Study expand_study(const json& spec, const std::filesystem::path& base_dir, int max_runs) {
+Study expand_study(const json& spec, const std::filesystem::path& base_dir, int max_runs,
+                   const std::filesystem::path* files_root) {
   InputErrors errors;
   Study study;
   study.spec = spec;
@@ -333,9 +370,10 @@ Study expand_study(const json& spec, const std::filesystem::path& base_dir, int 
                      ? run.scene["seed"].get<std::uint64_t>() + std::uint64_t(r)
                      : base_seed + std::uint64_t(r);
       run.scene["seed"] = run.seed;
-      absolutize_paths(run.scene, scene_dir);
       InputErrors scene_errors;
-      parse_scene(run.scene, scene_dir, scene_errors);
+      if (files_root) check_files_inside_root(run.scene, scene_dir, *files_root, "", scene_errors);
+      absolutize_paths(run.scene, scene_dir);
+      if (scene_errors.empty()) parse_scene(run.scene, scene_dir, scene_errors);
       for (const InputError& e : scene_errors) {
         if (!seen_scene_problems.insert(e.path + '\x1f' + e.value + '\x1f' + e.allowed).second) {
           ++repeated_problems;

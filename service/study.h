@@ -57,7 +57,11 @@ struct Study {
 // Throws InputErrorList with every problem (paths like /parameters/0/values/2, or
 // "run 3 (dust.threshold_diameter_m = 8e-05)" for a scene that does not validate), and when
 // the study would have more than `max_runs` runs.
-Study expand_study(const nlohmann::json& spec, const std::filesystem::path& base_dir, int max_runs);
+// `files_root` (a server's scenes root, for studies from outside): every file a run's scene
+// names must be a relative path without "..", and resolve (symlinks followed) inside it. It is
+// checked before the file is opened, and the error names the path, never what is there.
+Study expand_study(const nlohmann::json& spec, const std::filesystem::path& base_dir, int max_runs,
+                   const std::filesystem::path* files_root = nullptr);
 
 // Reads a study file; throws InputErrorList / IoError.
 Study load_study(const std::filesystem::path& path, int max_runs);

@@ -283,6 +283,43 @@ TEST(Service, ShippedStudiesPostAsTheyAre) {
   EXPECT_EQ(server.post("/v1/studies", escaping.dump())->status, 400);
 }
 
+// Every file a submitted scene names stays inside the scenes root: absolute paths, "..", and a
+// symlink out are refused with 400 before anything is opened, and the reply names the path but
+// never carries what is there. A file inside the root is accepted.
+TEST(Service, FilesNamedByASubmittedSceneStayInsideTheScenesRoot) {
+  test::TempDir dir;
+  const std::filesystem::path scenes = dir.path() / "scenes";
+  std::filesystem::create_directories(scenes / "sub");
+  test::write_file(dir.path() / "secret.txt", "# N: 1\n1 5e-4 5e-4 5e-4 1e-4 0 0 0 TOPSECRET\n");
+  test::write_file(scenes / "p.txt", "# N: 1\n1 5e-4 5e-4 5e-4 1e-4 0 0 0\n");
+  std::filesystem::create_symlink(dir.path() / "secret.txt", scenes / "link.txt");
+  std::filesystem::create_directory_symlink(dir.path(), scenes / "sub" / "up");
+  ServerProcess server(dir.path(), 0, 2.0, scenes.string());
+  ASSERT_FALSE(server.url().empty());
+  std::ifstream in(MILLSIM_SOURCE_DIR "/cases/impact_two_spheres.json");
+  const json base = json::parse(in);
+  const auto submit = [&](const std::string& path) {
+    json study = {{"name", "files"}, {"scene", base}};
+    study["scene"]["sources"] = {
+        {{"type", "file"}, {"material", base["materials"][0]["name"]}, {"path", path}}};
+    return server.post("/v1/studies", study.dump());
+  };
+  for (const std::string& path : {(dir.path() / "secret.txt").string(),
+                                  std::string("../secret.txt"), std::string("sub/../../secret.txt"),
+                                  std::string("link.txt"), std::string("sub/up/secret.txt")}) {
+    SCOPED_TRACE(path);
+    const auto res = submit(path);
+    ASSERT_TRUE(res);
+    EXPECT_EQ(res->status, 400) << res->body;
+    EXPECT_NE(res->body.find("/sources/0/path"), std::string::npos) << res->body;
+    EXPECT_NE(res->body.find("scenes root"), std::string::npos) << res->body;
+    EXPECT_EQ(res->body.find("TOPSECRET"), std::string::npos) << res->body;
+  }
+  const auto inside = submit("p.txt");
+  ASSERT_TRUE(inside);
+  EXPECT_EQ(inside->status, 201) << inside->body;
+}
+
 // A run whose particle file holds bytes that are not UTF-8 fails once, as bad input: its error
 // (the log's tail, which quotes the line) reaches the API as valid JSON with U+FFFD for the bad
 // bytes. Before, the worker crashed while reporting it and the run went round its leases.
