@@ -1,5 +1,6 @@
 // millsim serve [--host H] [--port P] [--db FILE] [--token-file FILE] [--workers N] [--out DIR]
 //               [--scenes DIR] [--lease S] [--max-body BYTES] [--max-runs N]
+//               [--max-study-bytes BYTES]
 // The batch service: the HTTP API (service/api_server.h) on H:P (default 127.0.0.1:8080), the
 // SQLite file (default ./millsim.db), and N worker processes (`millsim worker`, default one per
 // core; a worker that dies is started again). The token comes from MILLSIM_TOKEN or --token-file
@@ -87,9 +88,14 @@ int cmd_serve(const std::vector<std::string>& args) {
       config.max_body_bytes = std::size_t(max_body);
       continue;
     }
+    double max_study = 0;
+    if (r.double_option("--max-study-bytes", max_study, 1024, 1e13)) {
+      config.max_study_bytes = std::size_t(max_study);
+      continue;
+    }
     r.unknown(
         "--host H, --port P, --db FILE, --token-file FILE, --workers N, --out DIR, --scenes DIR, "
-        "--lease S, --max-body BYTES, --max-runs N");
+        "--lease S, --max-body BYTES, --max-runs N, --max-study-bytes BYTES");
   }
   if (!r.ok()) return kBadInput;
   const bool token_generated = config.token.empty();

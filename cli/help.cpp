@@ -138,7 +138,8 @@ const std::vector<VerbHelp>& verb_help() {
       {"serve",
        "the batch service: HTTP API, queue and workers",
        "millsim serve [--host H] [--port P] [--db FILE] [--workers N] [--out DIR] [--scenes DIR] "
-       "[--lease S] [--max-body BYTES] [--max-runs N] [--token-file FILE]",
+       "[--lease S] [--max-body BYTES] [--max-runs N] [--max-study-bytes BYTES] [--token-file "
+       "FILE]",
        "Serves the HTTP API (docs/openapi.yaml), owns the SQLite file and starts the workers. The "
        "token comes from MILLSIM_TOKEN or --token-file, never from the command line (ps shows "
        "it); without one a token is generated and printed.",
@@ -151,6 +152,8 @@ const std::vector<VerbHelp>& verb_help() {
         {"--lease S", "30", "seconds a worker's claim lasts without a heartbeat"},
         {"--max-body BYTES", "1048576", "largest request body"},
         {"--max-runs N", "10000", "largest study"},
+        {"--max-study-bytes BYTES", "268435456",
+         "most a study may store: its runs' scenes summed (HTTP 413 beyond)"},
         kToken},
        "MILLSIM_TOKEN=secret millsim serve --port 8080 --workers 2"},
       {"worker",

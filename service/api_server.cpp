@@ -336,6 +336,7 @@ void ApiServer::routes() {
                      {"limits",
                       {{"max_body_bytes", config_.max_body_bytes},
                        {"max_runs_per_study", config_.max_runs_per_study},
+                       {"max_study_bytes", config_.max_study_bytes},
                        {"lease_s", config_.lease_s}}}});
         }));
 
@@ -365,6 +366,17 @@ void ApiServer::routes() {
                      "; nothing was queued"),
               details);
         }
+        // Checked before anything is stored: a large inline scene times many runs.
+        std::size_t stored_bytes = 0;
+        for (const StudyRun& run : study.runs) stored_bytes += run.scene.dump().size();
+        if (stored_bytes > config_.max_study_bytes)
+          return send_error(
+              res, 413, "study_too_large",
+              concat(
+                  "the study would store ", stored_bytes, " bytes of scenes (", study.runs.size(),
+                  " runs), more than this server's limit of ", config_.max_study_bytes,
+                  " (millsim serve --max-study-bytes): use fewer runs or a smaller inline scene; "
+                  "nothing was queued"));
         std::optional<std::string> key;
         if (req.has_header("Idempotency-Key")) key = req.get_header_value("Idempotency-Key");
         std::lock_guard<std::mutex> lock(store_mutex_);

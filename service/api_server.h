@@ -34,6 +34,8 @@ struct ServerConfig {
   std::string token;
   std::size_t max_body_bytes = 1 << 20;
   int max_runs_per_study = 10000;
+  // What one study may add to the database: the runs' scenes as stored, summed.
+  std::size_t max_study_bytes = std::size_t(256) << 20;
   double lease_s = 30.0;
   int workers = 0;          // reported in /v1/info (the serve command starts them)
   bool request_log = true;  // one line per request on stderr

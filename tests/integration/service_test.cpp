@@ -45,7 +45,8 @@ class ServerProcess {
       setenv("MILLSIM_TOKEN", kToken, 1);  // as a systemd EnvironmentFile gives it
       execl(MILLSIM_BINARY, "millsim", "serve", "--port", "0", "--db", "q.db", "--workers",
             w.c_str(), "--lease", lease.c_str(), "--out", "runs", "--max-body", "200000",
-            "--scenes", scenes.c_str(), static_cast<char*>(nullptr));
+            "--max-study-bytes", "5000000", "--scenes", scenes.c_str(),
+            static_cast<char*>(nullptr));
       _exit(98);
     }
     const std::regex listening("listening on (http://127.0.0.1:[0-9]+)");
@@ -318,6 +319,34 @@ TEST(Service, FilesNamedByASubmittedSceneStayInsideTheScenesRoot) {
   const auto inside = submit("p.txt");
   ASSERT_TRUE(inside);
   EXPECT_EQ(inside->status, 201) << inside->body;
+}
+
+// A study's stored size is capped before anything is stored: 300 runs of a 20 kB inline scene
+// (6 MB) exceed the test server's 5 MB with 413 and leave no study behind; 100 runs (2 MB) pass.
+// Before, a 10 000-run study of a 900 kB scene would have put 9 GB of scenes in the database.
+TEST(Service, AStudyThatWouldStoreTooMuchIsRefusedWhole) {
+  test::TempDir dir;
+  ServerProcess server(dir.path(), 0);
+  ASSERT_FALSE(server.url().empty());
+  std::ifstream in(MILLSIM_SOURCE_DIR "/cases/impact_two_spheres.json");
+  json scene = json::parse(in);
+  scene["description"] = std::string(20000, 'x');
+  const auto study = [&](int runs) {
+    json values = json::array();
+    for (int k = 0; k < runs; ++k) values.push_back(1 + k);
+    return json{{"name", "big"},
+                {"scene", scene},
+                {"parameters", {{{"path", "seed"}, {"values", values}}}}};
+  };
+  const auto big = server.post("/v1/studies", study(300).dump());
+  ASSERT_TRUE(big);
+  EXPECT_EQ(big->status, 413) << big->body;
+  EXPECT_NE(big->body.find("study_too_large"), std::string::npos) << big->body;
+  EXPECT_TRUE(json::parse(server.get("/v1/studies")->body)["studies"].empty());
+  EXPECT_EQ(json::parse(server.get("/v1/info")->body)["limits"]["max_study_bytes"], 5000000);
+  const auto fits = server.post("/v1/studies", study(100).dump());
+  ASSERT_TRUE(fits);
+  EXPECT_EQ(fits->status, 201) << fits->body;
 }
 
 // A run whose particle file holds bytes that are not UTF-8 fails once, as bad input: its error
