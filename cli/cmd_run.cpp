@@ -9,6 +9,7 @@
 #include <atomic>
 
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -23,6 +24,20 @@
 #include "sim/simulation.h"
 
 namespace millsim::cli {
+namespace {
+
+// Exit 4 at once after a failed write (a full disk, an unwritable directory). A normal exit would
+// run HDF5's cleanup, which tries again to flush the file the disk refused and crashed the process
+// with SIGSEGV after the message (the service then retried the run as a crash). The partial file
+// stays aside as run.h5.partial; the last good run.h5 is never replaced.
+[[noreturn]] void exit_after_io_error(const char* what) {
+  std::fprintf(stderr, "millsim run: %s\n", what);
+  std::fflush(stdout);
+  std::fflush(stderr);
+  std::_Exit(kEnvironment);
+}
+
+}  // namespace
 namespace {
 
 struct RunArgs {
@@ -215,11 +230,9 @@ int cmd_run(const std::vector<std::string>& args) {
     std::fprintf(stderr, "millsim run: --resume: %s\n", e.what());
     return kBadInput;
   } catch (const IoError& e) {
-    std::fprintf(stderr, "millsim run: %s\n", e.what());
-    return kEnvironment;
+    exit_after_io_error(e.what());
   } catch (const std::filesystem::filesystem_error& e) {
-    std::fprintf(stderr, "millsim run: %s\n", e.what());
-    return kEnvironment;
+    exit_after_io_error(e.what());
   }
 }
 

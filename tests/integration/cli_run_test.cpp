@@ -24,6 +24,25 @@ using test::CommandResult;
 using test::run_millsim;
 using test::write_file;
 
+// A disk that fills up during a run (here the file-size limit, with SIGXFSZ ignored so writes
+// fail as on a full disk) is an I/O error: exit 4 with a message naming the file, the partial
+// file left aside, and the last good run.h5 of an earlier run intact. Before, HDF5's cleanup at
+// exit crashed the process (SIGSEGV) after the message, and the service retried it as a crash.
+TEST(CliRun, AFullDiskIsExitFourAndKeepsTheLastGoodFiles) {
+  test::TempDir dir;
+  const std::string scene = MILLSIM_SOURCE_DIR "/cases/impact_two_spheres.json";
+  ASSERT_EQ(run_millsim("run '" + scene + "' --out full --quiet", dir.path()).exit_code, 0);
+  const std::string good = test::read_file(dir.path() / "full" / "run.h5");
+  ASSERT_GT(good.size(), 40u * 1024u);
+  const CommandResult r =
+      test::run_shell("cd '" + dir.path().string() +
+                      "' && trap '' XFSZ && ulimit -f 40 && '" MILLSIM_BINARY "' run '" + scene +
+                      "' --out full --quiet 2>&1");
+  EXPECT_EQ(r.exit_code, 4) << r.out;
+  EXPECT_NE(r.out.find("run.h5"), std::string::npos) << r.out;
+  EXPECT_EQ(test::read_file(dir.path() / "full" / "run.h5"), good);
+}
+
 TEST(CliRun, ImpactCaseRunsAndWritesResults) {
   test::TempDir dir;
   const CommandResult r = run_millsim(
