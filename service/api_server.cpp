@@ -310,6 +310,31 @@ void ApiServer::routes() {
   });
   const bool public_reads = !is_loopback_host(config_.host);
   const std::string expected = "Bearer " + config_.token;
+  // Before any body is read (httplib reads it after this handler): a write without the token is
+  // 401 without reading it, and a body whose size the limit cannot bound while it is read is
+  // refused: chunked (411, send a Content-Length) or compressed (415; decompressed it could be
+  // a thousand times the limit). Plain bodies are then held to max_body_bytes by httplib.
+  s.set_pre_routing_handler([expected](const Request& req, Response& res) {
+    if (req.method != "POST" && req.method != "PUT" && req.method != "PATCH")
+      return httplib::Server::HandlerResponse::Unhandled;
+    if (req.get_header_value("Authorization") != expected) {
+      send_error(res, 401, "unauthorized",
+                 "this endpoint needs the header \"Authorization: Bearer <token>\" with the "
+                 "server's token");
+    } else if (req.has_header("Content-Encoding") &&
+               req.get_header_value("Content-Encoding") != "identity") {
+      send_error(res, 415, "encoded_body",
+                 concat("request bodies are accepted as they are, not with Content-Encoding: ",
+                        utf8_prefix(valid_utf8(req.get_header_value("Content-Encoding")), 40)));
+    } else if (req.get_header_value("Transfer-Encoding").find("chunked") != std::string::npos) {
+      send_error(res, 411, "length_required",
+                 "send the body with a Content-Length; chunked bodies are not accepted");
+    } else {
+      return httplib::Server::HandlerResponse::Unhandled;
+    }
+    res.set_header("Connection", "close");  // the unread body must not become the next request
+    return httplib::Server::HandlerResponse::Handled;
+  });
   // Wraps a handler with the token check (always for writes; for reads off loopback).
   auto guard = [this, expected](bool needs_token, auto handler) {
     return [this, expected, needs_token, handler](const Request& req, Response& res) {

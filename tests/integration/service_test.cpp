@@ -349,6 +349,42 @@ TEST(Service, AStudyThatWouldStoreTooMuchIsRefusedWhole) {
   EXPECT_EQ(fits->status, 201) << fits->body;
 }
 
+// Writes are checked before their body is read: without the token a POST is 401 whatever it
+// carries, and a body whose size cannot be bounded while it is read is refused, chunked with 411
+// and compressed with 415 (a 1 MiB gzip body became 1 GiB in memory before). The server goes on
+// answering and stores nothing.
+TEST(Service, BodiesTheLimitCannotBoundAreRefusedBeforeTheyAreRead) {
+  test::TempDir dir;
+  ServerProcess server(dir.path(), 0);
+  ASSERT_FALSE(server.url().empty());
+  httplib::Client c(server.url());
+  auto res = c.Post("/v1/studies", std::string(100000, ' '), "application/json");
+  ASSERT_TRUE(res);
+  EXPECT_EQ(res->status, 401) << res->body;
+  const httplib::Headers auth = {{"Authorization", std::string("Bearer ") + kToken}};
+  httplib::Client chunked(server.url());
+  res = chunked.Post(
+      "/v1/studies", auth,
+      [](std::size_t, httplib::DataSink& sink) {
+        sink.write("{}", 2);
+        sink.done();
+        return true;
+      },
+      "application/json");
+  ASSERT_TRUE(res);
+  EXPECT_EQ(res->status, 411) << res->body;
+  EXPECT_NE(res->body.find("length_required"), std::string::npos) << res->body;
+  httplib::Headers gzip = auth;
+  gzip.emplace("Content-Encoding", "gzip");
+  httplib::Client encoded(server.url());
+  res = encoded.Post("/v1/studies", gzip, std::string(1000, 'x'), "application/json");
+  ASSERT_TRUE(res);
+  EXPECT_EQ(res->status, 415) << res->body;
+  EXPECT_NE(res->body.find("gzip"), std::string::npos) << res->body;
+  EXPECT_EQ(server.get("/v1/health")->status, 200);
+  EXPECT_TRUE(json::parse(server.get("/v1/studies")->body)["studies"].empty());
+}
+
 // A run whose particle file holds bytes that are not UTF-8 fails once, as bad input: its error
 // (the log's tail, which quotes the line) reaches the API as valid JSON with U+FFFD for the bad
 // bytes. Before, the worker crashed while reporting it and the run went round its leases.
