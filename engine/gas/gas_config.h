@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "core/schedule.h"
 #include "core/vec3.h"
 #include "gas/pressure_solver.h"
 
@@ -19,6 +20,14 @@ enum class GasBoundaryKind {
   Slip,    // zero normal velocity, zero shear
   Inlet,   // prescribed superficial velocity (nozzles, feed air, a distributor)
   Outlet,  // fixed pressure; the velocity leaves with zero gradient
+};
+
+// An inflow that changes during a run: the table gives the speed along the inflow's direction
+// (m/s), or its mass flow (kg/s) through the faces it owns, turned into a speed at the grid's
+// own area (so the discrete inflow carries exactly that mass).
+struct InflowSchedule {
+  Schedule table;
+  bool mass_flow = false;
 };
 
 // Where on a domain face a boundary condition applies.
@@ -34,6 +43,9 @@ struct GasBoundaryPatch {
   double radius_m = 0.0;
   Vec3 velocity_m_per_s;     // inlet: superficial gas velocity; wall: wall velocity
   double pressure_pa = 0.0;  // outlet
+  // Inlet only: the velocity along the inward normal follows this table instead (and
+  // velocity_m_per_s is zero).
+  std::optional<InflowSchedule> schedule;
 };
 
 // Solid regions voxelised into the gas grid: a cell whose centre is inside is solid.
@@ -66,9 +78,23 @@ struct GasJetConfig {
   Vec3 direction;     // unit, into the fluid
   double radius_m = 0.0;
   double speed_m_per_s = 0.0;
+  std::optional<InflowSchedule> schedule;  // the speed follows this table instead
   double volume_flow_m3_per_s() const {
     return 3.141592653589793 * radius_m * radius_m * speed_m_per_s;
   }
+};
+
+// A pressure difference written as a time series (result.json, run.h5): the mean pressure of
+// one plane minus that of another. An end is a boundary patch (its faces' pressure: gas/
+// pressure_probe.h) or a plane normal to an axis between the first and last cell centres.
+struct PressurePlane {
+  int patch = -1;  // index into GasConfig::boundaries, or -1 for a plane
+  int axis = 2;
+  double at_m = 0.0;
+};
+struct PressureDropConfig {
+  std::string name;
+  PressurePlane from, to;  // drop = p(from) − p(to)
 };
 
 // Drag laws (gas/drag.h gives each formula and its source).
@@ -110,6 +136,7 @@ struct GasConfig {
   std::vector<GasBoundaryPatch> boundaries;  // applied in order over the default (wall)
   std::vector<GasSolidConfig> solids;
   std::vector<GasJetConfig> jets;  // inflow through solid walls (a mill's nozzles)
+  std::vector<PressureDropConfig> pressure_drops;
   // coupling
   bool two_way = true;  // particles push on the gas; false = the gas ignores them
   DragLaw drag = DragLaw::SchillerNaumann;

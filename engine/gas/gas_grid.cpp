@@ -108,7 +108,7 @@ void assign_boundaries(GasGrid& g, const GasConfig& config) {
           for (std::size_t k = 0; k < config.boundaries.size(); ++k) {
             const GasBoundaryPatch& p = config.boundaries[k];
             if (p.face == face && patch_covers(p, x))
-              bc = {p.kind, p.velocity_m_per_s, p.pressure_pa}, owner = int(k);
+              bc = {p.kind, p.velocity_m_per_s, p.pressure_pa, int(k)}, owner = int(k);
           }
           g.ghost[g.index(ijk[0], ijk[1], ijk[2])] = bc;
           const bool on_face =
@@ -189,10 +189,12 @@ std::vector<std::pair<int, std::size_t>> jet_faces(const GasGrid& g, const GasJe
 
 // Spreads a jet's missing momentum flux (N) as a body force over the solved faces of the fluid
 // cells it blows into; each face's control volume is one cell, so together they add exactly
-// `deficit`.
-void add_jet_force(GasGrid& g, std::vector<std::size_t> cells, const Vec3& deficit) {
+// `deficit`. Returns the force density per face.
+std::vector<ScaledFaceValue> jet_force(const GasGrid& g, std::vector<std::size_t> cells,
+                                       const Vec3& deficit) {
   std::sort(cells.begin(), cells.end());
   cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
+  std::vector<ScaledFaceValue> out;
   for (int a = 0; a < 3; ++a) {
     const std::size_t au = std::size_t(a);
     std::vector<std::size_t> pushed;  // the solved a-faces of those cells, each once
@@ -203,16 +205,19 @@ void add_jet_force(GasGrid& g, std::vector<std::size_t> cells, const Vec3& defic
     pushed.erase(std::unique(pushed.begin(), pushed.end()), pushed.end());
     if (pushed.empty()) continue;
     const double density = deficit[a] / (double(pushed.size()) * g.cell_volume_m3());
-    for (std::size_t f : pushed) g.jet_force_n_per_m3[au][f] += density;
+    for (std::size_t f : pushed) out.push_back({a, f, density});
   }
+  return out;
 }
 
 // Turns each jet's faces into inflow faces: each holds the jet velocity's component along its
 // axis, all scaled so together they carry exactly the jet's volume flow; the momentum flux the
-// wider, slower inflow lacks becomes a body force (gas_grid.h).
+// wider, slower inflow lacks becomes a body force (gas_grid.h). A scheduled jet is laid out at
+// unit speed and its faces hold 0 until the solver applies its schedule.
 void apply_jets(GasGrid& g, const GasConfig& config) {
   for (std::size_t j = 0; j < config.jets.size(); ++j) {
-    const GasJetConfig& jet = config.jets[j];
+    GasJetConfig jet = config.jets[j];
+    if (jet.schedule) jet.speed_m_per_s = 1.0;
     double flow = 0.0;
     const std::vector<std::pair<int, std::size_t>> faces = jet_faces(g, jet, flow);
     g.jet_faces[j] = faces.size();
@@ -220,17 +225,57 @@ void apply_jets(GasGrid& g, const GasConfig& config) {
     const double scale = jet.volume_flow_m3_per_s() / flow;
     Vec3 entering;                   // momentum flux the faces carry in, per unit density
     std::vector<std::size_t> cells;  // the fluid cells the jet blows into
+    ScheduledInflow scheduled;
     for (const auto& [a, f] : faces) {
       const double u = jet.speed_m_per_s * jet.direction[a] * scale;
-      g.fixed_value[std::size_t(a)][f] = u;
+      if (jet.schedule)
+        scheduled.velocity.push_back({a, f, u});
+      else
+        g.fixed_value[std::size_t(a)][f] = u;
       entering[a] += g.face_area_m2(a) * std::abs(u) * u;
       cells.push_back(u > 0.0 ? f + g.stride[std::size_t(a)] : f);
     }
-    g.jet_flow_m3_per_s[j] = flow * scale;
-    g.jet_momentum_deficit_n[j] =
+    const Vec3 deficit =
         (jet.direction * (jet.volume_flow_m3_per_s() * jet.speed_m_per_s) - entering) *
         config.density_kg_per_m3;
-    add_jet_force(g, std::move(cells), g.jet_momentum_deficit_n[j]);
+    std::vector<ScaledFaceValue> force = jet_force(g, std::move(cells), deficit);
+    if (jet.schedule) {
+      scheduled.schedule = *jet.schedule;
+      scheduled.jet = int(j);
+      scheduled.area_m2 = jet.volume_flow_m3_per_s();
+      scheduled.force = std::move(force);
+      scheduled.momentum_deficit_per_unit = deficit;
+      g.scheduled_inflows.push_back(std::move(scheduled));
+      continue;
+    }
+    g.jet_flow_m3_per_s[j] = flow * scale;
+    g.jet_momentum_deficit_n[j] = deficit;
+    for (const ScaledFaceValue& v : force)
+      g.jet_force_n_per_m3[std::size_t(v.axis)][v.face] += v.per_unit;
+  }
+}
+
+// Collects the boundary faces of each scheduled inlet patch (they hold 0 until the solver
+// applies the schedule): velocity per unit speed is ±1 along the inward normal.
+void collect_scheduled_patches(GasGrid& g, const GasConfig& config) {
+  for (std::size_t k = 0; k < config.boundaries.size(); ++k) {
+    const GasBoundaryPatch& p = config.boundaries[k];
+    if (p.kind != GasBoundaryKind::Inlet || !p.schedule) continue;
+    ScheduledInflow scheduled;
+    scheduled.schedule = *p.schedule;
+    scheduled.patch = int(k);
+    const int a = p.face / 2;
+    const std::size_t au = std::size_t(a);
+    const bool high = p.face % 2 == 1;
+    for (std::size_t f = 0; f < g.padded_size; ++f) {
+      if (g.face[au][f] != FaceKind::Fixed) continue;
+      const int along = g.coords(f)[au];
+      if (along != (high ? g.n[au] : 0)) continue;
+      if (g.ghost[high ? f + g.stride[au] : f].patch != int(k)) continue;
+      scheduled.velocity.push_back({a, f, high ? -1.0 : 1.0});
+      scheduled.area_m2 += g.face_area_m2(a);
+    }
+    g.scheduled_inflows.push_back(std::move(scheduled));
   }
 }
 
@@ -263,6 +308,7 @@ GasGrid build_gas_grid(const GasConfig& config, const Vec3& lo, const Vec3& hi,
   for (int a = 0; a < 3; ++a)
     for (std::size_t f = 0; f < g.padded_size; ++f) classify_face(g, a, f);
   apply_jets(g, config);
+  collect_scheduled_patches(g, config);
   return g;
 }
 

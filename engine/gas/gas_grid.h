@@ -32,6 +32,26 @@ struct GhostBoundary {
   GasBoundaryKind kind = GasBoundaryKind::Wall;
   Vec3 velocity_m_per_s;  // wall velocity or inlet superficial velocity
   double pressure_pa = 0.0;
+  int patch = -1;  // the config's boundary patch that set it (-1: the default wall)
+};
+
+// A face value that scales with a scheduled inflow's speed: a velocity (per m/s of speed) or a
+// jet's body force (N/m³ per (m/s)²).
+struct ScaledFaceValue {
+  int axis = 0;
+  std::size_t face = 0;
+  double per_unit = 0.0;
+};
+
+// An inlet patch or a jet whose speed follows a schedule: what it sets at unit speed, so the
+// solver can set any speed during a run (GasSolver::apply_inflow_schedules).
+struct ScheduledInflow {
+  InflowSchedule schedule;
+  int patch = -1, jet = -1;  // which boundary patch or jet of the config
+  double area_m2 = 0.0;      // flow per unit speed, m³/s per m/s (turns a mass flow into a speed)
+  std::vector<ScaledFaceValue> velocity;
+  std::vector<ScaledFaceValue> force;  // jets only: the momentum deficit's body force
+  Vec3 momentum_deficit_per_unit;      // jets only, N per (m/s)²
 };
 
 struct GasGrid {
@@ -62,6 +82,8 @@ struct GasGrid {
   // force (N/m³) on the faces of the fluid cells it blows into. Empty when there are no jets.
   std::array<std::vector<double>, 3> jet_force_n_per_m3;
   std::vector<Vec3> jet_momentum_deficit_n;  // per jet, what that force adds
+  // Inflows that follow a schedule: their faces hold 0 until the solver applies a speed.
+  std::vector<ScheduledInflow> scheduled_inflows;
 
   std::size_t index(int i, int j, int k) const {
     return std::size_t(i) + stride[1] * std::size_t(j) + stride[2] * std::size_t(k);

@@ -61,6 +61,10 @@ GasSolver::GasSolver(const GasConfig& config, GasGrid grid, const Vec3& gravity_
     }
   rhs_.assign(cell_of_row_.size(), 0.0);
   solution_ = rhs_;
+  // The spin-up runs before the particles' time 0, so a schedule reads the run's own clock.
+  time_s_ = -config_.spin_up_s;
+  inflow_speed_.assign(grid_.scheduled_inflows.size(), 0.0);
+  apply_inflow_schedules(time_s_);
   fill_velocity_ghosts(velocity_);
   volume_fraction_changed();
 }
@@ -436,8 +440,54 @@ void GasSolver::fill_gradient_ghosts() {
     });
 }
 
+void GasSolver::apply_inflow_schedules(double t) {
+  for (std::size_t k = 0; k < grid_.scheduled_inflows.size(); ++k) {
+    const ScheduledInflow& in = grid_.scheduled_inflows[k];
+    double speed = in.schedule.table.at(t);
+    if (in.schedule.mass_flow)
+      speed = in.area_m2 > 0.0 ? speed / (config_.density_kg_per_m3 * in.area_m2) : 0.0;
+    const double before = inflow_speed_[k];
+    if (speed == before) continue;
+    for (const ScaledFaceValue& v : in.velocity) {
+      const std::size_t au = std::size_t(v.axis);
+      grid_.fixed_value[au][v.face] = v.per_unit * speed;
+      velocity_[au][v.face] = v.per_unit * speed;
+    }
+    // The jet's momentum deficit grows with the square of its speed.
+    const double squared = speed * std::abs(speed), squared_before = before * std::abs(before);
+    for (const ScaledFaceValue& v : in.force)
+      grid_.jet_force_n_per_m3[std::size_t(v.axis)][v.face] +=
+          v.per_unit * (squared - squared_before);
+    if (in.jet >= 0) {
+      grid_.jet_flow_m3_per_s[std::size_t(in.jet)] = in.area_m2 * speed;
+      grid_.jet_momentum_deficit_n[std::size_t(in.jet)] = in.momentum_deficit_per_unit * squared;
+    }
+    inflow_speed_[k] = speed;
+  }
+}
+
+double GasSolver::jet_speed_m_per_s(std::size_t jet) const {
+  for (std::size_t k = 0; k < inflow_speed_.size(); ++k)
+    if (grid_.scheduled_inflows[k].jet == int(jet)) return inflow_speed_[k];
+  return config_.jets[jet].speed_m_per_s;
+}
+
+Vec3 GasSolver::inlet_velocity_m_per_s(std::size_t patch) const {
+  const GasBoundaryPatch& p = config_.boundaries[patch];
+  if (p.kind != GasBoundaryKind::Inlet) return {};
+  for (std::size_t k = 0; k < inflow_speed_.size(); ++k)
+    if (grid_.scheduled_inflows[k].patch == int(patch)) {
+      Vec3 v;
+      v[p.face / 2] = p.face % 2 == 0 ? inflow_speed_[k] : -inflow_speed_[k];
+      return v;
+    }
+  return p.velocity_m_per_s;
+}
+
 std::optional<std::string> GasSolver::advance(double dt) {
   const GasGrid& g = grid_;
+  // The inflow the projection holds at the end of the step.
+  if (!inflow_speed_.empty()) apply_inflow_schedules(time_s_ + dt);
   predictor(dt);
   if (!solve_pressure(dt))
     return concat("the gas pressure solve did not converge in ", pressure_solver_.iterations(),

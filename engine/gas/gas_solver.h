@@ -96,6 +96,17 @@ class GasSolver {
   // Fills the ghost layers of the velocity (boundary conditions, periodic copies).
   void fill_velocity_ghosts(std::array<std::vector<double>, 3>& u) const;
 
+  // Sets every scheduled inflow (gas_grid.h) to its schedule's value at time t: its faces'
+  // velocity and, for a jet, its body force. advance() calls it for the end of each step.
+  void apply_inflow_schedules(double t);
+  // The speed each scheduled inflow was last set to, m/s (aligned with
+  // grid().scheduled_inflows).
+  const std::vector<double>& inflow_speeds() const { return inflow_speed_; }
+  // The speed jet k blows at now, and the inflow velocity of boundary patch k now (0 unless an
+  // inlet): the configured value, or the schedule's last applied one.
+  double jet_speed_m_per_s(std::size_t jet) const;
+  Vec3 inlet_velocity_m_per_s(std::size_t patch) const;
+
   // Checkpoints: the fields and the counters. The pressure matrix is not kept: it is assembled
   // again from the face fractions at the next step (one more in stats().matrix_builds).
   template <class A>
@@ -104,7 +115,10 @@ class GasSolver {
            predicted_, source_, exchange_, gradient_, drag_response_, seen_, relief_,
            face_fraction_, pressure_, fraction_, previous_fraction_, row_of_cell_, cell_of_row_,
            rhs_, solution_, stats_, continuity_error_, received_impulse_, time_s_);
-    if constexpr (A::kLoading) matrix_stale_ = true;
+    if constexpr (A::kLoading) {
+      matrix_stale_ = true;
+      apply_inflow_schedules(time_s_);  // the jets' body forces are not in the checkpoint
+    }
   }
 
  private:
@@ -151,6 +165,7 @@ class GasSolver {
   double continuity_error_ = 0.0;
   Vec3 received_impulse_;
   double time_s_ = 0.0;
+  std::vector<double> inflow_speed_;  // per scheduled inflow, what its faces hold now
 };
 
 }  // namespace millsim

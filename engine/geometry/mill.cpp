@@ -122,6 +122,7 @@ void add_mill_to_gas(const MillConfig& mill, double shell_half_thickness_m, GasC
     jet.direction = f.direction;
     jet.radius_m = 0.5 * n.diameter_m;
     jet.speed_m_per_s = n.speed_m_per_s;
+    jet.schedule = n.schedule;
     gas.jets.push_back(jet);
   }
 }

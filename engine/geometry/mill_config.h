@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/vec3.h"
+#include "gas/gas_config.h"
 
 namespace millsim {
 
@@ -22,7 +23,8 @@ struct NozzleConfig {
   double height_m = 0.0;     // above the chamber floor
   double diameter_m = 0.0;   // exit diameter; the jet carries π d²/4 · speed of gas
   double angle_to_tangent_rad = 0.0;
-  double speed_m_per_s = 0.0;  // jet speed at the exit
+  double speed_m_per_s = 0.0;              // jet speed at the exit
+  std::optional<InflowSchedule> schedule;  // the speed (or mass flow) follows this table instead
 };
 
 struct MillOutletConfig {

@@ -1,5 +1,7 @@
 #include "scene/gas_json.h"
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 
 #include "core/json_reader.h"
@@ -24,6 +26,20 @@ Vec3 unit_vector(JsonObjectReader& r, std::string_view key, InputErrors& errors)
     return {0, 0, 1};
   }
   return v * (1.0 / norm(v));
+}
+
+// A column of a schedule: an array of numbers in `range`, 1 to 10000 of them.
+std::vector<double> schedule_column(const json* v, const std::string& path, NumberRange range,
+                                    InputErrors& errors) {
+  std::vector<double> out;
+  if (!v) return out;
+  if (!v->is_array() || v->empty() || v->size() > 10000) {
+    errors.push_back({path, json_value_text(*v), "expected an array of 1 to 10000 numbers"});
+    return out;
+  }
+  for (std::size_t k = 0; k < v->size(); ++k)
+    if (auto x = read_number((*v)[k], json_pointer_join(path, k), range, errors)) out.push_back(*x);
+  return out;
 }
 
 GasBoundaryPatch parse_patch(const json& v, const std::string& path, const DomainConfig& domain,
@@ -52,6 +68,15 @@ GasBoundaryPatch parse_patch(const json& v, const std::string& path, const Domai
       errors.push_back({r.path_of("center_m"), "", "missing; a circle patch needs its centre"});
   }
   p.velocity_m_per_s = r.vec3("velocity_m_per_s", {}, NumberRange::closed(-1e4, 1e4));
+  if (const json* schedule = r.child("schedule")) {
+    if (p.kind != GasBoundaryKind::Inlet)
+      errors.push_back({r.path_of("schedule"), type, "only an inlet has a schedule"});
+    else if (r.has("velocity_m_per_s"))
+      errors.push_back({r.path_of("velocity_m_per_s"), "",
+                        "give velocity_m_per_s or a schedule, not both (a scheduled inlet blows "
+                        "along its face's inward normal)"});
+    p.schedule = parse_inflow_schedule(*schedule, r.path_of("schedule"), errors);
+  }
   p.pressure_pa = r.number("pressure_pa", 0.0, NumberRange::closed(-1e9, 1e9));
   if (p.kind == GasBoundaryKind::Wall || p.kind == GasBoundaryKind::Slip) {
     const int axis = p.face / 2;
@@ -97,7 +122,76 @@ GasSolidConfig parse_solid(const json& v, const std::string& path, InputErrors& 
   return s;
 }
 
+// One end of a pressure drop: a boundary patch's name, or {"axis": "x"|"y"|"z", "at_m": ...}
+// strictly between the first and last cell centres along that axis.
+PressurePlane parse_pressure_plane(const json& v, const std::string& path, const GasConfig& g,
+                                   const DomainConfig& domain, InputErrors& errors) {
+  PressurePlane plane;
+  if (v.is_string()) {
+    std::string names;
+    for (std::size_t k = 0; k < g.boundaries.size(); ++k) {
+      names += (k ? ", " : "") + g.boundaries[k].name;
+      if (g.boundaries[k].name == v.get<std::string>()) plane.patch = int(k);
+    }
+    if (plane.patch < 0)
+      errors.push_back({path, json_value_text(v),
+                        names.empty() ? std::string("expected a plane object: /gas/boundaries "
+                                                    "names no patch")
+                                      : "expected the name of a /gas/boundaries patch (" + names +
+                                            ") or a plane object"});
+    return plane;
+  }
+  JsonObjectReader r(v, path, errors);
+  const std::string axis = r.required_string("axis", {"x", "y", "z"});
+  plane.axis = axis == "x" ? 0 : axis == "y" ? 1 : 2;
+  const std::size_t a = std::size_t(plane.axis);
+  const double h = (domain.max_m[plane.axis] - domain.min_m[plane.axis]) / g.cells[a];
+  const double lo = domain.min_m[plane.axis] + 0.5 * h, hi = domain.max_m[plane.axis] - 0.5 * h;
+  plane.at_m = r.required_number(
+      "at_m", hi > lo ? NumberRange::closed(lo, hi) : NumberRange::closed(lo, lo));
+  if (domain.periodic[a])
+    errors.push_back({r.path_of("axis"), axis, "a periodic axis has no pressure drop plane"});
+  r.finish();
+  return plane;
+}
+
 }  // namespace
+
+InflowSchedule parse_inflow_schedule(const json& v, const std::string& path, InputErrors& errors) {
+  InflowSchedule s;
+  const std::size_t errors_before = errors.size();
+  JsonObjectReader r(v, path, errors);
+  if (!r.is_object()) return s;
+  const bool mass = r.has("mass_flow_kg_per_s"), speed = r.has("speed_m_per_s");
+  if (mass == speed)
+    errors.push_back({path, "", "expected one of speed_m_per_s and mass_flow_kg_per_s"});
+  s.mass_flow = mass;
+  s.table.time_s = schedule_column(r.child("time_s"), r.path_of("time_s"),
+                                   NumberRange::closed(-10.0, 1e6), errors);
+  s.table.value =
+      mass ? schedule_column(r.child("mass_flow_kg_per_s"), r.path_of("mass_flow_kg_per_s"),
+                             NumberRange::closed(0.0, 1e6), errors)
+           : schedule_column(r.child("speed_m_per_s"), r.path_of("speed_m_per_s"),
+                             NumberRange::closed(0.0, 1e4), errors);
+  r.finish();
+  if (!r.has("time_s"))
+    errors.push_back({r.path_of("time_s"), "", "missing; expected an array of times"});
+  for (std::size_t k = 1; k < s.table.time_s.size(); ++k)
+    if (s.table.time_s[k] < s.table.time_s[k - 1]) {
+      errors.push_back({json_pointer_join(r.path_of("time_s"), k), concat(s.table.time_s[k]),
+                        concat("expected times in non-decreasing order (after ",
+                               s.table.time_s[k - 1], "); a step repeats a time")});
+      break;
+    }
+  if (s.table.time_s.size() != s.table.value.size() || s.table.time_s.empty()) {
+    if (errors.size() == errors_before)
+      errors.push_back({path,
+                        concat(s.table.time_s.size(), " times, ", s.table.value.size(), " values"),
+                        "expected as many values as times, at least one"});
+    s.table = Schedule{{0.0}, {0.0}};
+  }
+  return s;
+}
 
 GasConfig parse_gas(const json& v, const DomainConfig& domain, InputErrors& errors) {
   GasConfig g;
@@ -186,12 +280,41 @@ GasConfig parse_gas(const json& v, const DomainConfig& domain, InputErrors& erro
               "incomplete_cholesky"
           ? PressurePreconditioner::IncompleteCholesky
           : PressurePreconditioner::Multigrid;
+  if (const json* list = r.array("pressure_drops"))
+    for (std::size_t i = 0; i < list->size(); ++i) {
+      const std::string path = json_pointer_join("/gas/pressure_drops", i);
+      JsonObjectReader d((*list)[i], path, errors);
+      PressureDropConfig drop;
+      drop.name = d.string("name", concat("drop", i));
+      const bool plain =
+          !drop.name.empty() && drop.name.size() <= 64 &&
+          std::all_of(drop.name.begin(), drop.name.end(), [](char ch) {
+            return std::isalnum(static_cast<unsigned char>(ch)) || ch == '_' || ch == '-';
+          });
+      if (!plain)
+        errors.push_back({d.path_of("name"), drop.name,
+                          "expected 1 to 64 letters, digits, '_' or '-' (it names a column)"});
+      for (const PressureDropConfig& other : g.pressure_drops)
+        if (other.name == drop.name)
+          errors.push_back({d.path_of("name"), drop.name, "expected a name no other drop has"});
+      if (const json* from = d.child("from"))
+        drop.from = parse_pressure_plane(*from, d.path_of("from"), g, domain, errors);
+      if (const json* to = d.child("to"))
+        drop.to = parse_pressure_plane(*to, d.path_of("to"), g, domain, errors);
+      if (d.is_object() && !(d.has("from") && d.has("to")))
+        errors.push_back({path, "", "a pressure drop needs from and to"});
+      d.finish();
+      g.pressure_drops.push_back(drop);
+    }
   r.finish();
 
   // Gas blown in must have a way out.
   bool inflow = false, outlet = false;
   for (const GasBoundaryPatch& p : g.boundaries) {
-    inflow = inflow || (p.kind == GasBoundaryKind::Inlet && norm(p.velocity_m_per_s) > 0.0);
+    inflow =
+        inflow ||
+        (p.kind == GasBoundaryKind::Inlet &&
+         (norm(p.velocity_m_per_s) > 0.0 || (p.schedule && p.schedule->table.max_abs() > 0.0)));
     outlet = outlet || p.kind == GasBoundaryKind::Outlet;
   }
   if (inflow && !outlet)

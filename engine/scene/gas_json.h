@@ -10,6 +10,11 @@
 
 namespace millsim {
 
+// Reads an inflow schedule, {"time_s": [...], "speed_m_per_s": [...]} or {"time_s": [...],
+// "mass_flow_kg_per_s": [...]} (docs/scene-format.md): rows in non-decreasing time, 1 to 10000.
+InflowSchedule parse_inflow_schedule(const nlohmann::json& value, const std::string& path,
+                                     InputErrors& errors);
+
 GasConfig parse_gas(const nlohmann::json& value, const DomainConfig& domain, InputErrors& errors);
 
 }  // namespace millsim

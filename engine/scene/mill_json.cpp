@@ -6,6 +6,7 @@
 
 #include "core/json_reader.h"
 #include "geometry/mill.h"
+#include "scene/gas_json.h"
 #include "scene/scene_json.h"
 
 namespace millsim {
@@ -27,7 +28,14 @@ void parse_nozzles(const json& v, const std::string& path, double height_m,
   n.diameter_m = r.required_number("diameter_m", NumberRange::open_closed(0.0, 1.0));
   n.angle_to_tangent_rad =
       r.number("angle_to_tangent_deg", 40.0, NumberRange::closed(0.0, 90.0)) * kDegree;
-  n.speed_m_per_s = r.required_number("speed_m_per_s", NumberRange::open_closed(0.0, 1000.0));
+  if (const json* schedule = r.child("schedule")) {
+    n.schedule = parse_inflow_schedule(*schedule, r.path_of("schedule"), errors);
+    if (r.has("speed_m_per_s"))
+      errors.push_back(
+          {r.path_of("speed_m_per_s"), "", "give speed_m_per_s or a schedule, not both"});
+  } else {
+    n.speed_m_per_s = r.required_number("speed_m_per_s", NumberRange::open_closed(0.0, 1000.0));
+  }
   r.finish();
   if (r.is_object() &&
       (n.height_m - 0.5 * n.diameter_m <= 0.0 || n.height_m + 0.5 * n.diameter_m >= height_m))

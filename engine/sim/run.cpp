@@ -9,6 +9,7 @@
 
 #include "checkpoint/checkpoint_file.h"
 #include "core/build_info.h"
+#include "gas/pressure_probe.h"
 #include "geometry/surface_mesh.h"
 #include "io/h5_writer.h"
 #include "io/text_file.h"
@@ -31,11 +32,21 @@ struct TimeSeries {
   bool product = false;
   std::vector<std::vector<double>> columns;
 
-  explicit TimeSeries(bool with_product) : product(with_product) {
+  std::vector<PressureDropConfig> drops;  // one column each, after the product's
+
+  TimeSeries(bool with_product, const Simulation& sim) : product(with_product) {
     if (product)
       for (const char* name : {"fed_mass_kg", "outlet_mass_kg", "dust_mass_kg", "breakage_events"})
         names.push_back(name);
+    if (sim.gas()) drops = sim.gas()->config().pressure_drops;
+    // The gas is solved every CFD step: a drop is that of the last solve, at gas_time_s.
+    if (!drops.empty()) names.push_back("gas_time_s");
+    for (const PressureDropConfig& d : drops) names.push_back(pressure_drop_column(d));
     columns.resize(names.size());
+  }
+
+  static std::string pressure_drop_column(const PressureDropConfig& d) {
+    return "pressure_drop_" + d.name + "_pa";
   }
 
   void record(const Simulation& sim) {
@@ -56,6 +67,8 @@ struct TimeSeries {
       row.insert(row.end(), {m.fed_kg, m.outlet_kg, m.dust_kg,
                              sim.breakage() ? double(sim.breakage()->stats().events) : 0.0});
     }
+    if (!drops.empty()) row.push_back(sim.gas()->gas().time_s());
+    for (const PressureDropConfig& d : drops) row.push_back(pressure_drop_pa(sim.gas()->gas(), d));
     for (std::size_t k = 0; k < names.size(); ++k) columns[k].push_back(row[k]);
   }
 };
@@ -147,11 +160,15 @@ nlohmann::ordered_json mill_gas_json(const GasCoupling& gas, const MillConfig& m
   m["vortex_profile"] = profile;
   nlohmann::ordered_json jets = nlohmann::ordered_json::array();
   const GasGrid& grid = gas.gas().grid();
-  for (std::size_t k = 0; k < gas.config().jets.size(); ++k)
-    jets.push_back({{"name", gas.config().jets[k].name},
+  for (std::size_t k = 0; k < gas.config().jets.size(); ++k) {
+    GasJetConfig jet = gas.config().jets[k];
+    jet.speed_m_per_s = gas.gas().jet_speed_m_per_s(k);  // now, if it follows a schedule
+    jets.push_back({{"name", jet.name},
                     {"faces", grid.jet_faces[k]},
-                    {"set_flow_m3_per_s", gas.config().jets[k].volume_flow_m3_per_s()},
+                    {"speed_m_per_s", jet.speed_m_per_s},
+                    {"set_flow_m3_per_s", jet.volume_flow_m3_per_s()},
                     {"grid_flow_m3_per_s", grid.jet_flow_m3_per_s[k]}});
+  }
   m["nozzles"] = jets;
   return m;
 }
@@ -182,6 +199,29 @@ void add_mill_summary(const Simulation& sim, nlohmann::ordered_json& s) {
   s["mill"] = m;
 }
 
+// The pressure drops' time series (GasConfig::pressure_drops), for result.json.
+nlohmann::ordered_json pressure_drops_json(const Simulation& sim, const TimeSeries& series) {
+  const GasConfig& config = sim.gas()->config();
+  const auto end = [&](const PressurePlane& p) -> nlohmann::ordered_json {
+    if (p.patch >= 0) return config.boundaries[std::size_t(p.patch)].name;
+    return {{"axis", std::string(1, char('x' + p.axis))}, {"at_m", p.at_m}};
+  };
+  const auto column = [&](const std::string& name) -> const std::vector<double>& {
+    return series.columns[std::size_t(std::find(series.names.begin(), series.names.end(), name) -
+                                      series.names.begin())];
+  };
+  nlohmann::ordered_json out = nlohmann::ordered_json::array();
+  for (const PressureDropConfig& d : series.drops) {
+    out.push_back({{"name", d.name},
+                   {"from", end(d.from)},
+                   {"to", end(d.to)},
+                   {"time_s", series.columns[0]},
+                   {"gas_time_s", column("gas_time_s")},
+                   {"drop_pa", column(TimeSeries::pressure_drop_column(d))}});
+  }
+  return out;
+}
+
 // The gas solver and the coupling, for result.json: where the coupled run's time went and how
 // often the drag cache saved an evaluation.
 void add_gas_summary(const Simulation& sim, nlohmann::ordered_json& s) {
@@ -196,7 +236,8 @@ void add_gas_summary(const Simulation& sim, nlohmann::ordered_json& s) {
   const GasGrid& grid = g.gas().grid();
   for (std::size_t k = 0; k < g.config().boundaries.size(); ++k) {
     const GasBoundaryPatch& b = g.config().boundaries[k];
-    const double normal_speed = b.velocity_m_per_s[b.face / 2] * (b.face % 2 == 0 ? 1.0 : -1.0);
+    const Vec3 inflow = g.gas().inlet_velocity_m_per_s(k);  // now, if it follows a schedule
+    const double normal_speed = inflow[b.face / 2] * (b.face % 2 == 0 ? 1.0 : -1.0);
     patches.push_back(
         {{"name", b.name},
          {"faces", grid.patch_faces[k]},
@@ -384,7 +425,7 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
   const std::filesystem::path checkpoint_dir = options.out_dir / "checkpoints";
   const std::uint64_t hash = options.scene_text.empty() ? 0 : scene_hash(options.scene_text);
   LoopState loop{sim.particles().size(), sim.energy()};
-  TimeSeries series(has_product(sim));
+  TimeSeries series(has_product(sim), sim);
   const std::optional<ResumePoint> resumed =
       options.resume && write_files ? resume_from(checkpoint_dir, hash, sim, loop, series)
                                     : std::nullopt;
@@ -607,6 +648,7 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
                  {"dissipated_j", initial_energy.total_j() - final_energy.total_j()}};
   if (has_product(sim)) add_product_summary(sim, s);
   if (sim.gas()) add_gas_summary(sim, s);
+  if (!series.drops.empty()) s["pressure_drops"] = pressure_drops_json(sim, series);
   if (sim.mill() && has_product(sim)) add_mill_summary(sim, s);
 
   if (write_files) {

@@ -2,6 +2,8 @@
 // allowed; all errors at once. Expectation: the messages documented in docs/scene-format.md.
 #include <gtest/gtest.h>
 
+#include <filesystem>
+
 #include "core/json_reader.h"
 #include "scene/scene_json.h"
 #include "support/scenes.h"
@@ -40,6 +42,24 @@ TEST(SceneJson, ValidSceneHasNoErrors) {
   EXPECT_EQ(s.materials.at(0).restitution, 0.5);
   EXPECT_EQ(s.sources.at(0).particles.at(0).diameter_m, 1e-4);
   EXPECT_FALSE(s.time.step_s.has_value());  // automatic by default
+}
+
+TEST(SceneJson, EveryShippedSceneLoads) {
+  // Each scene in cases/ (not the studies) loads without an input error, and builds.
+  int scenes = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(MILLSIM_SOURCE_DIR "/cases")) {
+    const std::string name = entry.path().filename().string();
+    if (entry.path().extension() != ".json" || name.find(".study.") != std::string::npos) continue;
+    SCOPED_TRACE(name);
+    try {
+      const SceneConfig scene = load_scene(entry.path());
+      EXPECT_FALSE(scene.name.empty());
+      ++scenes;
+    } catch (const InputErrorList& e) {
+      ADD_FAILURE() << e.errors().front().path << ": " << e.errors().front().allowed;
+    }
+  }
+  EXPECT_GE(scenes, 9);
 }
 
 TEST(SceneJson, OutOfRangeValueNamesPathValueAndRange) {

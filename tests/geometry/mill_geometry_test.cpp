@@ -136,6 +136,7 @@ SceneConfig mill_scene(const MaterialConfig& material) {
   return s;
 }
 
+constexpr double kPi = std::numbers::pi;
 constexpr double kDiameter = 100e-6, kRadius = 0.5 * kDiameter;
 
 double eq12_max_overlap(double m, double k, double v) {
@@ -331,6 +332,75 @@ TEST(MillGas, WhatTheNozzlesBlowInLeavesThroughTheOutletAndTheGasTurns) {
     const VortexSample v = sample_vortex(solver, *s.mill, r, 0.0, 0.0025);
     EXPECT_GT(v.tangential_m_per_s, 0.0) << "r = " << r;
     EXPECT_LT(v.radial_m_per_s, 0.0) << "r = " << r << ": the gas drains inwards to the outlet";
+  }
+}
+
+TEST(MillGas, AScheduledNozzleBlowsTheFlowAndMomentumOfItsSpeedThen) {
+  // A start-up: every nozzle ramps from 0 to 20 m/s over 1 ms. At each step the faces carry
+  // π r² · speed(t), and the outlet lets it out; one nozzle's faces with its body force carry
+  // the momentum ρ Q(t) speed(t) along the jet (the balance of a fixed speed, at every speed).
+  SceneConfig s = test::empty_scene({0, 0, 0}, {0.02, 0.02, 0.004}, table1_material());
+  s.mill = test_mill();
+  const Schedule ramp{{0.0, 1e-3}, {0.0, 20.0}};
+  for (NozzleConfig& n : s.mill->nozzles) n.schedule = InflowSchedule{ramp, false};
+  GasConfig gas;
+  gas.cells = {20, 20, 4};
+  gas.pressure_tolerance = 1e-10;
+  s.gas = gas;
+  s.outlets.clear();
+  InputErrors errors;
+  finish_mill_scene(s, errors);
+  ASSERT_TRUE(errors.empty());
+  const double rho = s.gas->density_kg_per_m3, full_flow = 4 * kPi * 0.0004 * 0.0004 * 20.0;
+  GasSolver solver(*s.gas,
+                   build_gas_grid(*s.gas, s.domain.min_m, s.domain.max_m, {false, false, false}),
+                   {0, 0, 0});
+  const GasGrid& g = solver.grid();
+  int checked = 0;
+  while (solver.time_s() < 1.5e-3) {
+    ASSERT_FALSE(solver.advance(std::min(solver.stable_step_s(), 1e-4)).has_value());
+    const double speed = ramp.at(solver.time_s());
+    double face_flow = 0.0, outflow = 0.0, set_flow = 0.0;
+    for (std::size_t k = 0; k < s.gas->jets.size(); ++k) {
+      const GasJetConfig& jet = s.gas->jets[k];
+      set_flow += kPi * jet.radius_m * jet.radius_m * speed;
+      EXPECT_NEAR(solver.jet_speed_m_per_s(k), speed, 1e-12);
+    }
+    for (int a = 0; a < 3; ++a)
+      for (std::size_t f = 0; f < g.padded_size; ++f) {
+        const double u = solver.velocity()[std::size_t(a)][f];
+        const FaceKind kind = g.face[std::size_t(a)][f];
+        if (kind == FaceKind::Outflow && a == 2) outflow += u * g.face_area_m2(2);
+        if (kind != FaceKind::Fixed || u == 0.0) continue;
+        const bool into_high = g.fluid[f + g.stride[std::size_t(a)]] && !g.fluid[f];
+        face_flow += u * (into_high ? 1.0 : -1.0) * g.face_area_m2(a);
+      }
+    EXPECT_NEAR(face_flow, set_flow, 1e-12 * full_flow) << "t = " << solver.time_s();
+    EXPECT_NEAR(outflow, set_flow, 1e-6 * full_flow) << "t = " << solver.time_s();
+    ++checked;
+  }
+  EXPECT_GE(checked, 15);
+
+  GasConfig one = *s.gas;
+  one.jets = {s.gas->jets[0]};
+  GasSolver single(one, build_gas_grid(one, s.domain.min_m, s.domain.max_m, {false, false, false}),
+                   {0, 0, 0});
+  const GasGrid& gj = single.grid();
+  const GasJetConfig& jet = one.jets[0];
+  for (double t : {0.0, 2.5e-4, 7.5e-4, 2e-3, 1e-4}) {  // down again at the end
+    single.apply_inflow_schedules(t);
+    const double speed = ramp.at(t), flow = kPi * jet.radius_m * jet.radius_m * speed;
+    const Vec3 set_momentum = jet.direction * (rho * flow * speed);
+    Vec3 grid_momentum;
+    for (int a = 0; a < 3; ++a)
+      for (std::size_t f = 0; f < gj.padded_size; ++f) {
+        const double u = single.velocity()[std::size_t(a)][f];
+        if (gj.face[std::size_t(a)][f] == FaceKind::Fixed && u != 0.0)
+          grid_momentum[a] += rho * gj.face_area_m2(a) * u * std::abs(u);
+        grid_momentum[a] += gj.jet_force_n_per_m3[std::size_t(a)][f] * gj.cell_volume_m3();
+      }
+    EXPECT_LT(norm(grid_momentum - set_momentum), 1e-12 * rho * flow * 20.0 + 1e-30) << "t = " << t;
+    EXPECT_NEAR(gj.jet_flow_m3_per_s[0], flow, 1e-15);
   }
 }
 
