@@ -60,6 +60,22 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
   double max_ratio = 0.0;
   std::size_t max_pair = 0;
 
+  // A contact of restitution below 0.05 ends keeping only that share of its normal separation
+  // speed (particles/restitution.h): equal and opposite impulses along n, as a force over the
+  // step; a frozen partner (no inverse mass) takes none of it.
+  const double* inv_mass = p.inv_mass_per_kg.data();
+  auto end_of_contact = [&](std::uint32_t i, std::uint32_t j, const Vec3& d, double dist) {
+    const double scale = materials.pair(mat[i], mat[j]).separation_scale;
+    const double inv_sum = inv_mass[i] + inv_mass[j];
+    if (scale >= 1.0 || inv_sum <= 0.0) return;
+    const Vec3 n = d * (1.0 / dist);
+    const double vn = dot(motion[i].velocity_m_per_s - motion[j].velocity_m_per_s, n);
+    if (vn <= 0.0) return;
+    const Vec3 force = n * ((1.0 - scale) * vn / (inv_sum * dt));
+    load[i].force_n -= force;
+    load[j].force_n += force;
+  };
+
   // The contact law on candidate k, which touches now or touched at the last pass.
   auto visit = [&](std::size_t k) {
     const std::uint32_t i = first[k], j = second[k];
@@ -68,6 +84,7 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
     const double dist2 = norm2(d), rsum = r[i] + r[j];
     if (dist2 >= rsum * rsum) {
       if (touching_flag[k]) {  // the contact ended: it forgets its history
+        if (touching_flag[k] == kPairTouching) end_of_contact(i, j, d, std::sqrt(dist2));
         touching_flag[k] = kPairApart;
         if (history[k] != kNoHistory) pool.give_back(history[k]), history[k] = kNoHistory;
       }
@@ -213,6 +230,12 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Wall>
     Vec3 n;
     double overlap = r - wall_gap_m(wall, p.position_m[i], n);
     if (overlap <= 0.0) {
+      // Restitution below 0.05: the particle leaves with that share of its normal speed.
+      const double scale = materials.wall_pair(wall.pair_table, p.material[i]).separation_scale;
+      const double vn = dot(p.motion[i].velocity_m_per_s, n);
+      if (nl.wall_touching[k] == kPairTouching && scale < 1.0 && vn > 0.0 &&
+          p.inv_mass_per_kg[i] > 0.0)
+        p.load[i].force_n -= n * ((1.0 - scale) * vn / (p.inv_mass_per_kg[i] * dt));
       nl.wall_history_m[k] = {};
       nl.wall_touching[k] = kPairApart;
       continue;

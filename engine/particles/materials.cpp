@@ -1,5 +1,6 @@
 #include "particles/materials.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -8,6 +9,7 @@
 namespace millsim {
 
 double damping_ratio(DampingModel model, double e) {
+  e = std::max(e, kLowestDampedRestitution);  // below it: restitution.h
   if (model == DampingModel::Restitution) return damping_ratio_for_restitution(e);
   const double log_e = std::log(e);
   const double pi = std::numbers::pi;
@@ -30,6 +32,7 @@ PairConstants pair_constants(DampingModel model, double restitution, double fric
   PairConstants p;
   p.restitution = restitution;
   p.damping_ratio = damping_ratio(model, restitution);
+  p.separation_scale = separation_scale(restitution);
   p.friction = friction;
   p.rolling_friction = rolling_friction;
   return p;

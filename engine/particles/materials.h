@@ -43,6 +43,9 @@ ParticleSprings particle_springs(const MaterialConstants& m, double radius_m, do
 struct PairConstants {
   double damping_ratio;  // α of the pair's restitution
   double restitution;
+  // Below e = 0.05, the share of the normal separation speed a contact keeps when it ends
+  // (particles/restitution.h); 1 otherwise.
+  double separation_scale = 1.0;
   double friction;
   double rolling_friction;
   double wall_normal_compliance = 0.0;  // walls only: (1−ν²)/E of the wall

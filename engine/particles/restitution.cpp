@@ -1,5 +1,6 @@
 #include "particles/restitution.h"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <mutex>
@@ -37,6 +38,7 @@ DimensionlessImpact simulate_dimensionless_impact(double alpha) {
 
 double damping_ratio_for_restitution(double restitution) {
   if (restitution >= 1.0) return 0.0;
+  restitution = std::max(restitution, kLowestDampedRestitution);
   static std::mutex mutex;
   static std::map<double, double> cache;
   {

@@ -67,7 +67,7 @@ struct MaterialConfig {
   double youngs_modulus_pa = 0.0;  // E
   double poisson_ratio = 0.0;      // ν
   double density_kg_per_m3 = 0.0;  // ρ
-  double restitution = 1.0;        // e, normal coefficient of restitution, [0.05, 1]
+  double restitution = 1.0;        // e, normal coefficient of restitution, [0, 1]
   double friction = 0.0;           // μ, Coulomb sliding friction
   double rolling_friction = 0.0;   // μ_r, constant-torque rolling resistance; 0 = off
   bool frozen = false;  // its particles never move (a fixed bed, a target); they still collide

@@ -35,7 +35,7 @@ int find_material(const std::vector<MaterialConfig>& materials, JsonObjectReader
 
 namespace {
 
-const NumberRange kRestitution = NumberRange::closed(0.05, 1.0);
+const NumberRange kRestitution = NumberRange::closed(0.0, 1.0);
 // Speeds a DEM run can resolve at all: far beyond any mill (1e5 m/s), yet far from overflowing
 // the energies (a velocity of 1e308 m/s gives an infinite kinetic energy).
 const NumberRange kVelocity = NumberRange::closed(-1e5, 1e5);
