@@ -1,4 +1,5 @@
 // millsim serve [--host H] [--port P] [--db FILE] [--token-file FILE] [--workers N] [--out DIR]
+// [--worker-port P] [--max-connections N] [--receive-timeout S] (and the limits in --help)
 //               [--scenes DIR] [--lease S] [--max-body BYTES] [--max-runs N]
 //               [--max-study-bytes BYTES]
 // The batch service: the HTTP API (service/api_server.h) on H:P (default 127.0.0.1:8080), the
@@ -59,6 +60,7 @@ pid_t start_worker(const std::string& self, const std::string& url, const std::s
 int cmd_serve(const std::vector<std::string>& args) {
   ServerConfig config;
   config.workers = int(std::max(1u, std::thread::hardware_concurrency()));
+  config.worker_port = 0;  // the started workers' own path (service/http_limits.h)
   // The token from the environment keeps it out of `ps` (systemd: EnvironmentFile=).
   if (const char* t = std::getenv("MILLSIM_TOKEN")) config.token = t;
   ArgReader r("serve", args);
@@ -93,9 +95,18 @@ int cmd_serve(const std::vector<std::string>& args) {
       config.max_study_bytes = std::size_t(max_study);
       continue;
     }
+    int max_connections = 0;
+    if (r.int_option("--max-connections", max_connections, 4, 4096)) {
+      config.limits.max_connections = std::size_t(max_connections);
+      continue;
+    }
+    if (r.int_option("--worker-port", config.worker_port, 0, 65535) ||
+        r.double_option("--receive-timeout", config.limits.receive_timeout_s, 0.1, 3600))
+      continue;
     r.unknown(
         "--host H, --port P, --db FILE, --token-file FILE, --workers N, --out DIR, --scenes DIR, "
-        "--lease S, --max-body BYTES, --max-runs N, --max-study-bytes BYTES");
+        "--lease S, --max-body BYTES, --max-runs N, --max-study-bytes BYTES, --worker-port P, "
+        "--max-connections N, --receive-timeout S");
   }
   if (!r.ok()) return kBadInput;
   const bool token_generated = config.token.empty();
@@ -112,23 +123,27 @@ int cmd_serve(const std::vector<std::string>& args) {
     std::unique_ptr<ApiServer> server = std::make_unique<ApiServer>(config);
     server->bind();
     const std::string url = "http://" + config.host + ":" + std::to_string(server->bound_port());
+    const std::string worker_url =
+        "http://" + config.host + ":" + std::to_string(server->bound_worker_port());
     // A token the operator gave is theirs already; only a generated one is printed.
-    std::printf("millsim serve: listening on %s (database %s, %d workers)\ntoken: %s\n",
-                url.c_str(), config.db.c_str(), config.workers,
-                token_generated ? config.token.c_str() : "(given)");
+    std::printf(
+        "millsim serve: listening on %s (database %s, %d workers; worker protocol also on "
+        "port %d)\ntoken: %s\n",
+        url.c_str(), config.db.c_str(), config.workers, server->bound_worker_port(),
+        token_generated ? config.token.c_str() : "(given)");
     std::fflush(stdout);
     std::thread http([&] { server->serve(); });
 
     const std::string self = std::filesystem::read_symlink("/proc/self/exe");
     std::vector<pid_t> workers;
     for (int k = 0; k < config.workers; ++k)
-      workers.push_back(start_worker(self, url, config.token, k));
+      workers.push_back(start_worker(self, worker_url, config.token, k));
     const timespec tick = {0, 200'000'000};
     while (sigtimedwait(&stop_signals, nullptr, &tick) < 0) {
       for (std::size_t k = 0; k < workers.size(); ++k) {
         int status = 0;
         if (waitpid(workers[k], &status, WNOHANG) == workers[k])
-          workers[k] = start_worker(self, url, config.token, int(k));  // keep N workers
+          workers[k] = start_worker(self, worker_url, config.token, int(k));  // keep N workers
       }
     }
     std::fprintf(stderr, "millsim serve: stopping\n");

@@ -138,8 +138,8 @@ const std::vector<VerbHelp>& verb_help() {
       {"serve",
        "the batch service: HTTP API, queue and workers",
        "millsim serve [--host H] [--port P] [--db FILE] [--workers N] [--out DIR] [--scenes DIR] "
-       "[--lease S] [--max-body BYTES] [--max-runs N] [--max-study-bytes BYTES] [--token-file "
-       "FILE]",
+       "[--lease S] [--max-body BYTES] [--max-runs N] [--max-study-bytes BYTES] [--worker-port P] "
+       "[--max-connections N] [--receive-timeout S] [--token-file FILE]",
        "Serves the HTTP API (docs/openapi.yaml), owns the SQLite file and starts the workers. The "
        "token comes from MILLSIM_TOKEN or --token-file, never from the command line (ps shows "
        "it); without one a token is generated and printed.",
@@ -154,6 +154,12 @@ const std::vector<VerbHelp>& verb_help() {
         {"--max-runs N", "10000", "largest study"},
         {"--max-study-bytes BYTES", "268435456",
          "most a study may store: its runs' scenes summed (HTTP 413 beyond)"},
+        {"--worker-port P", "0 (a free port)",
+         "a second port serving only the worker protocol; the started workers use it, so slow "
+         "public clients cannot make them miss their heartbeats"},
+        {"--max-connections N", "64", "open connections per port; more are closed on accept"},
+        {"--receive-timeout S", "10",
+         "seconds a request's head and body may take to arrive (slow clients are cut)"},
         kToken},
        "MILLSIM_TOKEN=secret millsim serve --port 8080 --workers 2"},
       {"worker",

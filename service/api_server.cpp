@@ -209,47 +209,41 @@ bool is_loopback_host(const std::string& host) {
 }
 
 ApiServer::ApiServer(ServerConfig config)
-    : config_(std::move(config)), http_(std::make_unique<httplib::Server>()) {
+    : config_(std::move(config)), http_(std::make_unique<GuardedHttpServer>(config_.limits)) {
   lock_fd_ = lock_database(config_.db);
   store_ = std::make_unique<Store>(config_.db);
-  // SO_REUSEADDR only: httplib's default adds SO_REUSEPORT, with which a second server on the
-  // same port would start silently and take half the traffic.
-  http_->set_socket_options([](int sock) {
-    int yes = 1;
-    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
-  });
-  if (config_.request_log) {
-    http_->set_pre_routing_handler([](const Request&, Response&) {
-      request_started_at = std::chrono::steady_clock::now();
-      return httplib::Server::HandlerResponse::Unhandled;
-    });
-    http_->set_logger([](const Request& req, const Response& res) {
-      const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() -
-                                                                  request_started_at)
-                            .count();
-      // One write per line, so lines of concurrent requests never interleave.
-      char millis[32];
-      std::snprintf(millis, sizeof millis, "%.3f", ms);
-      const std::string line = concat(iso_utc(wall_clock_s()), " ", req.method, " ",
-                                      printable(req.path), " ", res.status, " ", millis, " ms\n");
-      std::fputs(line.c_str(), stderr);
-    });
-  }
-  routes();
+  if (config_.worker_port >= 0) worker_http_ = std::make_unique<GuardedHttpServer>(config_.limits);
+  routes(*http_, false);
+  if (worker_http_) routes(*worker_http_, true);
 }
-
 ApiServer::~ApiServer() {
   stop();
   if (reaper_.joinable()) reaper_.join();
+  if (worker_thread_.joinable()) worker_thread_.join();
   if (lock_fd_ >= 0) close(lock_fd_);
 }
 
 void ApiServer::bind() {
-  port_ = config_.port == 0 ? http_->bind_to_any_port(config_.host)
-                            : (http_->bind_to_port(config_.host, config_.port) ? config_.port : -1);
-  if (port_ < 0)
-    throw IoError(concat("cannot listen on ", config_.host, ":", config_.port,
-                         " (in use, or not an address of this machine)"));
+  const auto bind_one = [this](httplib::Server& http, int port) {
+    // SO_REUSEADDR only: httplib's default adds SO_REUSEPORT, with which a second server on the
+    // same port would start silently and take half the traffic.
+    http.set_socket_options([](int sock) {
+      int yes = 1;
+      setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+    });
+    const int bound = port == 0 ? http.bind_to_any_port(config_.host)
+                                : (http.bind_to_port(config_.host, port) ? port : -1);
+    if (bound < 0)
+      throw IoError(concat("cannot listen on ", config_.host, ":", port,
+                           " (in use, or not an address of this machine)"));
+    return bound;
+  };
+  port_ = bind_one(*http_, config_.port);
+  http_->widen_backlog();
+  if (worker_http_) {
+    worker_port_ = bind_one(*worker_http_, config_.worker_port);
+    worker_http_->widen_backlog();
+  }
 }
 
 void ApiServer::serve() {
@@ -263,12 +257,14 @@ void ApiServer::serve() {
         std::this_thread::sleep_for(std::chrono::milliseconds(100));
     }
   });
+  if (worker_http_) worker_thread_ = std::thread([this] { worker_http_->listen_after_bind(); });
   http_->listen_after_bind();
 }
 
 void ApiServer::stop() {
   stopping_ = true;
   if (http_) http_->stop();
+  if (worker_http_) worker_http_->stop();
 }
 
 const nlohmann::ordered_json& ApiServer::cached_results(const std::string& study_id) {
@@ -282,8 +278,7 @@ const nlohmann::ordered_json& ApiServer::cached_results(const std::string& study
   return cached.table;
 }
 
-void ApiServer::routes() {
-  httplib::Server& s = *http_;
+void ApiServer::routes(httplib::Server& s, bool worker_only) {
   // Small replies on a kept-alive connection otherwise wait for Nagle's algorithm and the
   // client's delayed ACK: about 40 ms each from the second request on.
   s.set_tcp_nodelay(true);
@@ -315,6 +310,7 @@ void ApiServer::routes() {
   // refused: chunked (411, send a Content-Length) or compressed (415; decompressed it could be
   // a thousand times the limit). Plain bodies are then held to max_body_bytes by httplib.
   s.set_pre_routing_handler([expected](const Request& req, Response& res) {
+    request_started_at = std::chrono::steady_clock::now();
     if (req.method != "POST" && req.method != "PUT" && req.method != "PATCH")
       return httplib::Server::HandlerResponse::Unhandled;
     if (req.get_header_value("Authorization") != expected) {
@@ -335,9 +331,24 @@ void ApiServer::routes() {
     res.set_header("Connection", "close");  // the unread body must not become the next request
     return httplib::Server::HandlerResponse::Handled;
   });
-  // Wraps a handler with the token check (always for writes; for reads off loopback).
+  // One line per request on stderr.
+  if (config_.request_log)
+    s.set_logger([](const Request& req, const Response& res) {
+      const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() -
+                                                                  request_started_at)
+                            .count();
+      // One write per line, so lines of concurrent requests never interleave.
+      char millis[32];
+      std::snprintf(millis, sizeof millis, "%.3f", ms);
+      const std::string line = concat(iso_utc(wall_clock_s()), " ", req.method, " ",
+                                      printable(req.path), " ", res.status, " ", millis, " ms\n");
+      std::fputs(line.c_str(), stderr);
+    });
+  // Wraps a handler with the token check (always for writes; for reads off loopback). The
+  // request has arrived whole: its receive deadline stops.
   auto guard = [this, expected](bool needs_token, auto handler) {
     return [this, expected, needs_token, handler](const Request& req, Response& res) {
+      GuardedHttpServer::mark_handler_started();
       if (needs_token && req.get_header_value("Authorization") != expected) {
         send_error(res, 401, "unauthorized",
                    "this endpoint needs the header \"Authorization: Bearer <token>\" with the "
@@ -348,323 +359,329 @@ void ApiServer::routes() {
     };
   };
 
-  s.Get("/v1/health", guard(public_reads, [](const Request&, Response& res) {
-          send_json(res, 200, {{"status", "ok"}});
-        }));
+  if (!worker_only) {
+    s.Get("/v1/health", guard(public_reads, [](const Request&, Response& res) {
+            send_json(res, 200, {{"status", "ok"}});
+          }));
 
-  s.Get("/v1/info", guard(public_reads, [this](const Request&, Response& res) {
-          std::lock_guard<std::mutex> lock(store_mutex_);
-          send_json(res, 200,
-                    {{"millsim_version", kMillsimVersion},
-                     {"schema_version", store_->schema_version()},
-                     {"workers", config_.workers},
-                     {"limits",
-                      {{"max_body_bytes", config_.max_body_bytes},
-                       {"max_runs_per_study", config_.max_runs_per_study},
-                       {"max_study_bytes", config_.max_study_bytes},
-                       {"lease_s", config_.lease_s}}}});
-        }));
-
-  s.Post(
-      "/v1/studies", guard(true, [this](const Request& req, Response& res) {
-        json spec;
-        if (!parse_body(req, res, spec)) return;
-        std::string problem;
-        if (!scene_path_allowed(spec, problem))
-          return send_error(res, 400, "invalid_study", problem);
-        Study study;
-        try {
-          study = expand_study(spec, config_.scenes_root, config_.max_runs_per_study,
-                               &config_.scenes_root);
-        } catch (const InputErrorList& e) {
-          ordered_json details = ordered_json::array();
-          const std::size_t shown = std::min(e.errors().size(), kMaxReportedErrors);
-          for (std::size_t k = 0; k < shown; ++k) {
-            const InputError& err = e.errors()[k];
-            details.push_back({{"path", err.path}, {"value", err.value}, {"allowed", err.allowed}});
-          }
-          return send_error(
-              res, 400, "invalid_study",
-              concat(e.errors().size(), " problem(s) in the study",
-                     shown < e.errors().size() ? concat(" (the first ", shown, " are listed)")
-                                               : std::string(),
-                     "; nothing was queued"),
-              details);
-        }
-        // Checked before anything is stored: a large inline scene times many runs.
-        std::size_t stored_bytes = 0;
-        for (const StudyRun& run : study.runs) stored_bytes += run.scene.dump().size();
-        if (stored_bytes > config_.max_study_bytes)
-          return send_error(
-              res, 413, "study_too_large",
-              concat(
-                  "the study would store ", stored_bytes, " bytes of scenes (", study.runs.size(),
-                  " runs), more than this server's limit of ", config_.max_study_bytes,
-                  " (millsim serve --max-study-bytes): use fewer runs or a smaller inline scene; "
-                  "nothing was queued"));
-        std::optional<std::string> key;
-        if (req.has_header("Idempotency-Key")) key = req.get_header_value("Idempotency-Key");
-        std::lock_guard<std::mutex> lock(store_mutex_);
-        const Store::Submitted sub =
-            store_->submit(study, key, std::filesystem::absolute(config_.out_root), wall_clock_s());
-        send_json(res, sub.created ? 201 : 200,
-                  {{"study", sub.study_id},
-                   {"runs", store_->progress(sub.study_id).total},
-                   {"created", sub.created}});
-      }));
-
-  auto study_summary = [this](const StudyRecord& st) {
-    const Progress p = store_->progress(st.id);
-    const double mean_wall = store_->mean_wall_time_s(st.id);
-    return ordered_json{{"id", st.id},
-                        {"name", st.name},
-                        {"created_at", st.created_at},
-                        {"canceled", st.canceled},
-                        {"reference_run", st.reference_run ? ordered_json(*st.reference_run)
-                                                           : ordered_json(nullptr)},
-                        {"error_metric", st.error_metric},
-                        {"progress", progress_json(p, mean_wall, std::max(1, config_.workers))}};
-  };
-
-  s.Get("/v1/studies",
-        guard(public_reads, [this, study_summary](const Request& req, Response& res) {
-          int limit = 0, offset = 0;
-          if (!query_int(req, res, "limit", 100, 1, 1000, limit) ||
-              !query_int(req, res, "offset", 0, 0, 1 << 30, offset))
-            return;
-          std::lock_guard<std::mutex> lock(store_mutex_);
-          ordered_json list = ordered_json::array();
-          for (const StudyRecord& st : store_->studies(limit, offset))
-            list.push_back(study_summary(st));
-          send_json(res, 200, {{"studies", list}, {"limit", limit}, {"offset", offset}});
-        }));
-
-  // Resolves {id} of a study route; 404 for an unknown or malformed id.
-  auto with_study = [this](const Request& req, Response& res, std::optional<StudyRecord>& out) {
-    const std::string id = req.matches[1];
-    if (is_study_id(id)) out = store_->study(id);
-    if (!out) send_error(res, 404, "not_found", "no study \"" + id + "\"");
-    return out.has_value();
-  };
-  auto with_run = [this](const Request& req, Response& res, std::optional<RunRecord>& out) {
-    const std::string id = req.matches[1];
-    if (is_run_id(id)) out = store_->run(id);
-    if (!out) send_error(res, 404, "not_found", "no run \"" + id + "\"");
-    return out.has_value();
-  };
-  // A run that exists and is COMPLETE (404 or 409 otherwise; `what` names what it lacks).
-  auto with_complete_run = [with_run](const Request& req, Response& res,
-                                      std::optional<RunRecord>& out, const char* what) {
-    if (!with_run(req, res, out)) return false;
-    if (out->state == RunState::Complete) return true;
-    send_error(res, 409, "not_complete",
-               "run " + out->id + " is " + std::string(run_state_name(out->state)) + "; its " +
-                   what + " exists once it is COMPLETE");
-    return false;
-  };
-
-  s.Get(R"(/v1/studies/([^/]+))",
-        guard(public_reads, [this, with_study, study_summary](const Request& req, Response& res) {
-          std::lock_guard<std::mutex> lock(store_mutex_);
-          std::optional<StudyRecord> st;
-          if (!with_study(req, res, st)) return;
-          ordered_json body = study_summary(*st);
-          body["spec"] = json::parse(st->spec);
-          send_json(res, 200, body);
-        }));
-
-  s.Get(R"(/v1/studies/([^/]+)/runs)",
-        guard(public_reads, [this, with_study](const Request& req, Response& res) {
-          int limit = 0, offset = 0;
-          if (!query_int(req, res, "limit", 100, 1, 1000, limit) ||
-              !query_int(req, res, "offset", 0, 0, 1 << 30, offset))
-            return;
-          std::optional<RunState> state;
-          if (req.has_param("state")) {
-            state = run_state_from_name(req.get_param_value("state"));
-            if (!state)
-              return send_error(res, 400, "bad_parameter",
-                                "query parameter state = \"" + req.get_param_value("state") +
-                                    "\": expected QUEUED, RUNNING, COMPLETE, EXECUTOR_ERROR, "
-                                    "SYSTEM_ERROR, CANCELING or CANCELED");
-          }
-          std::lock_guard<std::mutex> lock(store_mutex_);
-          std::optional<StudyRecord> st;
-          if (!with_study(req, res, st)) return;
-          ordered_json list = ordered_json::array();
-          for (const RunRecord& r : store_->runs(st->id, state, limit, offset))
-            list.push_back(run_json(r, false));
-          send_json(res, 200, {{"runs", list}, {"limit", limit}, {"offset", offset}});
-        }));
-
-  s.Get(R"(/v1/studies/([^/]+)/results)",
-        guard(public_reads, [this, with_study](const Request& req, Response& res) {
-          std::lock_guard<std::mutex> lock(store_mutex_);
-          std::optional<StudyRecord> st;
-          if (!with_study(req, res, st)) return;
-          send_json(res, 200, cached_results(st->id));
-        }));
-
-  s.Get(R"(/v1/studies/([^/]+)/plot/error-vs-time)",
-        guard(public_reads, [this, with_study](const Request& req, Response& res) {
-          std::lock_guard<std::mutex> lock(store_mutex_);
-          std::optional<StudyRecord> st;
-          if (!with_study(req, res, st)) return;
-          res.set_content(error_vs_time_svg(cached_results(st->id)), "image/svg+xml");
-        }));
-
-  s.Get(R"(/v1/studies/([^/]+)/plot/psd)",
-        guard(public_reads, [this, with_study](const Request& req, Response& res) {
-          std::lock_guard<std::mutex> lock(store_mutex_);
-          std::optional<StudyRecord> st;
-          if (!with_study(req, res, st)) return;
-          const std::string svg = psd_svg(*store_, st->id);
-          if (svg.empty())
-            return send_error(res, 404, "no_psd",
-                              "no complete run of study " + st->id + " has a PSD yet");
-          res.set_content(svg, "image/svg+xml");
-        }));
-
-  s.Post(R"(/v1/studies/([^/]+)/cancel)",
-         guard(true, [this, with_study](const Request& req, Response& res) {
-           std::lock_guard<std::mutex> lock(store_mutex_);
-           std::optional<StudyRecord> st;
-           if (!with_study(req, res, st)) return;
-           if (store_->progress(st->id).finished())
-             return send_error(
-                 res, 409, "finished",
-                 "study " + st->id + " has finished (no run queued or running): nothing to cancel");
-           store_->cancel_study(st->id, wall_clock_s());
-           send_json(res, 200, {{"study", st->id}, {"canceled", true}});
-         }));
-
-  s.Get(R"(/v1/runs/([^/]+))",
-        guard(public_reads, [this, with_run](const Request& req, Response& res) {
-          std::lock_guard<std::mutex> lock(store_mutex_);
-          std::optional<RunRecord> r;
-          if (!with_run(req, res, r)) return;
-          ordered_json body = run_json(*r, false);
-          body["log_tail"] = tail_of_file(std::filesystem::path(r->out_dir) / "log.txt", 40);
-          ordered_json history = ordered_json::array();
-          for (const AttemptRecord& a : store_->attempts(r->id))
-            history.push_back(
-                {{"attempt", a.attempt},
-                 {"worker", a.worker},
-                 {"started_at", a.started_at},
-                 {"finished_at", a.finished_at},
-                 {"state", a.state},
-                 {"exit_code", a.exit_code ? ordered_json(*a.exit_code) : ordered_json()},
-                 {"error", a.error},
-                 {"resumed_from_s",
-                  a.resumed_from_s ? ordered_json(*a.resumed_from_s) : ordered_json()}});
-          body["attempt_history"] = history;
-          send_json(res, 200, body);
-        }));
-
-  s.Get(R"(/v1/runs/([^/]+)/psd)",
-        guard(public_reads, [this, with_complete_run](const Request& req, Response& res) {
-          std::lock_guard<std::mutex> lock(store_mutex_);
-          std::optional<RunRecord> r;
-          if (!with_complete_run(req, res, r, "PSD")) return;
-          const json result = json::parse(r->result);
-          if (!result.contains("outlet_psd"))
-            return send_error(res, 404, "no_psd",
-                              "run " + r->id + "'s scene has no outlets or breakage, so no PSD");
-          send_json(res, 200, {{"run", r->id}, {"outlet_psd", result["outlet_psd"]}});
-        }));
-
-  s.Get(R"(/v1/runs/([^/]+)/h5)",
-        guard(public_reads, [this, with_run](const Request& req, Response& res) {
-          std::optional<RunRecord> r;
-          {
+    s.Get("/v1/info", guard(public_reads, [this](const Request&, Response& res) {
             std::lock_guard<std::mutex> lock(store_mutex_);
-            if (!with_run(req, res, r)) return;
-          }
-          const std::filesystem::path file = std::filesystem::path(r->out_dir) / "run.h5";
-          std::error_code ec;
-          const auto size = std::filesystem::file_size(file, ec);
-          if (ec) return send_error(res, 404, "no_h5", "run " + r->id + " has no run.h5");
-          auto stream = std::make_shared<std::ifstream>(file, std::ios::binary);
-          res.set_content_provider(
-              size, "application/x-hdf5",
-              [stream](std::size_t offset, std::size_t length, httplib::DataSink& sink) {
-                std::vector<char> buffer(std::min<std::size_t>(length, 1 << 16));
-                stream->seekg(std::streamoff(offset));
-                stream->read(buffer.data(), std::streamsize(buffer.size()));
-                sink.write(buffer.data(), std::size_t(stream->gcount()));
-                return stream->gcount() > 0;
-              });
-        }));
+            send_json(res, 200,
+                      {{"millsim_version", kMillsimVersion},
+                       {"schema_version", store_->schema_version()},
+                       {"workers", config_.workers},
+                       {"worker_port", worker_port_ >= 0 ? json(worker_port_) : json(nullptr)},
+                       {"limits",
+                        {{"max_body_bytes", config_.max_body_bytes},
+                         {"max_runs_per_study", config_.max_runs_per_study},
+                         {"max_study_bytes", config_.max_study_bytes},
+                         {"lease_s", config_.lease_s},
+                         {"max_connections", config_.limits.max_connections},
+                         {"receive_timeout_s", config_.limits.receive_timeout_s}}}});
+          }));
 
-  s.Get(R"(/v1/runs/([^/]+)/result)",
-        guard(public_reads, [this, with_complete_run](const Request& req, Response& res) {
-          std::lock_guard<std::mutex> lock(store_mutex_);
-          std::optional<RunRecord> r;
-          if (!with_complete_run(req, res, r, "result")) return;
-          send_json(res, 200, ordered_json::parse(r->result));
-        }));
-
-  // The regression history (millsim regress): the client runs the checks as studies through
-  // this server, compares, and records the outcome here.
-  s.Post(
-      "/v1/regressions", guard(true, [this](const Request& req, Response& res) {
-        json record;
-        if (!parse_body(req, res, record)) return;
-        const InputErrors errors = validate_regression_record(record);
-        if (!errors.empty()) {
-          ordered_json details = ordered_json::array();
-          for (const InputError& err : errors)
-            details.push_back({{"path", err.path}, {"value", err.value}, {"allowed", err.allowed}});
-          return send_error(res, 400, "invalid_regression",
-                            concat(errors.size(), " problem(s) in the record; nothing stored"),
-                            details);
-        }
-        std::lock_guard<std::mutex> lock(store_mutex_);
-        const std::string id = store_->add_regression(record, wall_clock_s());
-        send_json(res, 201, {{"id", id}});
-      }));
-
-  s.Get("/v1/regressions", guard(public_reads, [this](const Request& req, Response& res) {
-          int limit = 0, offset = 0;
-          if (!query_int(req, res, "limit", 100, 1, 1000, limit) ||
-              !query_int(req, res, "offset", 0, 0, 1 << 30, offset))
-            return;
-          const std::string suite = req.has_param("suite") ? req.get_param_value("suite") : "";
-          const std::string check = req.has_param("check") ? req.get_param_value("check") : "";
-          std::lock_guard<std::mutex> lock(store_mutex_);
-          ordered_json list = ordered_json::array();
-          for (const RegressionEntry& e : store_->regressions(limit, offset, suite)) {
-            const ordered_json record = ordered_json::parse(e.record);
-            ordered_json item = {{"id", e.id},
-                                 {"suite", e.suite},
-                                 {"created_at", e.created_at},
-                                 {"created", record.value("created", "")},
-                                 {"passed", e.passed},
-                                 {"failures", e.failures},
-                                 {"build", record["build"]}};
-            if (!check.empty()) {  // that check's rows, for its history across nights
-              ordered_json rows = ordered_json::array();
-              for (const ordered_json& row : record["rows"])
-                if (row.value("check", "") == check) rows.push_back(row);
-              item["rows"] = rows;
+    s.Post(
+        "/v1/studies", guard(true, [this](const Request& req, Response& res) {
+          json spec;
+          if (!parse_body(req, res, spec)) return;
+          std::string problem;
+          if (!scene_path_allowed(spec, problem))
+            return send_error(res, 400, "invalid_study", problem);
+          Study study;
+          try {
+            study = expand_study(spec, config_.scenes_root, config_.max_runs_per_study,
+                                 &config_.scenes_root);
+          } catch (const InputErrorList& e) {
+            ordered_json details = ordered_json::array();
+            const std::size_t shown = std::min(e.errors().size(), kMaxReportedErrors);
+            for (std::size_t k = 0; k < shown; ++k) {
+              const InputError& err = e.errors()[k];
+              details.push_back(
+                  {{"path", err.path}, {"value", err.value}, {"allowed", err.allowed}});
             }
-            list.push_back(item);
+            return send_error(
+                res, 400, "invalid_study",
+                concat(e.errors().size(), " problem(s) in the study",
+                       shown < e.errors().size() ? concat(" (the first ", shown, " are listed)")
+                                                 : std::string(),
+                       "; nothing was queued"),
+                details);
           }
-          send_json(res, 200, {{"regressions", list}, {"limit", limit}, {"offset", offset}});
+          // Checked before anything is stored: a large inline scene times many runs.
+          std::size_t stored_bytes = 0;
+          for (const StudyRun& run : study.runs) stored_bytes += run.scene.dump().size();
+          if (stored_bytes > config_.max_study_bytes)
+            return send_error(
+                res, 413, "study_too_large",
+                concat(
+                    "the study would store ", stored_bytes, " bytes of scenes (", study.runs.size(),
+                    " runs), more than this server's limit of ", config_.max_study_bytes,
+                    " (millsim serve --max-study-bytes): use fewer runs or a smaller inline scene; "
+                    "nothing was queued"));
+          std::optional<std::string> key;
+          if (req.has_header("Idempotency-Key")) key = req.get_header_value("Idempotency-Key");
+          std::lock_guard<std::mutex> lock(store_mutex_);
+          const Store::Submitted sub = store_->submit(
+              study, key, std::filesystem::absolute(config_.out_root), wall_clock_s());
+          send_json(res, sub.created ? 201 : 200,
+                    {{"study", sub.study_id},
+                     {"runs", store_->progress(sub.study_id).total},
+                     {"created", sub.created}});
         }));
 
-  s.Get(R"(/v1/regressions/([^/]+))",
-        guard(public_reads, [this](const Request& req, Response& res) {
-          const std::string id = req.matches[1];
-          std::lock_guard<std::mutex> lock(store_mutex_);
-          std::optional<RegressionEntry> e;
-          if (id.size() == 7 && id[0] == 'g' && all_digits(id.substr(1)))
-            e = store_->regression(id);
-          if (!e) return send_error(res, 404, "not_found", "no regression run \"" + id + "\"");
-          ordered_json record = ordered_json::parse(e->record);
-          record["id"] = e->id;
-          send_json(res, 200, record);
-        }));
+    auto study_summary = [this](const StudyRecord& st) {
+      const Progress p = store_->progress(st.id);
+      const double mean_wall = store_->mean_wall_time_s(st.id);
+      return ordered_json{{"id", st.id},
+                          {"name", st.name},
+                          {"created_at", st.created_at},
+                          {"canceled", st.canceled},
+                          {"reference_run", st.reference_run ? ordered_json(*st.reference_run)
+                                                             : ordered_json(nullptr)},
+                          {"error_metric", st.error_metric},
+                          {"progress", progress_json(p, mean_wall, std::max(1, config_.workers))}};
+    };
+
+    s.Get("/v1/studies",
+          guard(public_reads, [this, study_summary](const Request& req, Response& res) {
+            int limit = 0, offset = 0;
+            if (!query_int(req, res, "limit", 100, 1, 1000, limit) ||
+                !query_int(req, res, "offset", 0, 0, 1 << 30, offset))
+              return;
+            std::lock_guard<std::mutex> lock(store_mutex_);
+            ordered_json list = ordered_json::array();
+            for (const StudyRecord& st : store_->studies(limit, offset))
+              list.push_back(study_summary(st));
+            send_json(res, 200, {{"studies", list}, {"limit", limit}, {"offset", offset}});
+          }));
+
+    // Resolves {id} of a study route; 404 for an unknown or malformed id.
+    auto with_study = [this](const Request& req, Response& res, std::optional<StudyRecord>& out) {
+      const std::string id = req.matches[1];
+      if (is_study_id(id)) out = store_->study(id);
+      if (!out) send_error(res, 404, "not_found", "no study \"" + id + "\"");
+      return out.has_value();
+    };
+    auto with_run = [this](const Request& req, Response& res, std::optional<RunRecord>& out) {
+      const std::string id = req.matches[1];
+      if (is_run_id(id)) out = store_->run(id);
+      if (!out) send_error(res, 404, "not_found", "no run \"" + id + "\"");
+      return out.has_value();
+    };
+    // A run that exists and is COMPLETE (404 or 409 otherwise; `what` names what it lacks).
+    auto with_complete_run = [with_run](const Request& req, Response& res,
+                                        std::optional<RunRecord>& out, const char* what) {
+      if (!with_run(req, res, out)) return false;
+      if (out->state == RunState::Complete) return true;
+      send_error(res, 409, "not_complete",
+                 "run " + out->id + " is " + std::string(run_state_name(out->state)) + "; its " +
+                     what + " exists once it is COMPLETE");
+      return false;
+    };
+
+    s.Get(R"(/v1/studies/([^/]+))",
+          guard(public_reads, [this, with_study, study_summary](const Request& req, Response& res) {
+            std::lock_guard<std::mutex> lock(store_mutex_);
+            std::optional<StudyRecord> st;
+            if (!with_study(req, res, st)) return;
+            ordered_json body = study_summary(*st);
+            body["spec"] = json::parse(st->spec);
+            send_json(res, 200, body);
+          }));
+
+    s.Get(R"(/v1/studies/([^/]+)/runs)",
+          guard(public_reads, [this, with_study](const Request& req, Response& res) {
+            int limit = 0, offset = 0;
+            if (!query_int(req, res, "limit", 100, 1, 1000, limit) ||
+                !query_int(req, res, "offset", 0, 0, 1 << 30, offset))
+              return;
+            std::optional<RunState> state;
+            if (req.has_param("state")) {
+              state = run_state_from_name(req.get_param_value("state"));
+              if (!state)
+                return send_error(res, 400, "bad_parameter",
+                                  "query parameter state = \"" + req.get_param_value("state") +
+                                      "\": expected QUEUED, RUNNING, COMPLETE, EXECUTOR_ERROR, "
+                                      "SYSTEM_ERROR, CANCELING or CANCELED");
+            }
+            std::lock_guard<std::mutex> lock(store_mutex_);
+            std::optional<StudyRecord> st;
+            if (!with_study(req, res, st)) return;
+            ordered_json list = ordered_json::array();
+            for (const RunRecord& r : store_->runs(st->id, state, limit, offset))
+              list.push_back(run_json(r, false));
+            send_json(res, 200, {{"runs", list}, {"limit", limit}, {"offset", offset}});
+          }));
+
+    s.Get(R"(/v1/studies/([^/]+)/results)",
+          guard(public_reads, [this, with_study](const Request& req, Response& res) {
+            std::lock_guard<std::mutex> lock(store_mutex_);
+            std::optional<StudyRecord> st;
+            if (!with_study(req, res, st)) return;
+            send_json(res, 200, cached_results(st->id));
+          }));
+
+    s.Get(R"(/v1/studies/([^/]+)/plot/error-vs-time)",
+          guard(public_reads, [this, with_study](const Request& req, Response& res) {
+            std::lock_guard<std::mutex> lock(store_mutex_);
+            std::optional<StudyRecord> st;
+            if (!with_study(req, res, st)) return;
+            res.set_content(error_vs_time_svg(cached_results(st->id)), "image/svg+xml");
+          }));
+
+    s.Get(R"(/v1/studies/([^/]+)/plot/psd)",
+          guard(public_reads, [this, with_study](const Request& req, Response& res) {
+            std::lock_guard<std::mutex> lock(store_mutex_);
+            std::optional<StudyRecord> st;
+            if (!with_study(req, res, st)) return;
+            const std::string svg = psd_svg(*store_, st->id);
+            if (svg.empty())
+              return send_error(res, 404, "no_psd",
+                                "no complete run of study " + st->id + " has a PSD yet");
+            res.set_content(svg, "image/svg+xml");
+          }));
+
+    s.Post(R"(/v1/studies/([^/]+)/cancel)",
+           guard(true, [this, with_study](const Request& req, Response& res) {
+             std::lock_guard<std::mutex> lock(store_mutex_);
+             std::optional<StudyRecord> st;
+             if (!with_study(req, res, st)) return;
+             if (store_->progress(st->id).finished())
+               return send_error(res, 409, "finished",
+                                 "study " + st->id +
+                                     " has finished (no run queued or running): nothing to cancel");
+             store_->cancel_study(st->id, wall_clock_s());
+             send_json(res, 200, {{"study", st->id}, {"canceled", true}});
+           }));
+
+    s.Get(R"(/v1/runs/([^/]+))",
+          guard(public_reads, [this, with_run](const Request& req, Response& res) {
+            std::lock_guard<std::mutex> lock(store_mutex_);
+            std::optional<RunRecord> r;
+            if (!with_run(req, res, r)) return;
+            ordered_json body = run_json(*r, false);
+            body["log_tail"] = tail_of_file(std::filesystem::path(r->out_dir) / "log.txt", 40);
+            ordered_json history = ordered_json::array();
+            for (const AttemptRecord& a : store_->attempts(r->id))
+              history.push_back(
+                  {{"attempt", a.attempt},
+                   {"worker", a.worker},
+                   {"started_at", a.started_at},
+                   {"finished_at", a.finished_at},
+                   {"state", a.state},
+                   {"exit_code", a.exit_code ? ordered_json(*a.exit_code) : ordered_json()},
+                   {"error", a.error},
+                   {"resumed_from_s",
+                    a.resumed_from_s ? ordered_json(*a.resumed_from_s) : ordered_json()}});
+            body["attempt_history"] = history;
+            send_json(res, 200, body);
+          }));
+
+    s.Get(R"(/v1/runs/([^/]+)/psd)",
+          guard(public_reads, [this, with_complete_run](const Request& req, Response& res) {
+            std::lock_guard<std::mutex> lock(store_mutex_);
+            std::optional<RunRecord> r;
+            if (!with_complete_run(req, res, r, "PSD")) return;
+            const json result = json::parse(r->result);
+            if (!result.contains("outlet_psd"))
+              return send_error(res, 404, "no_psd",
+                                "run " + r->id + "'s scene has no outlets or breakage, so no PSD");
+            send_json(res, 200, {{"run", r->id}, {"outlet_psd", result["outlet_psd"]}});
+          }));
+
+    s.Get(R"(/v1/runs/([^/]+)/h5)",
+          guard(public_reads, [this, with_run](const Request& req, Response& res) {
+            std::optional<RunRecord> r;
+            {
+              std::lock_guard<std::mutex> lock(store_mutex_);
+              if (!with_run(req, res, r)) return;
+            }
+            const std::filesystem::path file = std::filesystem::path(r->out_dir) / "run.h5";
+            std::error_code ec;
+            const auto size = std::filesystem::file_size(file, ec);
+            if (ec) return send_error(res, 404, "no_h5", "run " + r->id + " has no run.h5");
+            auto stream = std::make_shared<std::ifstream>(file, std::ios::binary);
+            res.set_content_provider(
+                size, "application/x-hdf5",
+                [stream](std::size_t offset, std::size_t length, httplib::DataSink& sink) {
+                  std::vector<char> buffer(std::min<std::size_t>(length, 1 << 16));
+                  stream->seekg(std::streamoff(offset));
+                  stream->read(buffer.data(), std::streamsize(buffer.size()));
+                  sink.write(buffer.data(), std::size_t(stream->gcount()));
+                  return stream->gcount() > 0;
+                });
+          }));
+
+    s.Get(R"(/v1/runs/([^/]+)/result)",
+          guard(public_reads, [this, with_complete_run](const Request& req, Response& res) {
+            std::lock_guard<std::mutex> lock(store_mutex_);
+            std::optional<RunRecord> r;
+            if (!with_complete_run(req, res, r, "result")) return;
+            send_json(res, 200, ordered_json::parse(r->result));
+          }));
+
+    // The regression history (millsim regress): the client runs the checks as studies through
+    // this server, compares, and records the outcome here.
+    s.Post("/v1/regressions", guard(true, [this](const Request& req, Response& res) {
+             json record;
+             if (!parse_body(req, res, record)) return;
+             const InputErrors errors = validate_regression_record(record);
+             if (!errors.empty()) {
+               ordered_json details = ordered_json::array();
+               for (const InputError& err : errors)
+                 details.push_back(
+                     {{"path", err.path}, {"value", err.value}, {"allowed", err.allowed}});
+               return send_error(res, 400, "invalid_regression",
+                                 concat(errors.size(), " problem(s) in the record; nothing stored"),
+                                 details);
+             }
+             std::lock_guard<std::mutex> lock(store_mutex_);
+             const std::string id = store_->add_regression(record, wall_clock_s());
+             send_json(res, 201, {{"id", id}});
+           }));
+
+    s.Get("/v1/regressions", guard(public_reads, [this](const Request& req, Response& res) {
+            int limit = 0, offset = 0;
+            if (!query_int(req, res, "limit", 100, 1, 1000, limit) ||
+                !query_int(req, res, "offset", 0, 0, 1 << 30, offset))
+              return;
+            const std::string suite = req.has_param("suite") ? req.get_param_value("suite") : "";
+            const std::string check = req.has_param("check") ? req.get_param_value("check") : "";
+            std::lock_guard<std::mutex> lock(store_mutex_);
+            ordered_json list = ordered_json::array();
+            for (const RegressionEntry& e : store_->regressions(limit, offset, suite)) {
+              const ordered_json record = ordered_json::parse(e.record);
+              ordered_json item = {{"id", e.id},
+                                   {"suite", e.suite},
+                                   {"created_at", e.created_at},
+                                   {"created", record.value("created", "")},
+                                   {"passed", e.passed},
+                                   {"failures", e.failures},
+                                   {"build", record["build"]}};
+              if (!check.empty()) {  // that check's rows, for its history across nights
+                ordered_json rows = ordered_json::array();
+                for (const ordered_json& row : record["rows"])
+                  if (row.value("check", "") == check) rows.push_back(row);
+                item["rows"] = rows;
+              }
+              list.push_back(item);
+            }
+            send_json(res, 200, {{"regressions", list}, {"limit", limit}, {"offset", offset}});
+          }));
+
+    s.Get(R"(/v1/regressions/([^/]+))",
+          guard(public_reads, [this](const Request& req, Response& res) {
+            const std::string id = req.matches[1];
+            std::lock_guard<std::mutex> lock(store_mutex_);
+            std::optional<RegressionEntry> e;
+            if (id.size() == 7 && id[0] == 'g' && all_digits(id.substr(1)))
+              e = store_->regression(id);
+            if (!e) return send_error(res, 404, "not_found", "no regression run \"" + id + "\"");
+            ordered_json record = ordered_json::parse(e->record);
+            record["id"] = e->id;
+            send_json(res, 200, record);
+          }));
+  }
 
   // Worker protocol: claim, heartbeat, finish (each with the run's fencing token).
   s.Post(
@@ -727,6 +744,9 @@ void ApiServer::routes() {
            }
            send_json(res, 200, {{"recorded", true}});
          }));
+
+  // The worker server takes the worker protocol only: anything else is a 404 there.
+  if (worker_only) return;
 
   // The dashboard: static files, no data (its script reads the API with the token it is given).
   // The policy lets the page load only its own script, style and images (plots as blobs).

@@ -17,11 +17,8 @@
 #include <string>
 #include <thread>
 
+#include "http_limits.h"
 #include "store.h"
-
-namespace httplib {
-class Server;
-}
 
 namespace millsim {
 
@@ -39,6 +36,11 @@ struct ServerConfig {
   double lease_s = 30.0;
   int workers = 0;          // reported in /v1/info (the serve command starts them)
   bool request_log = true;  // one line per request on stderr
+  // Slow clients: the connection cap and the receive deadline (service/http_limits.h).
+  ConnectionLimits limits;
+  // A second port that serves the worker protocol alone (claim, heartbeat, finish), so workers
+  // keep a path however busy the public port is: -1 none, 0 any free port.
+  int worker_port = -1;
 };
 
 class ApiServer {
@@ -51,12 +53,16 @@ class ApiServer {
   // Binds; throws IoError when the address is taken.
   void bind();
   int bound_port() const { return port_; }
+  int bound_worker_port() const { return worker_port_; }  // -1 without a worker port
+  // Connections of the public server (tests, /v1/info).
+  ConnectionStats connection_stats() const { return http_->stats(); }
   // Serves until stop(); call from one thread.
   void serve();
   void stop();
 
  private:
-  void routes();
+  // Registers the handlers on `s`: everything, or the worker protocol alone.
+  void routes(httplib::Server& s, bool worker_only);
   // The study's results table, rebuilt only when one of its runs changed (store_mutex_ held).
   const nlohmann::ordered_json& cached_results(const std::string& study_id);
   struct CachedTable {
@@ -65,7 +71,10 @@ class ApiServer {
   };
   std::map<std::string, CachedTable> results_cache_;
   ServerConfig config_;
-  std::unique_ptr<httplib::Server> http_;
+  std::unique_ptr<GuardedHttpServer> http_;
+  std::unique_ptr<GuardedHttpServer> worker_http_;  // with a worker port
+  std::thread worker_thread_;
+  int worker_port_ = -1;
   std::unique_ptr<Store> store_;
   std::mutex store_mutex_;
   std::atomic<bool> stopping_{false};

@@ -3,12 +3,16 @@
 // results and PSDs; a worker killed with SIGKILL loses its run to another attempt; a server
 // stopped and restarted mid-study resumes it; cancel stops running children; bad requests get
 // their documented 4xx and change nothing. Every process a test starts is stopped by pid.
+#include <arpa/inet.h>
 #include <gtest/gtest.h>
 #include <httplib.h>
+#include <netinet/in.h>
 #include <signal.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <fstream>
 #include <regex>
@@ -33,7 +37,7 @@ constexpr const char* kToken = "test-token";
 class ServerProcess {
  public:
   ServerProcess(const std::filesystem::path& dir, int workers, double lease_s = 2.0,
-                const std::string& scenes = ".")
+                const std::string& scenes = ".", std::vector<std::string> extra = {})
       : dir_(dir) {
     const std::filesystem::path log = dir / ("serve-" + std::to_string(++starts_) + ".log");
     pid_ = fork();
@@ -43,10 +47,17 @@ class ServerProcess {
       freopen((log.string() + ".err").c_str(), "w", stderr);
       const std::string w = std::to_string(workers), lease = std::to_string(lease_s);
       setenv("MILLSIM_TOKEN", kToken, 1);  // as a systemd EnvironmentFile gives it
-      execl(MILLSIM_BINARY, "millsim", "serve", "--port", "0", "--db", "q.db", "--workers",
-            w.c_str(), "--lease", lease.c_str(), "--out", "runs", "--max-body", "200000",
-            "--max-study-bytes", "5000000", "--scenes", scenes.c_str(),
-            static_cast<char*>(nullptr));
+      std::vector<std::string> args = {"millsim",    "serve",    "--port",
+                                       "0",          "--db",     "q.db",
+                                       "--workers",  w,          "--lease",
+                                       lease,        "--out",    "runs",
+                                       "--max-body", "200000",   "--max-study-bytes",
+                                       "5000000",    "--scenes", scenes};
+      args.insert(args.end(), extra.begin(), extra.end());
+      std::vector<char*> argv;
+      for (std::string& a : args) argv.push_back(a.data());
+      argv.push_back(nullptr);
+      execv(MILLSIM_BINARY, argv.data());
       _exit(98);
     }
     const std::regex listening("listening on (http://127.0.0.1:[0-9]+)");
@@ -389,6 +400,90 @@ TEST(Service, BodiesTheLimitCannotBoundAreRefusedBeforeTheyAreRead) {
   EXPECT_NE(res->body.find("gzip"), std::string::npos) << res->body;
   EXPECT_EQ(server.get("/v1/health")->status, 200);
   EXPECT_TRUE(json::parse(server.get("/v1/studies")->body)["studies"].empty());
+}
+
+// Slow clients (slowloris: a request head dribbled a byte at a time, each byte inside httplib's
+// per-read timeout) are cut at the receive deadline, connections over the cap are closed at
+// once, and the worker protocol keeps answering on its own port meanwhile. Before, a dozen such
+// connections stalled every endpoint and workers missed their heartbeats.
+TEST(Service, SlowClientsAreCutAndWorkersKeepTheirOwnPath) {
+  test::TempDir dir;
+  ServerProcess server(dir.path(), 0, 2.0, ".",
+                       {"--max-connections", "8", "--receive-timeout", "1"});
+  ASSERT_FALSE(server.url().empty());
+  struct IgnoreSigpipe {
+    void (*previous)(int) = signal(SIGPIPE, SIG_IGN);
+    ~IgnoreSigpipe() { signal(SIGPIPE, previous); }
+  } ignore_sigpipe;
+  const json info = json::parse(server.get("/v1/info")->body);
+  ASSERT_TRUE(info["worker_port"].is_number_integer()) << info.dump();
+  EXPECT_EQ(info["limits"]["max_connections"], 8);
+  const int public_port = std::stoi(server.url().substr(server.url().rfind(':') + 1));
+  const int worker_port = info["worker_port"].get<int>();
+
+  const auto open_socket = [](int port) {
+    const int fd = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_port = htons(std::uint16_t(port));
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    if (connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
+      close(fd);
+      return -1;
+    }
+    return fd;
+  };
+  // 24 slow clients, three times the cap, each starting a request head.
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<int> slow;
+  for (int k = 0; k < 24; ++k) {
+    const int fd = open_socket(public_port);
+    ASSERT_GE(fd, 0);
+    const char head[] = "GET /v1/health HTTP/1.1\r\nHost: x\r\n";
+    send(fd, head, sizeof head - 1, MSG_NOSIGNAL);
+    slow.push_back(fd);
+  }
+  // The worker protocol answers on its own port while the public one is full.
+  httplib::Client worker(std::string("http://127.0.0.1:") + std::to_string(worker_port));
+  worker.set_connection_timeout(1);
+  worker.set_read_timeout(1);
+  const auto claim =
+      worker.Post("/v1/worker/claim", {{"Authorization", std::string("Bearer ") + kToken}},
+                  "{\"worker\": \"w\"}", "application/json");
+  ASSERT_TRUE(claim) << "the worker port did not answer while slow clients held the public one";
+  EXPECT_EQ(claim->status, 204);  // nothing queued
+  EXPECT_EQ(worker.Get("/v1/health")->status, 404) << "the worker port serves workers only";
+  // Dribble a byte every 100 ms to each, and time when the server closes them.
+  std::vector<double> closed_after(slow.size(), -1.0);
+  for (int tick = 0; tick < 60; ++tick) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    const double t =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    for (std::size_t k = 0; k < slow.size(); ++k) {
+      if (closed_after[k] >= 0.0) continue;
+      char buffer[4096];
+      ssize_t n;
+      while ((n = recv(slow[k], buffer, sizeof buffer, MSG_DONTWAIT)) > 0) {
+      }  // whatever the server answered before closing
+      if (n == 0 || (errno != EAGAIN && errno != EWOULDBLOCK) ||
+          send(slow[k], "X", 1, MSG_NOSIGNAL) < 0)
+        closed_after[k] = t;
+    }
+  }
+  for (int fd : slow) close(fd);
+  std::string times;
+  for (double t : closed_after) times += concat(" ", t);
+  std::printf("slow clients closed after (s):%s\n", times.c_str());
+  int within_deadline = 0;
+  for (double t : closed_after) {
+    EXPECT_GE(t, 0.0) << "a slow client was never cut";
+    if (t >= 0.0 && t < 3.0) ++within_deadline;  // 1 s deadline, 100 ms ticks, a loaded machine
+  }
+  EXPECT_EQ(within_deadline, 24) << "closed after (s):" << times;
+  // And the public port answers again.
+  const auto health = server.get("/v1/health");
+  ASSERT_TRUE(health);
+  EXPECT_EQ(health->status, 200);
 }
 
 // A run whose particle file holds bytes that are not UTF-8 fails once, as bad input: its error
