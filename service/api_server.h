@@ -54,6 +54,8 @@ class ApiServer {
   void bind();
   int bound_port() const { return port_; }
   int bound_worker_port() const { return worker_port_; }  // -1 without a worker port
+  // The public server's answer to one connection's bytes, without a socket (fuzzing).
+  std::string serve_bytes(std::string_view request) { return http_->serve_bytes(request); }
   // Connections of the public server (tests, /v1/info).
   ConnectionStats connection_stats() const { return http_->stats(); }
   // Serves until stop(); call from one thread.

@@ -125,6 +125,38 @@ class DeadlineStream final : public httplib::Stream {
 
 thread_local DeadlineStream* current_stream = nullptr;
 
+// A connection held in memory: reads the given bytes, collects what is written.
+class MemoryStream final : public httplib::Stream {
+ public:
+  explicit MemoryStream(std::string_view in) : in_(in) {}
+  const std::string& written() const { return out_; }
+  bool at_end() const { return in_.empty(); }
+
+  bool is_readable() const override { return !in_.empty(); }
+  bool is_writable() const override { return true; }
+  ssize_t read(char* out, size_t size) override {
+    const std::size_t n = std::min(size, in_.size());
+    std::memcpy(out, in_.data(), n);
+    in_.remove_prefix(n);
+    return ssize_t(n);
+  }
+  ssize_t write(const char* data, size_t size) override {
+    out_.append(data, size);
+    return ssize_t(size);
+  }
+  void get_remote_ip_and_port(std::string& ip, int& port) const override {
+    ip = "127.0.0.1", port = 40000;
+  }
+  void get_local_ip_and_port(std::string& ip, int& port) const override {
+    ip = "127.0.0.1", port = 8080;
+  }
+  socket_t socket() const override { return INVALID_SOCKET; }
+
+ private:
+  std::string_view in_;
+  std::string out_;
+};
+
 }  // namespace
 
 GuardedHttpServer::GuardedHttpServer(ConnectionLimits limits) : limits_(limits) {
@@ -142,6 +174,15 @@ void GuardedHttpServer::widen_backlog() {
 
 void GuardedHttpServer::mark_handler_started() {
   if (current_stream) current_stream->handler_started();
+}
+
+std::string GuardedHttpServer::serve_bytes(std::string_view request) {
+  MemoryStream stream(request);
+  for (int left = kKeepAliveMaxCount; left > 0 && !stream.at_end(); --left) {
+    bool closed = false;
+    if (!process_request(stream, left == 1, closed, nullptr) || closed) break;
+  }
+  return stream.written();
 }
 
 ConnectionStats GuardedHttpServer::stats() const {

@@ -15,6 +15,8 @@
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
+#include <string>
+#include <string_view>
 
 namespace millsim {
 
@@ -40,6 +42,10 @@ class GuardedHttpServer : public httplib::Server {
 
   // Call when a route handler starts: the request has arrived whole.
   static void mark_handler_started();
+
+  // Answers one connection's bytes as the server would (routing, handlers, keep-alive up to the
+  // usual count) without a socket: the fuzz harness of the HTTP handling, and tests.
+  std::string serve_bytes(std::string_view request);
 
   ConnectionStats stats() const;
   std::size_t open_connections() const { return open_.load(); }

@@ -259,7 +259,8 @@ Study expand_study(const json& spec, const std::filesystem::path& base_dir, int 
       std::filesystem::path p = s->get<std::string>();
       if (p.is_relative()) p = base_dir / p;
       scene_dir = p.parent_path();
-      if (!std::filesystem::is_regular_file(p))
+      std::error_code ec;  // a name too long for the system is as missing as any other
+      if (!std::filesystem::is_regular_file(p, ec))
         errors.push_back(
             {"/scene", s->dump(), "no such scene file (looked at " + p.string() + ")"});
       else
@@ -405,7 +406,8 @@ Study expand_study(const json& spec, const std::filesystem::path& base_dir, int 
 }
 
 Study load_study(const std::filesystem::path& path, int max_runs) {
-  if (!std::filesystem::is_regular_file(path))
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec))
     throw InputErrorList({{path.string(), "", "no such study file"}});
   return expand_study(read_json_file(path, path.string()), path.parent_path(), max_runs);
 }

@@ -622,7 +622,8 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
 }
 
 SceneConfig load_scene(const std::filesystem::path& path) {
-  if (!std::filesystem::is_regular_file(path))
+  std::error_code ec;  // a name too long for the system is as missing as any other
+  if (!std::filesystem::is_regular_file(path, ec))
     throw InputErrorList({{path.string(), "", "no such scene file"}});
   std::ifstream in(path);
   if (!in) throw IoError("cannot read scene file " + path.string());

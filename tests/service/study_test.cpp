@@ -120,6 +120,16 @@ TEST(Study, BadInputNamesTheParameterAndThePoint) {
   EXPECT_EQ(errors[0].path, "/parameters/0");
 }
 
+TEST(Study, AScenePathTooLongForTheSystemIsAMissingScene) {
+  // Found by fuzz/fuzz_study.cpp: a 5,000-character scene path made the file check throw
+  // std::filesystem::filesystem_error (ENAMETOOLONG) out of the parser.
+  json spec = {{"name", "long"}, {"scene", std::string(5000, 'a') + ".json"}};
+  const auto errors = errors_of(spec);
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_EQ(errors[0].path, "/scene");
+  EXPECT_NE(errors[0].allowed.find("no such scene file"), std::string::npos);
+}
+
 TEST(Study, OverLargeStudiesAreRefused) {
   const json spec = study_with(
       {{{"path", "seed"}, {"range", {{"from", 1}, {"to", 40}, {"step", 1}}}},

@@ -1,0 +1,45 @@
+// Fuzzes the HTTP request handling of `millsim serve`: any bytes, as what one connection sends,
+// go through httplib's parsing and the server's routing, checks and handlers (the same
+// ApiServer, on a SQLite file of its own, without a socket: GuardedHttpServer::serve_bytes). A
+// crash, a sanitizer report or an exception out of the server is a finding; every answer must be
+// an HTTP response. Seeds: fuzz/http_seeds/ (requests of every endpoint, with the token
+// "fuzz-token").
+#include <unistd.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <string_view>
+
+#include "api_server.h"
+
+namespace {
+
+millsim::ApiServer& server() {
+  static std::unique_ptr<millsim::ApiServer> s = [] {
+    const std::filesystem::path dir =
+        std::filesystem::temp_directory_path() / ("millsim-fuzz-http-" + std::to_string(getpid()));
+    std::filesystem::create_directories(dir / "scenes");
+    millsim::ServerConfig config;
+    config.db = dir / "fuzz.db";
+    config.out_root = dir / "runs";
+    config.scenes_root = dir / "scenes";
+    config.token = "fuzz-token";
+    config.request_log = false;
+    config.max_runs_per_study = 50;
+    return std::make_unique<millsim::ApiServer>(config);
+  }();
+  return *s;
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  const std::string reply =
+      server().serve_bytes(std::string_view(reinterpret_cast<const char*>(data), size));
+  if (!reply.empty() && reply.rfind("HTTP/1.1 ", 0) != 0) std::abort();
+  return 0;
+}
