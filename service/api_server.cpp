@@ -346,8 +346,8 @@ void ApiServer::routes(httplib::Server& s, bool worker_only) {
     });
   // Wraps a handler with the token check (always for writes; for reads off loopback). The
   // request has arrived whole: its receive deadline stops.
-  auto guard = [this, expected](bool needs_token, auto handler) {
-    return [this, expected, needs_token, handler](const Request& req, Response& res) {
+  auto guard = [expected](bool needs_token, auto handler) {
+    return [expected, needs_token, handler](const Request& req, Response& res) {
       GuardedHttpServer::mark_handler_started();
       if (needs_token && req.get_header_value("Authorization") != expected) {
         send_error(res, 401, "unauthorized",
