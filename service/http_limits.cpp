@@ -125,6 +125,27 @@ class DeadlineStream final : public httplib::Stream {
 
 thread_local DeadlineStream* current_stream = nullptr;
 
+// Closes a connection after its last response without resetting it: a close with unread bytes
+// (the body of a request refused before it was read, a slow client's dribble) makes the kernel
+// send a reset, and a reset can destroy the response before the client reads it. So the sending
+// side is shut first (the client sees the end of the response), and what the client still sends
+// is read and dropped for up to 200 ms or 1 MiB, or until it closes too.
+void linger_and_close(socket_t sock) {
+  shutdown(sock, SHUT_WR);
+  const auto until = Clock::now() + std::chrono::milliseconds(200);
+  char sink[4096];
+  std::size_t drained = 0;
+  while (drained < (1u << 20)) {
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(until - Clock::now()).count();
+    if (left <= 0 || !wait_for(sock, POLLIN, int(left))) break;
+    const ssize_t n = recv(sock, sink, sizeof sink, 0);
+    if (n <= 0) break;
+    drained += std::size_t(n);
+  }
+  close(sock);
+}
+
 // A connection held in memory: reads the given bytes, collects what is written.
 class MemoryStream final : public httplib::Stream {
  public:
@@ -221,7 +242,7 @@ bool GuardedHttpServer::process_and_close_socket(socket_t sock) {
     if (!ok || closed || stream.timed_out()) break;
   }
   current_stream = nullptr;
-  close_socket();
+  linger_and_close(sock);
   open_.fetch_sub(1);
   return ok;
 }
