@@ -27,11 +27,12 @@ progress() {  # progress DIR < build output
   if [ -t 2 ]; then echo >&2; fi
 }
 
-build() {  # build DIR [cmake options...]
+build() {  # build DIR [cmake options...]; MILLSIM_CMAKE_ARGS adds more (CI: -DMILLSIM_WERROR=ON)
   local dir=$1
   shift
   echo "configuring $dir (the first build takes a few minutes)" >&2
-  cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
+  # shellcheck disable=SC2086
+  cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=Release "$@" ${MILLSIM_CMAKE_ARGS:-} >/dev/null
   if ! cmake --build "$dir" -j"$jobs" 2>&1 | tee "$dir/build.log" | progress "$dir"; then
     tail -n 40 "$dir/build.log" >&2
     echo "the build failed; the whole log is $dir/build.log" >&2
