@@ -86,6 +86,7 @@ void DemCellFluidTable::clear() {
   std::fill(keys_.begin(), keys_.end(), 0);
   states_.clear();
   last_key_ = 0;
+  ++generation_;
 }
 
 void DemCellFluidTable::grow() {
@@ -129,20 +130,23 @@ FluidCellState DemCellFluidTable::average(long i, long j, long k, const GasSolve
   return st;
 }
 
-const FluidCellState& DemCellFluidTable::at(const Vec3& x, const GasSolver& gas,
-                                            bool with_vorticity) {
-  const long i = floor_to_long((x.x - origin_m_.x) * inverse_cell_);
-  const long j = floor_to_long((x.y - origin_m_.y) * inverse_cell_);
-  const long k = floor_to_long((x.z - origin_m_.z) * inverse_cell_);
-  const std::uint64_t key = pack_cell(i, j, k) + 1;
-  // Particles are kept in space-filling order, so the next one is mostly in the same cell.
-  if (key == last_key_) return states_[last_state_];
+std::uint64_t DemCellFluidTable::key_of(const Vec3& x, long& i, long& j, long& k) const {
+  i = floor_to_long((x.x - origin_m_.x) * inverse_cell_);
+  j = floor_to_long((x.y - origin_m_.y) * inverse_cell_);
+  k = floor_to_long((x.z - origin_m_.z) * inverse_cell_);
+  return pack_cell(i, j, k) + 1;
+}
+
+std::uint32_t DemCellFluidTable::find_or_fill(std::uint64_t key, long i, long j, long k,
+                                              const GasSolver& gas, bool with_vorticity) {
+  // Particles are kept in space-filling order, so the next one is often in the same cell.
+  if (key == last_key_) return last_state_;
   const std::size_t mask = keys_.size() - 1;
   std::size_t h = mix(key) & mask;
   while (keys_[h]) {
     if (keys_[h] == key) {
       last_key_ = key, last_state_ = slot_state_[h];
-      return states_[last_state_];
+      return last_state_;
     }
     h = (h + 1) & mask;
   }
@@ -150,10 +154,25 @@ const FluidCellState& DemCellFluidTable::at(const Vec3& x, const GasSolver& gas,
   slot_state_[h] = std::uint32_t(states_.size());
   states_.push_back(average(i, j, k, gas, with_vorticity));
   ++fills_;
-  const std::size_t slot = states_.size() - 1;
-  last_key_ = key, last_state_ = std::uint32_t(slot);
+  last_key_ = key, last_state_ = std::uint32_t(states_.size() - 1);
   if (2 * states_.size() > keys_.size()) grow();
-  return states_[slot];
+  return last_state_;
+}
+
+const FluidCellState& DemCellFluidTable::at(const Vec3& x, const GasSolver& gas,
+                                            bool with_vorticity) {
+  long i, j, k;
+  const std::uint64_t key = key_of(x, i, j, k);
+  return states_[find_or_fill(key, i, j, k, gas, with_vorticity)];
+}
+
+const FluidCellState& DemCellFluidTable::at(const Vec3& x, const GasSolver& gas,
+                                            bool with_vorticity, FluidCellRef& hint) {
+  long i, j, k;
+  const std::uint64_t key = key_of(x, i, j, k);
+  if (key == hint.key && hint.generation == generation_) return states_[hint.state];
+  hint = {key, find_or_fill(key, i, j, k, gas, with_vorticity), generation_};
+  return states_[hint.state];
 }
 
 GasCoupling::GasCoupling(const GasConfig& config, const PeriodicBox& box,
@@ -339,7 +358,9 @@ void GasCoupling::add_fluid_forces(ParticleStore& p, double dt, bool accumulate)
   Vec3 impulse_sum;
   const std::size_t n = p.size();
   for (std::size_t i = 0; i < n; ++i) {
-    const FluidCellState& st = fluid_at(p.position_m[i]);
+    Vec3 x = p.position_m[i];
+    box_.wrap(x);
+    const FluidCellState& st = table_.at(x, gas_, lift, p.fluid_cell[i]);
     const Vec3 slip = st.velocity_m_per_s - p.motion[i].velocity_m_per_s;
     const double d = 2.0 * p.radius_m[i];
     bool recompute = p.fluid_coefficient_kg_per_s[i] < 0.0 || threshold <= 0.0;

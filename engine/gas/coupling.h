@@ -52,15 +52,22 @@ class DemCellFluidTable {
   void clear();
   // The state of the DEM cell that holds x (wrapped into the domain by the caller).
   const FluidCellState& at(const Vec3& x, const GasSolver& gas, bool with_vorticity);
+  // The same, with the particle's hint: when x is still in the cell the hint names and the
+  // table has not been cleared since, no hash lookup; the hint is updated otherwise.
+  const FluidCellState& at(const Vec3& x, const GasSolver& gas, bool with_vorticity,
+                           FluidCellRef& hint);
   std::size_t size() const { return states_.size(); }
   std::uint64_t fills() const { return fills_; }
   template <class A>
   void checkpoint_io(A& a) {
-    io_all(a, keys_, slot_state_, states_, fills_, last_key_, last_state_);
+    io_all(a, keys_, slot_state_, states_, fills_, last_key_, last_state_, generation_);
   }
 
  private:
   FluidCellState average(long i, long j, long k, const GasSolver& gas, bool with_vorticity) const;
+  std::uint64_t key_of(const Vec3& x, long& i, long& j, long& k) const;
+  std::uint32_t find_or_fill(std::uint64_t key, long i, long j, long k, const GasSolver& gas,
+                             bool with_vorticity);
   void grow();
 
   double cell_m_ = 1.0;
@@ -72,6 +79,7 @@ class DemCellFluidTable {
   double inverse_cell_ = 1.0;
   std::uint64_t last_key_ = 0;  // the last cell looked up (0 = none) and its state
   std::uint32_t last_state_ = 0;
+  std::uint32_t generation_ = 1;  // bumped by clear(): particles' hints from before are stale
 };
 
 // The grid nodes (cells or faces) a particle exchanges with, and their trilinear weights.

@@ -64,6 +64,7 @@ std::size_t ParticleStore::add(const MaterialTable& materials, int material_inde
     fluid_cached_fraction.push_back(1.0);
     fluid_cached_force_n.push_back({});
     fluid_impulse_n_s.push_back({});
+    fluid_cell.push_back({});
   }
   ++population_version;
   return id.size() - 1;

@@ -35,6 +35,15 @@ struct Load {
 };
 static_assert(sizeof(Motion) == 2 * sizeof(Vec3) && sizeof(Load) == 2 * sizeof(Vec3));
 
+// The DEM cell of the gas coupling's fluid table a particle read last (gas/coupling.h): its key
+// and where its state was, valid while the table's generation is unchanged. Only a hint: a stale
+// one costs a hash lookup, never a wrong state.
+struct FluidCellRef {
+  std::uint64_t key = 0;  // 0: none
+  std::uint32_t state = 0;
+  std::uint32_t generation = 0;
+};
+
 struct ParticleStore {
   // hot: read or written every step
   std::vector<Vec3> position_m;
@@ -69,6 +78,7 @@ struct ParticleStore {
   std::vector<double> fluid_cached_fraction;       // the gas volume fraction ε then
   std::vector<Vec3> fluid_cached_force_n;          // cached drag + lift (force store) or lift
   std::vector<Vec3> fluid_impulse_n_s;             // ∫ (drag + lift) dt since the last CFD step
+  std::vector<FluidCellRef> fluid_cell;            // the DEM cell last read (a lookup hint)
   bool has_fluid_state = false;
 
   // Bumped by every add and removal, so caches (the neighbour list) see a changed population.
@@ -92,6 +102,7 @@ struct ParticleStore {
       f(fluid_cached_fraction);
       f(fluid_cached_force_n);
       f(fluid_impulse_n_s);
+      f(fluid_cell);
     }
   }
 
@@ -118,6 +129,7 @@ struct ParticleStore {
     fluid_cached_fraction.assign(size(), 1.0);
     fluid_cached_force_n.assign(size(), {});
     fluid_impulse_n_s.assign(size(), {});
+    fluid_cell.assign(size(), {});
   }
 
   // Appends a particle and computes its contact constants; `stiffness_scale` multiplies its

@@ -7,7 +7,10 @@
 #include <cmath>
 #include <numbers>
 
+#include "core/rng.h"
+#include "gas/coupling.h"
 #include "gas/drag.h"
+#include "gas/gas_grid.h"
 #include "sim/simulation.h"
 #include "support/scenes.h"
 
@@ -278,6 +281,54 @@ TEST(Coupling, MomentumExchangeBalancesToRounding) {
   EXPECT_LT(norm(s.particle_impulse_n_s + s.deposited_impulse_n_s - pending), 1e-12 * scale);
   // Particle side: momentum change = drag impulse (contacts cancel in pairs).
   EXPECT_LT(norm(momentum() - before - s.particle_impulse_n_s), 1e-12 * scale);
+}
+
+TEST(Coupling, APerParticleCellHintNeverReturnsAnotherCellsOrAnOldStepsState) {
+  // The fluid table's per-particle hint (the DEM cell read last) only skips the hash lookup. A
+  // DEM cell no larger than a gas cell holds the gas state at its centre; particles random-walk
+  // across cells while the gas field is replaced and the table cleared every few steps (a CFD
+  // step): every read must be the state at the centre of the cell the particle is in now, from
+  // the current field. A hint kept across a clear, or kept after leaving its cell, fails.
+  const PeriodicBox box{{0.0, 0.0, 0.0}, {0.004, 0.004, 0.004}, {true, true, true}};
+  GasConfig config;
+  config.cells = {8, 8, 8};
+  GasSolver gas(config, build_gas_grid(config, box.min_m, box.max_m, box.periodic), {});
+  const double cell_m = 0.00025;  // half a gas cell: one averaging point, the centre
+  DemCellFluidTable table(cell_m, box.min_m);
+  Rng rng(11);
+  const auto new_field = [&] {
+    for (auto& component : gas.velocity())
+      for (double& u : component) u = 20.0 * uniform01(rng) - 10.0;
+    gas.fill_velocity_ghosts(gas.velocity());
+  };
+  std::vector<Vec3> x(300);
+  for (Vec3& xi : x) xi = {0.004 * uniform01(rng), 0.004 * uniform01(rng), 0.004 * uniform01(rng)};
+  std::vector<FluidCellRef> hint(x.size());
+  std::size_t moved_cells = 0, kept_cells = 0;
+  for (int step = 0; step < 60; ++step) {
+    if (step % 4 == 0) {
+      new_field();
+      table.clear();
+    }
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      const Vec3 before = x[i];
+      for (int a = 0; a < 3; ++a)  // steps of up to 0.2 cell, wrapped into the box
+        x[i][a] = std::fmod(x[i][a] + 0.2 * cell_m * (2.0 * uniform01(rng) - 1.0) + 0.004, 0.004);
+      const Vec3 centre = {(std::floor(x[i].x / cell_m) + 0.5) * cell_m,
+                           (std::floor(x[i].y / cell_m) + 0.5) * cell_m,
+                           (std::floor(x[i].z / cell_m) + 0.5) * cell_m};
+      const bool same_cell = std::floor(before.x / cell_m) == std::floor(x[i].x / cell_m) &&
+                             std::floor(before.y / cell_m) == std::floor(x[i].y / cell_m) &&
+                             std::floor(before.z / cell_m) == std::floor(x[i].z / cell_m);
+      ++(same_cell ? kept_cells : moved_cells);
+      const Vec3 expected = gas.velocity_at(centre);
+      const Vec3 read = table.at(x[i], gas, false, hint[i]).velocity_m_per_s;
+      ASSERT_LT(norm(read - expected), 1e-12 * norm(expected)) << "step " << step << " i " << i;
+    }
+  }
+  // Both paths ran many times: the hint kept (same cell) and the hint left behind.
+  EXPECT_GT(kept_cells, 5000u);
+  EXPECT_GT(moved_cells, 1000u);
 }
 
 TEST(Coupling, SceneErrorsNameTheGasField) {
