@@ -3,26 +3,18 @@
 // sanitizer report or another exception is a finding. Seeds: cases/*.json.
 #include <cstddef>
 #include <cstdint>
-#include <string_view>
 
 #include "core/errors.h"
-#include "core/json_reader.h"
+#include "fuzz_json.h"
 #include "scene/scene_json.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace millsim;
-  const std::string_view text(reinterpret_cast<const char*>(data), size);
-  nlohmann::json doc;
-  try {
-    doc = parse_untrusted_json(text);
-  } catch (const nlohmann::json::exception&) {
-    return 0;  // not JSON: an input error
-  } catch (const JsonTooDeep&) {
-    return 0;
-  }
+  const std::optional<nlohmann::json> doc = fuzz_input_as_json(data, size);
+  if (!doc) return 0;  // not JSON: an input error
   InputErrors errors;
   // Files named by sources resolve in an empty folder of the working directory.
-  const SceneConfig scene = parse_scene(doc, "fuzz-empty", errors);
+  const SceneConfig scene = parse_scene(*doc, "fuzz-empty", errors);
   (void)scene;
   return 0;
 }

@@ -5,26 +5,18 @@
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>
-#include <string_view>
 
 #include "core/errors.h"
-#include "core/json_reader.h"
+#include "fuzz_json.h"
 #include "study.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace millsim;
-  const std::string_view text(reinterpret_cast<const char*>(data), size);
-  nlohmann::json spec;
-  try {
-    spec = parse_untrusted_json(text);
-  } catch (const nlohmann::json::exception&) {
-    return 0;
-  } catch (const JsonTooDeep&) {
-    return 0;
-  }
+  const std::optional<nlohmann::json> spec = fuzz_input_as_json(data, size);
+  if (!spec) return 0;  // not JSON: an input error
   static const std::filesystem::path root = std::filesystem::absolute("fuzz-empty");
   try {
-    const Study study = expand_study(spec, root, 200, &root);
+    const Study study = expand_study(*spec, root, 200, &root);
     (void)study;
   } catch (const InputErrorList&) {
   }

@@ -71,7 +71,7 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
     const Vec3 n = d * (1.0 / dist);
     const double vn = dot(motion[i].velocity_m_per_s - motion[j].velocity_m_per_s, n);
     if (vn <= 0.0) return;
-    const Vec3 force = n * ((1.0 - scale) * vn / (inv_sum * dt));
+    const Vec3 force = n * separation_force_n(scale, vn, inv_sum, dt);
     load[i].force_n -= force;
     load[j].force_n += force;
   };
@@ -235,7 +235,7 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Wall>
       const double vn = dot(p.motion[i].velocity_m_per_s, n);
       if (nl.wall_touching[k] == kPairTouching && scale < 1.0 && vn > 0.0 &&
           p.inv_mass_per_kg[i] > 0.0)
-        p.load[i].force_n -= n * ((1.0 - scale) * vn / (p.inv_mass_per_kg[i] * dt));
+        p.load[i].force_n -= n * separation_force_n(scale, vn, p.inv_mass_per_kg[i], dt);
       nl.wall_history_m[k] = {};
       nl.wall_touching[k] = kPairApart;
       continue;

@@ -102,4 +102,12 @@ inline double hertz_normal_force_n(const PairSprings& s, double overlap_m, doubl
   return f > 0.0 ? f : 0.0;
 }
 
+// A contact of restitution below 0.05 ends keeping `scale` = e / 0.05 of its normal separation
+// speed vn > 0 (particles/restitution.h): the force that, applied over one step dt to partners
+// of inverse masses summing to inv_mass_sum, removes the rest (along n, equal and opposite).
+inline double separation_force_n(double scale, double vn_m_per_s, double inv_mass_sum_per_kg,
+                                 double dt_s) {
+  return (1.0 - scale) * vn_m_per_s / (inv_mass_sum_per_kg * dt_s);
+}
+
 }  // namespace millsim

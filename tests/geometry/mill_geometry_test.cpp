@@ -236,6 +236,35 @@ TEST(MillWalls, ParticlesRisingIntoTheOutletTubeAreTalliedWithTheirMass) {
   EXPECT_LE(std::abs(m.relative_error()), 1e-14);
 }
 
+// The inflow the fixed faces hold (face velocities u), summed from the grid itself: fixed faces
+// between solid and fluid cells, signed into the fluid.
+double fixed_face_inflow_m3_per_s(const GasGrid& g, const std::array<std::vector<double>, 3>& u) {
+  double flow = 0.0;
+  for (int a = 0; a < 3; ++a)
+    for (std::size_t f = 0; f < g.padded_size; ++f) {
+      const double v = u[std::size_t(a)][f];
+      if (g.face[std::size_t(a)][f] != FaceKind::Fixed || v == 0.0) continue;
+      const bool into_high = g.fluid[f + g.stride[std::size_t(a)]] && !g.fluid[f];
+      flow += v * (into_high ? 1.0 : -1.0) * g.face_area_m2(a);
+    }
+  return flow;
+}
+
+// The momentum a nozzle blows in, as the grid holds it: what its fixed faces carry (ρ A u |u|
+// along each face's axis) plus the jet body force over its control volumes.
+Vec3 nozzle_momentum_n(const GasGrid& g, const std::array<std::vector<double>, 3>& u,
+                       double density_kg_per_m3) {
+  Vec3 momentum;
+  for (int a = 0; a < 3; ++a)
+    for (std::size_t f = 0; f < g.padded_size; ++f) {
+      const double v = u[std::size_t(a)][f];
+      if (g.face[std::size_t(a)][f] == FaceKind::Fixed && v != 0.0)
+        momentum[a] += density_kg_per_m3 * g.face_area_m2(a) * v * std::abs(v);
+      momentum[a] += g.jet_force_n_per_m3[std::size_t(a)][f] * g.cell_volume_m3();
+    }
+  return momentum;
+}
+
 TEST(MillGas, VoxelsAgreeWithTheDemWallsAndNozzlesCarryTheSetFlow) {
   SceneConfig s = mill_scene(table1_material());
   GasConfig gas;
@@ -269,17 +298,7 @@ TEST(MillGas, VoxelsAgreeWithTheDemWallsAndNozzlesCarryTheSetFlow) {
     EXPECT_GT(g.jet_faces[n], 0u);
     set_flow += s.gas->jets[n].volume_flow_m3_per_s();
   }
-  // The inflow the faces hold, summed from the grid itself: fixed faces between solid and fluid
-  // cells, signed into the fluid.
-  double face_flow = 0.0;
-  for (int a = 0; a < 3; ++a)
-    for (std::size_t f = 0; f < g.padded_size; ++f) {
-      if (g.face[std::size_t(a)][f] != FaceKind::Fixed || g.fixed_value[std::size_t(a)][f] == 0.0)
-        continue;
-      const bool into_high = g.fluid[f + g.stride[std::size_t(a)]] && !g.fluid[f];
-      face_flow += g.fixed_value[std::size_t(a)][f] * (into_high ? 1.0 : -1.0) * g.face_area_m2(a);
-    }
-  EXPECT_NEAR(face_flow, set_flow, 1e-12 * set_flow);
+  EXPECT_NEAR(fixed_face_inflow_m3_per_s(g, g.fixed_value), set_flow, 1e-12 * set_flow);
   // Momentum, one nozzle at a time (the four together cancel): what its faces carry in
   // (ρ A u |u| along each face's axis) plus the body force over its control volumes is exactly
   // what it blows in, ρ Q speed · direction.
@@ -290,14 +309,7 @@ TEST(MillGas, VoxelsAgreeWithTheDemWallsAndNozzlesCarryTheSetFlow) {
     const GasJetConfig& jet = one.jets[0];
     const Vec3 set_momentum =
         jet.direction * (one.density_kg_per_m3 * jet.volume_flow_m3_per_s() * jet.speed_m_per_s);
-    Vec3 grid_momentum;
-    for (int a = 0; a < 3; ++a)
-      for (std::size_t f = 0; f < gj.padded_size; ++f) {
-        const double u = gj.fixed_value[std::size_t(a)][f];
-        if (gj.face[std::size_t(a)][f] == FaceKind::Fixed && u != 0.0)
-          grid_momentum[a] += one.density_kg_per_m3 * gj.face_area_m2(a) * u * std::abs(u);
-        grid_momentum[a] += gj.jet_force_n_per_m3[std::size_t(a)][f] * gj.cell_volume_m3();
-      }
+    const Vec3 grid_momentum = nozzle_momentum_n(gj, gj.fixed_value, one.density_kg_per_m3);
     EXPECT_LT(norm(grid_momentum - set_momentum), 1e-12 * norm(set_momentum)) << "nozzle " << n;
   }
   EXPECT_NEAR(set_flow, 4 * std::numbers::pi * 0.0004 * 0.0004 * 20.0, 1e-15);
@@ -360,21 +372,15 @@ TEST(MillGas, AScheduledNozzleBlowsTheFlowAndMomentumOfItsSpeedThen) {
   while (solver.time_s() < 1.5e-3) {
     ASSERT_FALSE(solver.advance(std::min(solver.stable_step_s(), 1e-4)).has_value());
     const double speed = ramp.at(solver.time_s());
-    double face_flow = 0.0, outflow = 0.0, set_flow = 0.0;
+    double outflow = 0.0, set_flow = 0.0;
     for (std::size_t k = 0; k < s.gas->jets.size(); ++k) {
       const GasJetConfig& jet = s.gas->jets[k];
       set_flow += kPi * jet.radius_m * jet.radius_m * speed;
       EXPECT_NEAR(solver.jet_speed_m_per_s(k), speed, 1e-12);
     }
-    for (int a = 0; a < 3; ++a)
-      for (std::size_t f = 0; f < g.padded_size; ++f) {
-        const double u = solver.velocity()[std::size_t(a)][f];
-        const FaceKind kind = g.face[std::size_t(a)][f];
-        if (kind == FaceKind::Outflow && a == 2) outflow += u * g.face_area_m2(2);
-        if (kind != FaceKind::Fixed || u == 0.0) continue;
-        const bool into_high = g.fluid[f + g.stride[std::size_t(a)]] && !g.fluid[f];
-        face_flow += u * (into_high ? 1.0 : -1.0) * g.face_area_m2(a);
-      }
+    for (std::size_t f = 0; f < g.padded_size; ++f)
+      if (g.face[2][f] == FaceKind::Outflow) outflow += solver.velocity()[2][f] * g.face_area_m2(2);
+    const double face_flow = fixed_face_inflow_m3_per_s(g, solver.velocity());
     EXPECT_NEAR(face_flow, set_flow, 1e-12 * full_flow) << "t = " << solver.time_s();
     EXPECT_NEAR(outflow, set_flow, 1e-6 * full_flow) << "t = " << solver.time_s();
     ++checked;
@@ -391,14 +397,7 @@ TEST(MillGas, AScheduledNozzleBlowsTheFlowAndMomentumOfItsSpeedThen) {
     single.apply_inflow_schedules(t);
     const double speed = ramp.at(t), flow = kPi * jet.radius_m * jet.radius_m * speed;
     const Vec3 set_momentum = jet.direction * (rho * flow * speed);
-    Vec3 grid_momentum;
-    for (int a = 0; a < 3; ++a)
-      for (std::size_t f = 0; f < gj.padded_size; ++f) {
-        const double u = single.velocity()[std::size_t(a)][f];
-        if (gj.face[std::size_t(a)][f] == FaceKind::Fixed && u != 0.0)
-          grid_momentum[a] += rho * gj.face_area_m2(a) * u * std::abs(u);
-        grid_momentum[a] += gj.jet_force_n_per_m3[std::size_t(a)][f] * gj.cell_volume_m3();
-      }
+    const Vec3 grid_momentum = nozzle_momentum_n(gj, single.velocity(), rho);
     EXPECT_LT(norm(grid_momentum - set_momentum), 1e-12 * rho * flow * 20.0 + 1e-30) << "t = " << t;
     EXPECT_NEAR(gj.jet_flow_m3_per_s[0], flow, 1e-15);
   }
