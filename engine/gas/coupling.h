@@ -6,7 +6,9 @@
 //    minus what the particles received (Newton's third law, to rounding).
 //  - Gas → particle: each occupied DEM cell holds the mean fluid state (velocity, volume
 //    fraction, density, viscosity, pressure gradient, vorticity) in a hashed table refreshed
-//    once per CFD step; a particle reads its DEM cell's state, never the CFD grid.
+//    once per CFD step; a particle reads its DEM cell's state, never the CFD grid, and keeps
+//    that cell as a hint (particles/particle_store.h, FluidCellRef) to skip the lookup while it
+//    stays there.
 //  - The drag the particles exert on the gas is split: the impulse they took over the last
 //    interval (explicit), plus an implicit response B (u_n − u*) to the gas's own change in
 //    the predictor, which the particles get back as β_eff Σ w (u* − u_n) dt right after the
