@@ -31,6 +31,7 @@ TimeStepBounds time_step_bounds(const ParticleStore& p, const MaterialTable& mat
   for (std::size_t i = 0; i < p.size(); ++i) {
     const MaterialConstants& m = materials.material(p.material[i]);
     const double r = p.radius_m[i];
+    b.smallest_diameter_m = std::min(b.smallest_diameter_m, 2.0 * r);
     const double s = at_real_stiffness ? 1.0 : m.normal_compliance / p.normal_compliance[i];
     const double t_r =
         rayleigh_time_s(r, s * m.youngs_modulus_pa, m.poisson_ratio, m.density_kg_per_m3);

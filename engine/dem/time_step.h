@@ -3,6 +3,11 @@
 //   the Hertz contact time at the expected impact speed V, t_c = 2.943 (m*/k)^{2/5} V^{-1/5}
 //   (from Eq. 12 and the Hertz force law; ∝ d at fixed V), against the stiffest wall and
 //   against an equal particle. A step must resolve each contact in several steps.
+// A third limit, the penetration limiter's (§4, Eq. 8), which acts once per step: a contact
+// closing at V must not travel more than `penetration_limit` of the smaller partner's diameter
+// in one step, or it can pass from below the limit to beyond twice it (where the run's guard
+// stops) before the limiter sees it. It binds only for contacts so soft that their Hertz
+// overlap at V would exceed about a diameter (dt ≤ limit·d/V against t_c/20 ≈ 0.147 δ_max/V).
 // Reduced stiffness enters through each particle's compliance (scale s lowers E and G by s).
 #pragma once
 
@@ -34,6 +39,7 @@ struct TimeStepBounds {
   double contact_s = 1e300;  // shortest Hertz contact time at the impact speed
   std::uint64_t contact_particle = 0;
   bool contact_with_wall = false;
+  double smallest_diameter_m = 1e300;  // the travel bound's d
 };
 
 // Bounds over all particles. Each particle's reduced-stiffness scale is read from its compliance
@@ -41,6 +47,12 @@ struct TimeStepBounds {
 TimeStepBounds time_step_bounds(const ParticleStore& p, const MaterialTable& materials,
                                 const std::vector<Wall>& walls, double impact_speed_m_per_s,
                                 bool at_real_stiffness = false);
+
+// The penetration limiter's bound: limit · d_min / V (above).
+inline double penetration_travel_bound_s(const TimeStepBounds& b, double penetration_limit,
+                                         double impact_speed_m_per_s) {
+  return penetration_limit * b.smallest_diameter_m / impact_speed_m_per_s;
+}
 
 // Twice the fastest initial speed (a head-on pair) plus the free-fall speed over the domain's
 // extent along gravity; at least 1 m/s.

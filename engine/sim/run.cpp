@@ -592,6 +592,7 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
                     {"automatic", ts.automatic},
                     {"rayleigh_time_min_s", ts.bounds.rayleigh_s},
                     {"contact_time_min_s", ts.bounds.contact_s},
+                    {"penetration_travel_bound_s", ts.travel_bound_s},
                     {"impact_speed_m_per_s", ts.impact_speed_m_per_s},
                     {"stable_bound_s", ts.stable_bound_s}};
   if (const auto& rs = sim.reduced_stiffness())

@@ -334,6 +334,7 @@ static TimeStepBounds tighter(TimeStepBounds a, const TimeStepBounds& b) {
   if (b.rayleigh_s < a.rayleigh_s) a.rayleigh_s = b.rayleigh_s, a.rayleigh_particle = 0;
   if (b.contact_s < a.contact_s)
     a.contact_s = b.contact_s, a.contact_particle = 0, a.contact_with_wall = b.contact_with_wall;
+  a.smallest_diameter_m = std::min(a.smallest_diameter_m, b.smallest_diameter_m);
   return a;
 }
 
@@ -348,15 +349,18 @@ void Simulation::choose_time_step(const SceneConfig& scene, const ParticleStore&
                          time_step_bounds(later, materials_, walls_, v));
   const TimeStepBounds& b = time_.bounds;
   time_.stable_bound_s = std::min(b.rayleigh_s, b.contact_s / kMinStepsPerContact);
+  time_.travel_bound_s = penetration_travel_bound_s(b, contact_.penetration_limit, v);
   const double automatic =
       std::min({scene.time.safety_factor * b.rayleigh_s, b.contact_s / scene.time.steps_per_contact,
-                0.2 * drag_relaxation_s_});
+                0.2 * drag_relaxation_s_, time_.travel_bound_s});
   if (reduced_) {
     const TimeStepBounds real =
         tighter(time_step_bounds(particles_, materials_, walls_, v, /*at_real_stiffness=*/true),
                 time_step_bounds(later, materials_, walls_, v, /*at_real_stiffness=*/true));
-    reduced_->time_step_gain = automatic / std::min(scene.time.safety_factor * real.rayleigh_s,
-                                                    real.contact_s / scene.time.steps_per_contact);
+    reduced_->time_step_gain =
+        automatic / std::min({scene.time.safety_factor * real.rayleigh_s,
+                              real.contact_s / scene.time.steps_per_contact,
+                              0.2 * drag_relaxation_s_, time_.travel_bound_s});
   }
   if (scene.time.step_s) {
     time_.automatic = false;

@@ -39,6 +39,7 @@ struct TimeStepInfo {
   double impact_speed_m_per_s = 0.0;  // expected largest impact speed used for the bounds
   TimeStepBounds bounds;              // with reduced stiffness, if on
   double stable_bound_s = 0.0;        // the largest step accepted: min(t_R, t_c / 8)
+  double travel_bound_s = 0.0;        // the penetration limiter's (dem/time_step.h)
 };
 
 struct ReducedStiffnessInfo {

@@ -98,5 +98,39 @@ TEST(PenetrationLimiter, TooSoftImpactIsStoppedNearTheLimitAndRebounds) {
               100.0 * max_ratio, rebound, rebound / (e * v));
 }
 
+TEST(PenetrationLimiter, TheAutomaticStepKeepsAHeadOnPairAtTheDeclaredSpeedBelowTheGuard) {
+  // The classification case's fines: 1 µm, E = 1 MPa, so soft that Hertz alone would let a pair
+  // closing at 120 m/s overlap several diameters; only the limiter holds them. It acts once per
+  // step, so the deepest overlap is the limit plus one step's travel, and the automatic step
+  // keeps that travel within the limit (dt = limit · d / V): the pair stays below twice the limit,
+  // where the guard would stop the run. The contact-time bound alone gives a step of about
+  // 4e-9 s here, a travel of 49 % of the diameter per step.
+  MaterialConfig fine = test::table1_material(0.5);
+  fine.youngs_modulus_pa = 1e6;
+  SceneConfig s = test::empty_scene({-1e-5, -1e-5, -1e-5}, {1e-5, 1e-5, 1e-5}, fine);
+  const double d = 1e-6, v = 120.0, limit = 0.15;
+  s.contact.max_impact_speed_m_per_s = v;
+  s.contact.penetration_limit = limit;
+  s.time.end_s = 1e-6;
+  test::add_particle(s, {-0.5 * d * 1.0001, 0, 0}, {0.5 * v, 0, 0}, d);
+  test::add_particle(s, {0.5 * d * 1.0001, 0, 0}, {-0.5 * v, 0, 0}, d);
+  Simulation sim(s);
+  const TimeStepInfo& ts = sim.time_step();
+  EXPECT_GT(ts.bounds.contact_s / s.time.steps_per_contact, 3.0 * ts.travel_bound_s)
+      << "the travel bound is the one that binds here";
+  EXPECT_NEAR(ts.step_s, limit * d / v, 1e-12 * limit * d / v);
+  const ParticleStore& p = sim.particles();
+  double deepest = 0.0;
+  while (!(p.position_m[1].x - p.position_m[0].x > d && sim.step_index() > 0)) {
+    ASSERT_FALSE(sim.step().has_value())
+        << "the guard stopped the run at step " << sim.step_index();
+    deepest = std::max(deepest, (d - (p.position_m[1].x - p.position_m[0].x)) / d);
+  }
+  EXPECT_GT(sim.penetration_limiter_events(), 0u);
+  EXPECT_GT(deepest, limit) << "the limiter, not the spring, stopped the pair";
+  EXPECT_LE(deepest, limit + v * ts.step_s / d + 1e-12);
+  EXPECT_LT(deepest, 2.0 * limit);
+}
+
 }  // namespace
 }  // namespace millsim
