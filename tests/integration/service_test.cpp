@@ -97,6 +97,16 @@ class ServerProcess {
     text << out.rdbuf() << err.rdbuf();
     return text.str();
   }
+  // Waits up to `timeout_s` for the output to match: the server logs a request after its
+  // response is sent, so a client can hold the answer before the line is written.
+  bool output_matches_within(const std::regex& pattern, double timeout_s) const {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    while (!std::regex_search(output(), pattern)) {
+      if (std::chrono::steady_clock::now() > end) return false;
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return true;
+  }
 
   httplib::Result get(const std::string& path, bool auth = false) const {
     httplib::Client c(url_);
@@ -758,7 +768,7 @@ TEST(Service, ServerStartsSafelyAndAnswersByConvention) {
   // One request, one log line: time, method, path, status, milliseconds.
   const std::regex log_line(
       "[0-9]{4}-[0-9]{2}-[0-9]{2}T[0-9:]{8}Z DELETE /v1/studies 405 [0-9]+\\.[0-9]{3} ms");
-  EXPECT_TRUE(std::regex_search(server.output(), log_line)) << server.output();
+  EXPECT_TRUE(server.output_matches_within(log_line, 10.0)) << server.output();
 
   // A finished study cannot be canceled: 409, and the CLI exits 2.
   res = server.post("/v1/studies", slow_study(1, 0.001).dump());
