@@ -19,7 +19,7 @@
 
 namespace millsim {
 
-inline constexpr std::uint32_t kCheckpointFormat = 1;
+inline constexpr std::uint32_t kCheckpointFormat = 2;  // 2: multi-rate stepping state
 
 struct CheckpointHeader {
   std::string millsim_version;

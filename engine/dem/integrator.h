@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <utility>
 #include <vector>
 
@@ -110,6 +111,56 @@ inline double kick_then_kick_drift(ParticleStore& p, double dt, const Vec3& grav
     motion[i] = {v_half + dv, w_end + l.torque_n_m * (dt * p.inv_inertia_per_kg_m2[i])};
     return norm2(v_half);
   });
+}
+
+// Multi-rate stepping (sim/multi_rate.h) advances a list of slots at a time, each list with its
+// own step. Per particle these are the operations of kick_drift() and kick() in the same order,
+// so a list that holds every slot gives the same numbers as the single-rate passes. The force
+// bookkeeping differs: a listed kick-drift copies the particle's forces to previous_load and
+// starts its next forces from gravity itself (no swap of whole arrays), so the particles left
+// out keep their forces untouched while they wait.
+
+// Kick-drift of the listed slots by `dt`; returns the largest |v½|² and raises
+// block_max_speed2[slot / kSpeedBlockSlots] to each particle's |v½|².
+inline double kick_drift_listed(ParticleStore& p, const std::vector<std::uint32_t>& slots,
+                                double dt, const Vec3& gravity,
+                                std::vector<double>& block_max_speed2) {
+  const double half = 0.5 * dt;
+  Vec3* x = p.position_m.data();
+  Motion* motion = p.motion.data();
+  Load* load = p.load.data();
+  Load* previous_load = p.previous_load.data();
+  double max_speed2 = 0.0;
+  for (const std::uint32_t i : slots) {
+    const Motion m = motion[i];
+    const Load l = load[i];
+    previous_load[i] = l;
+    load[i] = {gravity * p.mass_kg[i], {}};
+    const Vec3 dv = l.force_n * (half * p.inv_mass_per_kg[i]);
+    const Vec3 v_half = m.velocity_m_per_s + dv;
+    x[i] += v_half * dt;
+    motion[i] = {v_half + dv,
+                 m.angular_velocity_rad_per_s + l.torque_n_m * (dt * p.inv_inertia_per_kg_m2[i])};
+    const double speed2 = norm2(v_half);
+    double& block = block_max_speed2[i / kSpeedBlockSlots];
+    block = std::max(block, speed2);
+    max_speed2 = std::max(max_speed2, speed2);
+  }
+  return max_speed2;
+}
+
+// The closing kick of the listed slots by `dt`.
+inline void kick_listed(ParticleStore& p, const std::vector<std::uint32_t>& slots, double dt) {
+  const double half = 0.5 * dt;
+  Motion* motion = p.motion.data();
+  const Load* load = p.load.data();
+  const Load* previous_load = p.previous_load.data();
+  for (const std::uint32_t i : slots) {
+    const Load l = load[i], l_old = previous_load[i];
+    motion[i].velocity_m_per_s += (l.force_n - l_old.force_n) * (half * p.inv_mass_per_kg[i]);
+    motion[i].angular_velocity_rad_per_s +=
+        (l.torque_n_m - l_old.torque_n_m) * (half * p.inv_inertia_per_kg_m2[i]);
+  }
 }
 
 // After a kick-drift pass: keeps the current forces as the previous ones, and starts from the

@@ -127,6 +127,9 @@ class GasCoupling {
   // Adds drag, lift and the pressure-gradient force to p.force_n. With `accumulate` the drag
   // and lift impulse (F dt) is kept for the gas; off for a force pass that is not a step's.
   void add_fluid_forces(ParticleStore& p, double dem_step_s, bool accumulate);
+  // The same for the listed slots only, over a step `step_s` of their own (multi-rate stepping,
+  // sim/multi_rate.h), impulse kept. Per particle the same numbers as the pass over all.
+  void add_fluid_forces(ParticleStore& p, const std::vector<std::uint32_t>& slots, double step_s);
   // A particle leaves the run (outlet, breakage): its pending impulse still goes to the gas.
   void release(const ParticleStore& p, std::size_t slot);
 
@@ -145,6 +148,13 @@ class GasCoupling {
   }
 
  private:
+  struct FluidPass {
+    std::uint64_t evaluations = 0;
+    Vec3 impulse_sum;
+  };
+  void add_fluid_force(ParticleStore& p, std::size_t slot, double dt, bool accumulate,
+                       FluidPass& pass);
+  void finish_pass(const FluidPass& pass, std::size_t particles);
   void deposit(const ParticleStore& p, double interval_s);
   Stencil face_stencil(const Vec3& wrapped_x, int axis) const;
   void return_drag_response(ParticleStore& p, double cfd_step_s);

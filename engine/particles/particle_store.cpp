@@ -66,6 +66,7 @@ std::size_t ParticleStore::add(const MaterialTable& materials, int material_inde
     fluid_impulse_n_s.push_back({});
     fluid_cell.push_back({});
   }
+  if (has_multi_rate_state) free_flight.push_back(0);  // complete now: it steps until a rebuild
   ++population_version;
   return id.size() - 1;
 }

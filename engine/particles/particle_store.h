@@ -80,6 +80,11 @@ struct ParticleStore {
   std::vector<Vec3> fluid_impulse_n_s;             // ∫ (drag + lift) dt since the last CFD step
   std::vector<FluidCellRef> fluid_cell;            // the DEM cell last read (a lookup hint)
   bool has_fluid_state = false;
+  // multi-rate stepping only (sim/multi_rate.h): 1 while the particle is in free flight, with no
+  // candidate in the neighbour list, and so advanced on a long step of its own. Empty, and not a
+  // column, unless enable_multi_rate_state().
+  std::vector<std::uint8_t> free_flight;
+  bool has_multi_rate_state = false;
 
   // Bumped by every add and removal, so caches (the neighbour list) see a changed population.
   std::uint64_t population_version = 0;
@@ -104,12 +109,13 @@ struct ParticleStore {
       f(fluid_impulse_n_s);
       f(fluid_cell);
     }
+    if (has_multi_rate_state) f(free_flight);
   }
 
   // Checkpoints (checkpoint/archive.h): the flags first, so the columns they add are read back.
   template <class A>
   void checkpoint_io(A& a) {
-    io_all(a, has_breakage_state, has_fluid_state, population_version);
+    io_all(a, has_breakage_state, has_fluid_state, has_multi_rate_state, population_version);
     for_each_column([&](auto& column) { io(a, column); });
   }
 
@@ -130,6 +136,12 @@ struct ParticleStore {
     fluid_cached_force_n.assign(size(), {});
     fluid_impulse_n_s.assign(size(), {});
     fluid_cell.assign(size(), {});
+  }
+
+  // Adds the multi-rate column; every particle starts stepping with the rest.
+  void enable_multi_rate_state() {
+    has_multi_rate_state = true;
+    free_flight.assign(size(), 0);
   }
 
   // Appends a particle and computes its contact constants; `stiffness_scale` multiplies its

@@ -134,6 +134,9 @@ struct TimeConfig {
   std::optional<double> step_s;   // fixed step; absent = automatic
   double safety_factor = 0.2;     // automatic step <= factor × smallest Rayleigh time
   double steps_per_contact = 20;  // automatic step <= shortest Hertz contact time / this
+  // Particles in free flight (nothing in their neighbour list) take a long step of their own
+  // (sim/multi_rate.h) instead of every contact step.
+  bool multi_rate = false;
 };
 
 enum class ContactModel {

@@ -353,6 +353,7 @@ TimeConfig parse_time(JsonObjectReader& top, InputErrors& errors) {
   }
   t.safety_factor = r.number("safety_factor", 0.2, NumberRange::open_closed(0.0, 1.0));
   t.steps_per_contact = r.number("steps_per_contact", 20.0, NumberRange::closed(4.0, 1e4));
+  t.multi_rate = r.boolean("multi_rate", false);
   r.finish();
   return t;
 }

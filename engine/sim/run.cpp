@@ -602,6 +602,18 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
                               {"predicted_penetration_ratio", rs->predicted_penetration_ratio},
                               {"limited_by_real_stiffness", rs->limited_by_real_stiffness},
                               {"time_step_gain", rs->time_step_gain}};
+  if (const MultiRate* mr = sim.multi_rate()) {
+    // Particle-steps at the contact step, and those the particles in free flight did not take
+    // (sim/multi_rate.h): their share is the work the long step saved.
+    const double taken = sim.particle_steps(), waited = mr->stats.waiting_particle_steps;
+    s["multi_rate"] = {{"particle_steps_taken", taken},
+                       {"particle_steps_waited", waited},
+                       {"waited_share", taken + waited > 0 ? waited / (taken + waited) : 0.0},
+                       {"long_steps", mr->stats.long_steps},
+                       {"catch_ups", mr->stats.catch_ups},
+                       {"full_steps", mr->stats.full_steps},
+                       {"max_wait_steps", mr->max_wait_steps}};
+  }
   s["simulated_time_s"] = sim.time_s();
   s["wall_time_s"] = wall_s;
   if (resumed) {

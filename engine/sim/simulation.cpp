@@ -195,6 +195,8 @@ Simulation::Simulation(const SceneConfig& scene, bool for_restore)
   const std::vector<double> psd_edges =
       scene.psd.edges_m.empty() ? default_psd_edges(scene, d_min, d_max) : scene.psd.edges_m;
   if (scene.gas) particles_.enable_fluid_state();
+  multi_rate_on_ = scene.time.multi_rate;
+  if (multi_rate_on_) particles_.enable_multi_rate_state();
   if (scene.breakage) {
     particles_.enable_breakage_state();
     breakage_.emplace(
@@ -236,6 +238,7 @@ Simulation::Simulation(const SceneConfig& scene, bool for_restore)
     drag_relaxation_s_ = rho_p * d_min * d_min / (18.0 * scene.gas->viscosity_pa_s);
   }
   choose_time_step(scene, later, errors);
+  multi_rate_.max_wait_steps = max_wait_steps(time_.step_s, drag_relaxation_s_);
   if (scene.gas) {
     const GasConfig& gas = *scene.gas;
     for (int a = 0; a < 3; ++a) {
@@ -409,11 +412,13 @@ std::string Simulation::describe_worst_overlap() const {
 }
 
 void Simulation::compute_forces() {
-  if (forces_prepared_)
+  if (loads_listed_) {
+  } else if (forces_prepared_) {
     begin_force_pass(particles_);
-  else
+  } else {
     clear_forces(particles_, gravity_m_per_s2_);
-  forces_prepared_ = false;
+  }
+  forces_prepared_ = loads_listed_ = false;
   contact_stats_.reset();
   compute_pair_forces(contact_.model, materials_, box_, time_.step_s, contact_.penetration_limit,
                       particles_, neighbors_, contact_stats_);
@@ -427,22 +432,128 @@ void Simulation::compute_all_forces() {
 }
 
 void Simulation::refresh_forces() {
+  catch_up_free_flight();
   neighbors_.update(particles_, box_, walls_, true);
   compute_all_forces();
   set_energy_baseline();
 }
 
 std::optional<StepFailure> Simulation::step() {
-  return step_once(false);
+  return advance(1);
 }
 
 std::optional<StepFailure> Simulation::advance(std::int64_t steps) {
-  for (std::int64_t s = 0; s < steps; ++s)
-    if (auto failure = step_once(s + 1 < steps)) return failure;
-  return std::nullopt;
+  std::optional<StepFailure> failure;
+  for (std::int64_t s = 0; s < steps && !failure; ++s) failure = step_once(s + 1 < steps);
+  catch_up_free_flight();
+  return failure;
+}
+
+void Simulation::prepare_multi_rate() {
+  if (multi_rate_.marked_rebuilds != neighbors_.stats().rebuilds) {
+    // The list was rebuilt, which happens only with every particle complete.
+    mark_free_flight(particles_, neighbors_, multi_rate_);
+    multi_rate_.waiting_since_step = step_index_;
+  } else {
+    relist_if_moved(particles_, multi_rate_);
+  }
+}
+
+void Simulation::catch_up_free_flight() {
+  if (!multi_rate_on_) return;
+  MultiRate& m = multi_rate_;
+  const std::int64_t waited = step_index_ - m.waiting_since_step;
+  if (waited <= 0) return;
+  m.waiting_since_step = step_index_;
+  relist_if_moved(particles_, m);
+  m.speeds_valid = false;
+  if (m.waiting.empty()) return;
+  const double h = double(waited) * time_.step_s;
+  profile_.time(Phase::FreeFlight, [&] {
+    m.block_speed2.assign((particles_.size() + kSpeedBlockSlots - 1) / kSpeedBlockSlots, 0.0);
+    kick_drift_listed(particles_, m.waiting, h, gravity_m_per_s2_, m.block_speed2);
+    if (gas_) gas_->add_fluid_forces(particles_, m.waiting, h);
+    kick_listed(particles_, m.waiting, h);
+  });
+  ++m.stats.catch_ups;
+  m.stats.long_steps += double(m.waiting.size());
+}
+
+std::optional<StepFailure> Simulation::step_multi_rate() {
+  const double dt = time_.step_s;
+  MultiRate& m = multi_rate_;
+  if (kick_pending_) profile_.time(Phase::Kick, [&] { kick(particles_, dt); });
+  kick_pending_ = false;
+  if (!m.speeds_valid) bound_waiting_speeds(particles_, dt, m);
+  double max_speed = 0.0;
+  profile_.time(Phase::KickDrift, [&] {
+    m.block_speed2 = m.waiting_block_speed2;
+    const double max2 =
+        std::max(kick_drift_listed(particles_, m.stepping, dt, gravity_m_per_s2_, m.block_speed2),
+                 m.waiting_max_speed2);
+    block_max_speed_.resize(m.block_speed2.size());
+    for (std::size_t b = 0; b < m.block_speed2.size(); ++b)
+      block_max_speed_[b] = std::sqrt(m.block_speed2[b]);
+    max_speed = std::sqrt(max2);
+    loads_listed_ = true;
+  });
+  neighbors_.note_motion(block_max_speed_, max_speed, dt);
+  // The list is about to measure motion or rebuild: every particle must be where it is now, so
+  // this step becomes a full one.
+  const bool full = neighbors_.rebuild_likely();
+  if (full) {
+    catch_up_free_flight();
+    profile_.time(Phase::KickDrift, [&] {
+      kick_drift_listed(particles_, m.waiting, dt, gravity_m_per_s2_, m.block_speed2);
+    });
+    ++m.stats.full_steps;
+  }
+  profile_.time(Phase::Neighbors, [&] { neighbors_.update(particles_, box_, walls_, false); });
+  profile_.time(Phase::Forces, [&] { compute_forces(); });
+  if (gas_)
+    profile_.time(Phase::Fluid, [&] {
+      if (full)
+        gas_->add_fluid_forces(particles_, dt, true);
+      else
+        gas_->add_fluid_forces(particles_, m.stepping, dt);
+    });
+  particle_steps_ += double(full ? particles_.size() : m.stepping.size());
+  if (!full) m.stats.waiting_particle_steps += double(m.waiting.size());
+  contact_steps_ += contact_stats_.touching_pairs;
+  ++step_index_;
+  const bool limiter = contact_.penetration_limiter && !(contact_stats_.pairs_over_limit.empty() &&
+                                                         contact_stats_.walls_over_limit.empty());
+  profile_.time(Phase::Kick, [&] {
+    if (full)
+      kick(particles_, dt);
+    else
+      kick_listed(particles_, m.stepping, dt);
+    if (limiter)
+      limiter_events_ += apply_penetration_limiter(contact_stats_, materials_, box_, walls_,
+                                                   neighbors_, particles_);
+  });
+  if (full) m.waiting_since_step = step_index_, m.speeds_valid = false;
+  if (breakage_ || !outlets_.empty() || !feeders_.empty()) process_population();
+  if (gas_ && gas_->due(step_index_)) {
+    catch_up_free_flight();
+    std::optional<std::string> message;
+    profile_.time(Phase::Gas, [&] { message = gas_->advance(particles_, dt, step_index_); });
+    m.speeds_valid = false;  // the drag response changed velocities
+    if (message) return StepFailure{step_index_, time_s(), 0, "gas_solver", *message};
+  }
+  if (step_index_ - m.waiting_since_step >= m.max_wait_steps) catch_up_free_flight();
+  std::optional<StepFailure> failure;
+  if (step_index_ % 16 == 0 || step_index_ == total_steps_ ||
+      contact_stats_.max_overlap_ratio > 2.0 * contact_.penetration_limit)
+    profile_.time(Phase::Health, [&] { failure = check_health(); });
+  return failure;
 }
 
 std::optional<StepFailure> Simulation::step_once(bool may_defer) {
+  if (multi_rate_on_) {
+    prepare_multi_rate();
+    if (!multi_rate_.waiting.empty()) return step_multi_rate();
+  }
   const double dt = time_.step_s;
   double max_speed = 0.0;
   profile_.time(Phase::KickDrift, [&] {
@@ -531,6 +642,7 @@ void Simulation::process_population() {
   const bool apply_now = particles_.population_version != version || neighbors_.rebuild_likely() ||
                          step_index_ - last_population_step_ >= kMaxDeferredSteps;
   if (!apply_now) return;
+  catch_up_free_flight();  // outlets read every position, and a rebuild may follow
   last_population_step_ = step_index_;
   profile_.time(Phase::Population, [&] {
     if (!outlets_.empty())

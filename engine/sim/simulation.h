@@ -21,6 +21,7 @@
 #include "process/psd.h"
 #include "scene/scene_config.h"
 #include "search/neighbor_list.h"
+#include "sim/multi_rate.h"
 #include "sim/step_profile.h"
 
 namespace millsim {
@@ -75,13 +76,15 @@ class Simulation {
   Simulation(const Simulation&) = delete;
   Simulation& operator=(const Simulation&) = delete;
 
-  // One DEM step; returns the failure when the stability guard stops the run.
+  // One DEM step; returns the failure when the stability guard stops the run. The state is
+  // complete on return (with multi-rate stepping, particles in free flight are caught up).
   std::optional<StepFailure> step();
   // `steps` DEM steps (fewer when one fails), the same trajectory bit for bit as calling step()
   // that often, but faster: while nothing looks at the state between two steps of the call (no
   // limiter event, population change, gas step or health check), a step's closing kick is
   // carried into the next step's opening kick-drift, one pass over the particles instead of two.
-  // The state is complete on return.
+  // The state is complete on return. With multi-rate stepping (sim/multi_rate.h) the particles
+  // in free flight wait between the times something reads them, and are caught up on return.
   std::optional<StepFailure> advance(std::int64_t steps);
 
   std::int64_t step_index() const { return step_index_; }
@@ -117,6 +120,8 @@ class Simulation {
   // Momentum that left the run with outlet particles and dust.
   Vec3 removed_momentum_kg_m_per_s() const;
   double particle_steps() const { return particle_steps_; }
+  // Multi-rate stepping's state and counters (absent unless the scene has /time/multi_rate).
+  const MultiRate* multi_rate() const { return multi_rate_on_ ? &multi_rate_ : nullptr; }
   // Σ over steps of the touching particle pairs: contact-steps, for per-contact figures.
   std::uint64_t contact_steps() const { return contact_steps_; }
 
@@ -146,6 +151,13 @@ class Simulation {
   std::optional<StepFailure> check_health();
   // One step; with `may_defer` its closing kick may be left for the next step (advance()).
   std::optional<StepFailure> step_once(bool may_defer);
+  // One step of the particles that are not in free flight (sim/multi_rate.h); a full step of all
+  // when the neighbour list is about to measure motion.
+  std::optional<StepFailure> step_multi_rate();
+  // After a rebuild: which particles are in free flight now.
+  void prepare_multi_rate();
+  // Brings the particles in free flight up to the current step in one long step.
+  void catch_up_free_flight();
   std::string describe_worst_overlap() const;
 
   MaterialTable materials_;
@@ -170,6 +182,7 @@ class Simulation {
   std::uint64_t contact_steps_ = 0;
   std::vector<double> block_max_speed_;  // per slot block, from the kick-drift pass
   bool forces_prepared_ = false;         // previous_load holds gravity only (dem/integrator.h)
+  bool loads_listed_ = false;            // a listed kick-drift prepared each stepped load itself
   bool kick_pending_ = false;            // the last step's closing kick is still to do (advance())
   double energy_added_j_ = 0.0;          // energy of particles added minus removed since the start
   std::optional<Breakage> breakage_;
@@ -186,6 +199,8 @@ class Simulation {
   double feed_mass_bound_kg_ = 0.0;        // what the feeds can bring in over the run
   double feed_kinetic_bound_j_ = 0.0;
   double drag_relaxation_s_ = 1e300;  // Stokes τ of the smallest particle (gas scenes only)
+  bool multi_rate_on_ = false;
+  MultiRate multi_rate_;
 };
 
 template <class A>
@@ -193,7 +208,7 @@ void Simulation::checkpoint_io(A& a) {
   io_all(a, particles_, neighbors_, time_, reduced_, total_steps_, step_index_, limiter_events_);
   io_all(a, energy_reference_j_, energy_scale_j_, check_energy_, contact_stats_, profile_, next_id_,
          particle_steps_, contact_steps_, block_max_speed_, forces_prepared_, kick_pending_,
-         energy_added_j_);
+         energy_added_j_, loads_listed_, multi_rate_on_, multi_rate_);
   // The modules the scene has: present in both the saved and the restoring run.
   if (breakage_) io(a, *breakage_);
   if (gas_) io(a, *gas_);

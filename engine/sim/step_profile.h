@@ -19,12 +19,14 @@ enum class Phase {
   Gas,         // one CFD step: particle → gas deposit and the gas solve
   Health,
   Output,
+  FreeFlight,  // multi-rate stepping: particles in free flight brought up to date
+               // (sim/multi_rate.h)
   Count
 };
 
 inline constexpr std::array<std::string_view, std::size_t(Phase::Count)> kPhaseNames = {
-    "kick_drift", "neighbors", "forces", "kick",   "breakage",
-    "population", "fluid",     "gas",    "health", "output"};
+    "kick_drift", "neighbors", "forces", "kick",   "breakage",   "population",
+    "fluid",      "gas",       "health", "output", "free_flight"};
 
 struct StepProfile {
   std::array<double, std::size_t(Phase::Count)> seconds{};

@@ -1,0 +1,55 @@
+#include "sim/multi_rate.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "dem/integrator.h"
+
+namespace millsim {
+
+namespace {
+
+void list_slots(const ParticleStore& p, MultiRate& m) {
+  m.stepping.clear();
+  m.waiting.clear();
+  for (std::uint32_t i = 0; i < std::uint32_t(p.size()); ++i)
+    (p.free_flight[i] ? m.waiting : m.stepping).push_back(i);
+  m.lists_version = p.population_version;
+  m.speeds_valid = false;
+}
+
+}  // namespace
+
+void mark_free_flight(ParticleStore& p, const NeighborList& neighbors, MultiRate& m) {
+  std::fill(p.free_flight.begin(), p.free_flight.end(), std::uint8_t(1));
+  for (std::size_t k = 0; k < neighbors.pairs.size(); ++k)
+    p.free_flight[neighbors.pairs.first[k]] = p.free_flight[neighbors.pairs.second[k]] = 0;
+  for (const std::uint32_t i : neighbors.wall_particle) p.free_flight[i] = 0;
+  list_slots(p, m);
+  m.marked_rebuilds = neighbors.stats().rebuilds;
+}
+
+void relist_if_moved(const ParticleStore& p, MultiRate& m) {
+  if (m.lists_version != p.population_version) list_slots(p, m);
+}
+
+std::int64_t max_wait_steps(double dt, double relaxation_s) {
+  const double steps = std::floor(kMaxWaitPerRelaxationTime * relaxation_s / dt);
+  return std::clamp<std::int64_t>(std::int64_t(std::min(steps, 1e9)), 1, kMaxFreeFlightSteps);
+}
+
+void bound_waiting_speeds(const ParticleStore& p, double dt, MultiRate& m) {
+  const double credit_s = 0.5 * double(m.max_wait_steps) * dt;
+  m.waiting_block_speed2.assign((p.size() + kSpeedBlockSlots - 1) / kSpeedBlockSlots, 0.0);
+  m.waiting_max_speed2 = 0.0;
+  for (const std::uint32_t i : m.waiting) {
+    const double speed = norm(p.motion[i].velocity_m_per_s) +
+                         credit_s * norm(p.load[i].force_n) * p.inv_mass_per_kg[i];
+    double& block = m.waiting_block_speed2[i / kSpeedBlockSlots];
+    block = std::max(block, speed * speed);
+    m.waiting_max_speed2 = std::max(m.waiting_max_speed2, speed * speed);
+  }
+  m.speeds_valid = true;
+}
+
+}  // namespace millsim
