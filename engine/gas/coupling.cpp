@@ -404,10 +404,15 @@ inline void GasCoupling::add_fluid_force(ParticleStore& p, std::size_t i, double
   Vec3 force = exchange;
   if (pressure) force -= st.pressure_gradient_pa_per_m * (std::numbers::pi / 6.0 * d * d * d);
   p.load[i].force_n += force;
+  if (p.has_multi_rate_state) p.fluid_held[i] = {force, exchange};
   if (accumulate) {
     p.fluid_impulse_n_s[i] += exchange * dt;
     pass.impulse_sum += exchange * dt;
   }
+}
+
+void GasCoupling::add_held_impulse(const Vec3& impulse_n_s) {
+  stats_.particle_impulse_n_s += impulse_n_s;
 }
 
 void GasCoupling::finish_pass(const FluidPass& pass, std::size_t particles) {

@@ -44,6 +44,13 @@ struct FluidCellRef {
   std::uint32_t generation = 0;
 };
 
+// The fluid force a particle that steps with the contacts keeps between two evaluations under
+// multi-rate stepping (sim/multi_rate.h): all of it, and the part exchanged with the gas.
+struct HeldFluidForce {
+  Vec3 force_n;
+  Vec3 exchange_n;
+};
+
 struct ParticleStore {
   // hot: read or written every step
   std::vector<Vec3> position_m;
@@ -84,6 +91,7 @@ struct ParticleStore {
   // candidate in the neighbour list, and so advanced on a long step of its own. Empty, and not a
   // column, unless enable_multi_rate_state().
   std::vector<std::uint8_t> free_flight;
+  std::vector<HeldFluidForce> fluid_held;  // with the gas state too: the last fluid force
   bool has_multi_rate_state = false;
 
   // Bumped by every add and removal, so caches (the neighbour list) see a changed population.
@@ -110,6 +118,7 @@ struct ParticleStore {
       f(fluid_cell);
     }
     if (has_multi_rate_state) f(free_flight);
+    if (has_multi_rate_state && has_fluid_state) f(fluid_held);
   }
 
   // Checkpoints (checkpoint/archive.h): the flags first, so the columns they add are read back.
@@ -138,10 +147,12 @@ struct ParticleStore {
     fluid_cell.assign(size(), {});
   }
 
-  // Adds the multi-rate column; every particle starts stepping with the rest.
+  // Adds the multi-rate columns (after enable_fluid_state(), if any); every particle starts
+  // stepping with the rest.
   void enable_multi_rate_state() {
     has_multi_rate_state = true;
     free_flight.assign(size(), 0);
+    if (has_fluid_state) fluid_held.assign(size(), {});
   }
 
   // Appends a particle and computes its contact constants; `stiffness_scale` multiplies its

@@ -20,6 +20,12 @@
 // step's displacement after k steps, |v + ½ a k dt| k dt, stays under that speed × k dt.
 // So the rebuild comes no later than it would have, and nothing it would have found is missed.
 // A run where no particle is in free flight takes the single-rate path unchanged.
+//
+// The particles that step keep their fluid force too (in gas scenes): it is evaluated at most
+// every max_wait_steps steps and on the step after a CFD step (which changed the gas), and in
+// between the step applies the kept force, so the drag and the DEM-cell lookup follow the
+// particle's time scale, not the contact's. The kept force enters the step's kick-drift, which
+// also books its impulse for the gas.
 #pragma once
 
 #include <cstdint>
@@ -42,6 +48,8 @@ inline constexpr double kMaxWaitPerRelaxationTime = 0.05;
 std::int64_t max_wait_steps(double dt, double relaxation_s);
 
 struct MultiRateStats {
+  double held_fluid_steps = 0.0;        // particle-steps that applied a kept fluid force
+  std::uint64_t fluid_refreshes = 0;    // steps that evaluated the stepping particles' fluid force
   double waiting_particle_steps = 0.0;  // DEM steps not taken by particles in free flight
   double long_steps = 0.0;              // particle catch-ups (each one long step)
   std::uint64_t catch_ups = 0;          // times the waiting particles were brought up to date
@@ -54,6 +62,8 @@ struct MultiRate {
   std::uint64_t marked_rebuilds = ~std::uint64_t(0);  // neighbour rebuilds when flags were set
   std::int64_t waiting_since_step = 0;  // the step the waiting particles are complete at
   std::int64_t max_wait_steps = kMaxFreeFlightSteps;
+  std::int64_t fluid_refreshed_step = 0;  // when the stepping particles' fluid force was evaluated
+  bool fluid_refresh_due = true;          // a CFD step changed the gas since
   // Per slot block (dem/integrator.h): the waiting particles' speed bound, squared.
   std::vector<double> waiting_block_speed2;
   double waiting_max_speed2 = 0.0;
@@ -63,8 +73,8 @@ struct MultiRate {
 
   template <class A>
   void checkpoint_io(A& a) {
-    io_all(a, stepping, waiting, lists_version, marked_rebuilds, waiting_since_step,
-           max_wait_steps);
+    io_all(a, stepping, waiting, lists_version, marked_rebuilds, waiting_since_step, max_wait_steps,
+           fluid_refreshed_step, fluid_refresh_due);
     io_all(a, waiting_block_speed2, waiting_max_speed2, speeds_valid, stats);
   }
 };
@@ -76,5 +86,12 @@ void mark_free_flight(ParticleStore& p, const NeighborList& neighbors, MultiRate
 void relist_if_moved(const ParticleStore& p, MultiRate& m);
 // The waiting particles' speed bounds per slot block, from their current state.
 void bound_waiting_speeds(const ParticleStore& p, double dt, MultiRate& m);
+
+// kick_drift_listed (dem/integrator.h) for particles that keep their fluid force: each one's
+// next force starts from gravity plus the kept force, and the kept exchange's impulse over the
+// step is booked for the gas (returned summed). Returns the largest |v½|² in `max_speed2`.
+Vec3 kick_drift_keeping_fluid(ParticleStore& p, const std::vector<std::uint32_t>& slots, double dt,
+                              const Vec3& gravity, std::vector<double>& block_max_speed2,
+                              double& max_speed2);
 
 }  // namespace millsim

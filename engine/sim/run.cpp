@@ -612,6 +612,8 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
                        {"long_steps", mr->stats.long_steps},
                        {"catch_ups", mr->stats.catch_ups},
                        {"full_steps", mr->stats.full_steps},
+                       {"kept_fluid_force_steps", mr->stats.held_fluid_steps},
+                       {"fluid_refreshes", mr->stats.fluid_refreshes},
                        {"max_wait_steps", mr->max_wait_steps}};
   }
   s["simulated_time_s"] = sim.time_s();

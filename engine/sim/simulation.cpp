@@ -485,12 +485,22 @@ std::optional<StepFailure> Simulation::step_multi_rate() {
   if (kick_pending_) profile_.time(Phase::Kick, [&] { kick(particles_, dt); });
   kick_pending_ = false;
   if (!m.speeds_valid) bound_waiting_speeds(particles_, dt, m);
+  // The stepping particles' fluid force: evaluated this step, or the kept one applied.
+  const bool refresh =
+      !gas_ || m.fluid_refresh_due || step_index_ + 1 - m.fluid_refreshed_step >= m.max_wait_steps;
   double max_speed = 0.0;
   profile_.time(Phase::KickDrift, [&] {
     m.block_speed2 = m.waiting_block_speed2;
-    const double max2 =
-        std::max(kick_drift_listed(particles_, m.stepping, dt, gravity_m_per_s2_, m.block_speed2),
-                 m.waiting_max_speed2);
+    double stepping_max2 = 0.0;
+    if (refresh) {
+      stepping_max2 =
+          kick_drift_listed(particles_, m.stepping, dt, gravity_m_per_s2_, m.block_speed2);
+    } else {
+      gas_->add_held_impulse(kick_drift_keeping_fluid(particles_, m.stepping, dt, gravity_m_per_s2_,
+                                                      m.block_speed2, stepping_max2));
+      m.stats.held_fluid_steps += double(m.stepping.size());
+    }
+    const double max2 = std::max(stepping_max2, m.waiting_max_speed2);
     block_max_speed_.resize(m.block_speed2.size());
     for (std::size_t b = 0; b < m.block_speed2.size(); ++b)
       block_max_speed_[b] = std::sqrt(m.block_speed2[b]);
@@ -512,15 +522,22 @@ std::optional<StepFailure> Simulation::step_multi_rate() {
   profile_.time(Phase::Forces, [&] { compute_forces(); });
   if (gas_)
     profile_.time(Phase::Fluid, [&] {
-      if (full)
+      if (full && refresh)
         gas_->add_fluid_forces(particles_, dt, true);
-      else
+      else if (full)
+        gas_->add_fluid_forces(particles_, m.waiting, dt);  // the stepping ones keep theirs
+      else if (refresh)
         gas_->add_fluid_forces(particles_, m.stepping, dt);
     });
   particle_steps_ += double(full ? particles_.size() : m.stepping.size());
   if (!full) m.stats.waiting_particle_steps += double(m.waiting.size());
   contact_steps_ += contact_stats_.touching_pairs;
   ++step_index_;
+  if (gas_ && refresh) {
+    m.fluid_refreshed_step = step_index_;
+    m.fluid_refresh_due = false;
+    ++m.stats.fluid_refreshes;
+  }
   const bool limiter = contact_.penetration_limiter && !(contact_stats_.pairs_over_limit.empty() &&
                                                          contact_stats_.walls_over_limit.empty());
   profile_.time(Phase::Kick, [&] {
@@ -538,7 +555,8 @@ std::optional<StepFailure> Simulation::step_multi_rate() {
     catch_up_free_flight();
     std::optional<std::string> message;
     profile_.time(Phase::Gas, [&] { message = gas_->advance(particles_, dt, step_index_); });
-    m.speeds_valid = false;  // the drag response changed velocities
+    m.speeds_valid = false;      // the drag response changed velocities
+    m.fluid_refresh_due = true;  // and the gas changed
     if (message) return StepFailure{step_index_, time_s(), 0, "gas_solver", *message};
   }
   if (step_index_ - m.waiting_since_step >= m.max_wait_steps) catch_up_free_flight();
@@ -595,6 +613,7 @@ std::optional<StepFailure> Simulation::step_once(bool may_defer) {
   if (gas_due) {
     std::optional<std::string> message;
     profile_.time(Phase::Gas, [&] { message = gas_->advance(particles_, dt, step_index_); });
+    multi_rate_.fluid_refresh_due = true;  // kept fluid forces (multi-rate) are stale now
     if (message) return StepFailure{step_index_, time_s(), 0, "gas_solver", *message};
   }
   if (health_due()) profile_.time(Phase::Health, [&] { failure = check_health(); });
