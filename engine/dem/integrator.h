@@ -121,10 +121,11 @@ inline double kick_then_kick_drift(ParticleStore& p, double dt, const Vec3& grav
 // out keep their forces untouched while they wait.
 
 // Kick-drift of the listed slots by `dt`; returns the largest |v½|² and raises
-// block_max_speed2[slot / kSpeedBlockSlots] to each particle's |v½|².
-inline double kick_drift_listed(ParticleStore& p, const std::vector<std::uint32_t>& slots,
-                                double dt, const Vec3& gravity,
-                                std::vector<double>& block_max_speed2) {
+// block_max_speed2[slot / kSpeedBlockSlots] to each particle's |v½|². Each particle's next force
+// pass starts from next_load(i) (gravity, plus what the caller keeps applied).
+template <class NextLoad>
+double kick_drift_listed(ParticleStore& p, const std::vector<std::uint32_t>& slots, double dt,
+                         std::vector<double>& block_max_speed2, NextLoad&& next_load) {
   const double half = 0.5 * dt;
   Vec3* x = p.position_m.data();
   Motion* motion = p.motion.data();
@@ -135,7 +136,7 @@ inline double kick_drift_listed(ParticleStore& p, const std::vector<std::uint32_
     const Motion m = motion[i];
     const Load l = load[i];
     previous_load[i] = l;
-    load[i] = {gravity * p.mass_kg[i], {}};
+    load[i] = next_load(i);
     const Vec3 dv = l.force_n * (half * p.inv_mass_per_kg[i]);
     const Vec3 v_half = m.velocity_m_per_s + dv;
     x[i] += v_half * dt;
@@ -147,6 +148,16 @@ inline double kick_drift_listed(ParticleStore& p, const std::vector<std::uint32_
     max_speed2 = std::max(max_speed2, speed2);
   }
   return max_speed2;
+}
+
+// The same, each next force pass starting from gravity, m·g.
+inline double kick_drift_listed(ParticleStore& p, const std::vector<std::uint32_t>& slots,
+                                double dt, const Vec3& gravity,
+                                std::vector<double>& block_max_speed2) {
+  const double* mass = p.mass_kg.data();
+  return kick_drift_listed(p, slots, dt, block_max_speed2, [&](std::uint32_t i) {
+    return Load{gravity * mass[i], {}};
+  });
 }
 
 // The closing kick of the listed slots by `dt`.

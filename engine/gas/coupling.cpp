@@ -350,89 +350,93 @@ std::optional<std::string> GasCoupling::spin_up() {
   return std::nullopt;
 }
 
-// One particle's drag, lift and pressure-gradient force, added to its load; with `accumulate` the
-// exchange's impulse over `dt` is kept for the gas.
-inline void GasCoupling::add_fluid_force(ParticleStore& p, std::size_t i, double dt,
-                                         bool accumulate, FluidPass& pass) {
+// Drag, lift and pressure-gradient force of the particles in slots slot_of(0 .. count−1), added to
+// their loads; with `accumulate` each exchange's impulse over `dt` is kept for the gas. The
+// settings are read once, before the loop: the table lookup is a call that could change them.
+template <class SlotOf>
+void GasCoupling::fluid_pass(ParticleStore& p, std::size_t count, SlotOf&& slot_of, double dt,
+                             bool accumulate) {
   const bool lift = config_.saffman_lift, pressure = config_.pressure_gradient_force;
   const bool store_force = config_.cache_store == DragCacheStore::Force;
   const double threshold = config_.cache_threshold, threshold2 = threshold * threshold;
-  Vec3 x = p.position_m[i];
-  box_.wrap(x);
-  const FluidCellState& st = table_.at(x, gas_, lift, p.fluid_cell[i]);
-  const Vec3 slip = st.velocity_m_per_s - p.motion[i].velocity_m_per_s;
-  const double d = 2.0 * p.radius_m[i];
-  bool recompute = p.fluid_coefficient_kg_per_s[i] < 0.0 || threshold <= 0.0;
-  if (!recompute) {
-    // Fig. 5's test, per axis against the stored slip speed (squared: no root per step);
-    // and, since the dense-flow laws depend on it as strongly, the same test on ε.
-    const Vec3& stored = p.fluid_cached_slip_m_per_s[i];
-    const double limit2 = threshold2 * norm2(stored);
-    const Vec3 change = slip - stored;
-    recompute = change.x * change.x > limit2 || change.y * change.y > limit2 ||
-                change.z * change.z > limit2 || (limit2 == 0.0 && norm2(change) > 0.0) ||
-                std::abs(st.volume_fraction - p.fluid_cached_fraction[i]) >
-                    threshold * p.fluid_cached_fraction[i];
-  }
-  if (recompute) {
-    const DragInput in{d, norm(slip), st.volume_fraction, st.density_kg_per_m3, st.viscosity_pa_s};
-    const double beta = drag_coefficient_kg_per_s(config_.drag, in);
-    // β's slope in the squared slip speed, so the cached β follows the slip to first order
-    // between evaluations (a second evaluation at 0.1 % more slip; only when caching).
-    double slope = 0.0;
-    if (threshold > 0.0 && !store_force && in.slip_speed_m_per_s > 0.0) {
-      DragInput faster = in;
-      faster.slip_speed_m_per_s *= 1.001;
-      const double ds2 = norm2(slip) * (1.001 * 1.001 - 1.0);
-      slope = (drag_coefficient_kg_per_s(config_.drag, faster) - beta) / ds2;
+  const bool keep = p.has_multi_rate_state;  // the kept force of multi-rate stepping
+  std::uint64_t evaluations = 0;
+  Vec3 impulse_sum;
+  for (std::size_t k = 0; k < count; ++k) {
+    const std::size_t i = slot_of(k);
+    Vec3 x = p.position_m[i];
+    box_.wrap(x);
+    const FluidCellState& st = table_.at(x, gas_, lift, p.fluid_cell[i]);
+    const Vec3 slip = st.velocity_m_per_s - p.motion[i].velocity_m_per_s;
+    const double d = 2.0 * p.radius_m[i];
+    bool recompute = p.fluid_coefficient_kg_per_s[i] < 0.0 || threshold <= 0.0;
+    if (!recompute) {
+      // Fig. 5's test, per axis against the stored slip speed (squared: no root per step);
+      // and, since the dense-flow laws depend on it as strongly, the same test on ε.
+      const Vec3& stored = p.fluid_cached_slip_m_per_s[i];
+      const double limit2 = threshold2 * norm2(stored);
+      const Vec3 change = slip - stored;
+      recompute = change.x * change.x > limit2 || change.y * change.y > limit2 ||
+                  change.z * change.z > limit2 || (limit2 == 0.0 && norm2(change) > 0.0) ||
+                  std::abs(st.volume_fraction - p.fluid_cached_fraction[i]) >
+                      threshold * p.fluid_cached_fraction[i];
     }
-    p.fluid_coefficient_slope[i] = slope;
-    const Vec3 lift_force =
-        lift ? saffman_lift_n(d, slip, st.vorticity_per_s, st.density_kg_per_m3, st.viscosity_pa_s)
-             : Vec3{};
-    p.fluid_coefficient_kg_per_s[i] = beta;
-    p.fluid_cached_slip_m_per_s[i] = slip;
-    p.fluid_cached_fraction[i] = st.volume_fraction;
-    p.fluid_cached_force_n[i] = store_force ? slip * beta + lift_force : lift_force;
-    ++pass.evaluations;
+    if (recompute) {
+      const DragInput in{d, norm(slip), st.volume_fraction, st.density_kg_per_m3,
+                         st.viscosity_pa_s};
+      const double beta = drag_coefficient_kg_per_s(config_.drag, in);
+      // β's slope in the squared slip speed, so the cached β follows the slip to first order
+      // between evaluations (a second evaluation at 0.1 % more slip; only when caching).
+      double slope = 0.0;
+      if (threshold > 0.0 && !store_force && in.slip_speed_m_per_s > 0.0) {
+        DragInput faster = in;
+        faster.slip_speed_m_per_s *= 1.001;
+        const double ds2 = norm2(slip) * (1.001 * 1.001 - 1.0);
+        slope = (drag_coefficient_kg_per_s(config_.drag, faster) - beta) / ds2;
+      }
+      p.fluid_coefficient_slope[i] = slope;
+      const Vec3 lift_force = lift ? saffman_lift_n(d, slip, st.vorticity_per_s,
+                                                    st.density_kg_per_m3, st.viscosity_pa_s)
+                                   : Vec3{};
+      p.fluid_coefficient_kg_per_s[i] = beta;
+      p.fluid_cached_slip_m_per_s[i] = slip;
+      p.fluid_cached_fraction[i] = st.volume_fraction;
+      p.fluid_cached_force_n[i] = store_force ? slip * beta + lift_force : lift_force;
+      ++evaluations;
+    }
+    const double beta_now =
+        p.fluid_coefficient_kg_per_s[i] +
+        p.fluid_coefficient_slope[i] * (norm2(slip) - norm2(p.fluid_cached_slip_m_per_s[i]));
+    const Vec3 exchange =
+        store_force ? p.fluid_cached_force_n[i] : slip * beta_now + p.fluid_cached_force_n[i];
+    Vec3 force = exchange;
+    if (pressure) force -= st.pressure_gradient_pa_per_m * (std::numbers::pi / 6.0 * d * d * d);
+    p.load[i].force_n += force;
+    if (keep) p.fluid_held[i] = {force, exchange};
+    if (accumulate) {
+      p.fluid_impulse_n_s[i] += exchange * dt;
+      impulse_sum += exchange * dt;
+    }
   }
-  const double beta_now =
-      p.fluid_coefficient_kg_per_s[i] +
-      p.fluid_coefficient_slope[i] * (norm2(slip) - norm2(p.fluid_cached_slip_m_per_s[i]));
-  const Vec3 exchange =
-      store_force ? p.fluid_cached_force_n[i] : slip * beta_now + p.fluid_cached_force_n[i];
-  Vec3 force = exchange;
-  if (pressure) force -= st.pressure_gradient_pa_per_m * (std::numbers::pi / 6.0 * d * d * d);
-  p.load[i].force_n += force;
-  if (p.has_multi_rate_state) p.fluid_held[i] = {force, exchange};
-  if (accumulate) {
-    p.fluid_impulse_n_s[i] += exchange * dt;
-    pass.impulse_sum += exchange * dt;
-  }
+  stats_.drag_evaluations += evaluations;
+  stats_.drag_reuses += count - evaluations;
+  stats_.particle_impulse_n_s += impulse_sum;
 }
 
 void GasCoupling::add_held_impulse(const Vec3& impulse_n_s) {
   stats_.particle_impulse_n_s += impulse_n_s;
 }
 
-void GasCoupling::finish_pass(const FluidPass& pass, std::size_t particles) {
-  stats_.drag_evaluations += pass.evaluations;
-  stats_.drag_reuses += particles - pass.evaluations;
-  stats_.particle_impulse_n_s += pass.impulse_sum;
-}
-
 void GasCoupling::add_fluid_forces(ParticleStore& p, double dt, bool accumulate) {
-  FluidPass pass;
-  const std::size_t n = p.size();
-  for (std::size_t i = 0; i < n; ++i) add_fluid_force(p, i, dt, accumulate, pass);
-  finish_pass(pass, n);
+  fluid_pass(
+      p, p.size(), [](std::size_t k) { return k; }, dt, accumulate);
 }
 
 void GasCoupling::add_fluid_forces(ParticleStore& p, const std::vector<std::uint32_t>& slots,
                                    double dt) {
-  FluidPass pass;
-  for (const std::uint32_t i : slots) add_fluid_force(p, i, dt, true, pass);
-  finish_pass(pass, slots.size());
+  const std::uint32_t* slot = slots.data();
+  fluid_pass(
+      p, slots.size(), [slot](std::size_t k) { return std::size_t(slot[k]); }, dt, true);
 }
 
 }  // namespace millsim

@@ -151,13 +151,9 @@ class GasCoupling {
   }
 
  private:
-  struct FluidPass {
-    std::uint64_t evaluations = 0;
-    Vec3 impulse_sum;
-  };
-  void add_fluid_force(ParticleStore& p, std::size_t slot, double dt, bool accumulate,
-                       FluidPass& pass);
-  void finish_pass(const FluidPass& pass, std::size_t particles);
+  template <class SlotOf>
+  void fluid_pass(ParticleStore& p, std::size_t count, SlotOf&& slot_of, double dt,
+                  bool accumulate);
   void deposit(const ParticleStore& p, double interval_s);
   Stencil face_stencil(const Vec3& wrapped_x, int axis) const;
   void return_drag_response(ParticleStore& p, double cfd_step_s);

@@ -55,33 +55,16 @@ void bound_waiting_speeds(const ParticleStore& p, double dt, MultiRate& m) {
 Vec3 kick_drift_keeping_fluid(ParticleStore& p, const std::vector<std::uint32_t>& slots, double dt,
                               const Vec3& gravity, std::vector<double>& block_max_speed2,
                               double& max_speed2) {
-  const double half = 0.5 * dt;
-  Vec3* x = p.position_m.data();
-  Motion* motion = p.motion.data();
-  Load* load = p.load.data();
-  Load* previous_load = p.previous_load.data();
+  const double* mass = p.mass_kg.data();
   const HeldFluidForce* held = p.fluid_held.data();
   Vec3* impulse = p.fluid_impulse_n_s.data();
   Vec3 booked;
-  max_speed2 = 0.0;
-  for (const std::uint32_t i : slots) {
-    const Motion m = motion[i];
-    const Load l = load[i];
-    previous_load[i] = l;
-    load[i] = {gravity * p.mass_kg[i] + held[i].force_n, {}};
+  max_speed2 = kick_drift_listed(p, slots, dt, block_max_speed2, [&](std::uint32_t i) {
     const Vec3 step_impulse = held[i].exchange_n * dt;
     impulse[i] += step_impulse;
     booked += step_impulse;
-    const Vec3 dv = l.force_n * (half * p.inv_mass_per_kg[i]);
-    const Vec3 v_half = m.velocity_m_per_s + dv;
-    x[i] += v_half * dt;
-    motion[i] = {v_half + dv,
-                 m.angular_velocity_rad_per_s + l.torque_n_m * (dt * p.inv_inertia_per_kg_m2[i])};
-    const double speed2 = norm2(v_half);
-    double& block = block_max_speed2[i / kSpeedBlockSlots];
-    block = std::max(block, speed2);
-    max_speed2 = std::max(max_speed2, speed2);
-  }
+    return Load{gravity * mass[i] + held[i].force_n, {}};
+  });
   return booked;
 }
 
