@@ -538,8 +538,7 @@ std::optional<StepFailure> Simulation::step_multi_rate() {
     m.fluid_refresh_due = false;
     ++m.stats.fluid_refreshes;
   }
-  const bool limiter = contact_.penetration_limiter && !(contact_stats_.pairs_over_limit.empty() &&
-                                                         contact_stats_.walls_over_limit.empty());
+  const bool limiter = limiter_due();
   profile_.time(Phase::Kick, [&] {
     if (full)
       kick(particles_, dt);
@@ -553,17 +552,12 @@ std::optional<StepFailure> Simulation::step_multi_rate() {
   if (breakage_ || !outlets_.empty() || !feeders_.empty()) process_population();
   if (gas_ && gas_->due(step_index_)) {
     catch_up_free_flight();
-    std::optional<std::string> message;
-    profile_.time(Phase::Gas, [&] { message = gas_->advance(particles_, dt, step_index_); });
-    m.speeds_valid = false;      // the drag response changed velocities
-    m.fluid_refresh_due = true;  // and the gas changed
-    if (message) return StepFailure{step_index_, time_s(), 0, "gas_solver", *message};
+    m.speeds_valid = false;  // the drag response changes velocities
+    if (auto failure = advance_gas()) return failure;
   }
   if (step_index_ - m.waiting_since_step >= m.max_wait_steps) catch_up_free_flight();
   std::optional<StepFailure> failure;
-  if (step_index_ % 16 == 0 || step_index_ == total_steps_ ||
-      contact_stats_.max_overlap_ratio > 2.0 * contact_.penetration_limit)
-    profile_.time(Phase::Health, [&] { failure = check_health(); });
+  if (health_due()) profile_.time(Phase::Health, [&] { failure = check_health(); });
   return failure;
 }
 
@@ -590,14 +584,9 @@ std::optional<StepFailure> Simulation::step_once(bool may_defer) {
   particle_steps_ += double(particles_.size());
   contact_steps_ += contact_stats_.touching_pairs;
   ++step_index_;
-  const bool limiter = contact_.penetration_limiter && !(contact_stats_.pairs_over_limit.empty() &&
-                                                         contact_stats_.walls_over_limit.empty());
+  const bool limiter = limiter_due();
   const bool population = breakage_ || !outlets_.empty() || !feeders_.empty();
   const bool gas_due = gas_ && gas_->due(step_index_);
-  auto health_due = [&] {
-    return step_index_ % 16 == 0 || step_index_ == total_steps_ ||
-           contact_stats_.max_overlap_ratio > 2.0 * contact_.penetration_limit;
-  };
   if (may_defer && !limiter && !population && !gas_due && !health_due()) {
     kick_pending_ = true;  // done by the next step's kick-drift
     return std::nullopt;
@@ -610,14 +599,29 @@ std::optional<StepFailure> Simulation::step_once(bool may_defer) {
   });
   if (population) process_population();
   std::optional<StepFailure> failure;
-  if (gas_due) {
-    std::optional<std::string> message;
-    profile_.time(Phase::Gas, [&] { message = gas_->advance(particles_, dt, step_index_); });
-    multi_rate_.fluid_refresh_due = true;  // kept fluid forces (multi-rate) are stale now
-    if (message) return StepFailure{step_index_, time_s(), 0, "gas_solver", *message};
-  }
+  if (gas_due)
+    if (auto gas_failure = advance_gas()) return gas_failure;
   if (health_due()) profile_.time(Phase::Health, [&] { failure = check_health(); });
   return failure;
+}
+
+bool Simulation::limiter_due() const {
+  return contact_.penetration_limiter &&
+         !(contact_stats_.pairs_over_limit.empty() && contact_stats_.walls_over_limit.empty());
+}
+
+bool Simulation::health_due() const {
+  return step_index_ % 16 == 0 || step_index_ == total_steps_ ||
+         contact_stats_.max_overlap_ratio > 2.0 * contact_.penetration_limit;
+}
+
+std::optional<StepFailure> Simulation::advance_gas() {
+  std::optional<std::string> message;
+  profile_.time(Phase::Gas,
+                [&] { message = gas_->advance(particles_, time_.step_s, step_index_); });
+  multi_rate_.fluid_refresh_due = true;  // kept fluid forces (multi-rate) are stale now
+  if (message) return StepFailure{step_index_, time_s(), 0, "gas_solver", *message};
+  return std::nullopt;
 }
 
 double Simulation::particle_energy_j(std::size_t i) const {

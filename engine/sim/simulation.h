@@ -158,6 +158,12 @@ class Simulation {
   void prepare_multi_rate();
   // Brings the particles in free flight up to the current step in one long step.
   void catch_up_free_flight();
+  // After a step's force pass: whether the penetration limiter must act, and whether the
+  // stability guard looks at the state.
+  bool limiter_due() const;
+  bool health_due() const;
+  // One CFD step at the current DEM step; the failure when the gas solver stops.
+  std::optional<StepFailure> advance_gas();
   std::string describe_worst_overlap() const;
 
   MaterialTable materials_;
