@@ -1,4 +1,5 @@
 // millsim run SCENE.json [--out DIR] [--quiet] [--log-interval S] [--checkpoint-wall S] [--resume]
+//   [--files-root DIR] (file sources must lead inside DIR: decided as each is opened)
 // Validates the scene (all errors at once, exit 2, nothing written), runs it with a progress
 // line on a terminal, prints the JSON summary on stdout and writes DIR/{run.h5, run.xdmf,
 // result.json}, with checkpoints in DIR/checkpoints while it runs. Default DIR: out/<scene name>.
@@ -19,6 +20,7 @@
 #include "checkpoint/checkpoint_file.h"
 #include "commands.h"
 #include "core/errors.h"
+#include "io/input_file.h"
 #include "scene/scene_json.h"
 #include "sim/run.h"
 #include "sim/simulation.h"
@@ -47,6 +49,7 @@ struct RunArgs {
   double log_interval_s = 10.0;
   double checkpoint_wall_s = 600.0;
   bool resume = false;
+  std::string files_root;  // where file sources may lead (a service's scenes root)
 };
 
 // A number option's value in [lo, hi], or false after saying what is allowed.
@@ -65,7 +68,15 @@ bool seconds_value(const std::string& option, const std::string& text, double lo
 bool parse_run_args(const std::vector<std::string>& args, RunArgs& out) {
   for (std::size_t k = 0; k < args.size(); ++k) {
     const std::string& a = args[k];
-    if (a == "--out" && k + 1 < args.size()) {
+    const bool takes_value =
+        a == "--out" || a == "--log-interval" || a == "--checkpoint-wall" || a == "--files-root";
+    if (takes_value && k + 1 >= args.size()) {
+      std::fprintf(stderr, "millsim run: %s needs a value\n", a.c_str());
+      return false;
+    }
+    if (a == "--files-root") {
+      out.files_root = args[++k];
+    } else if (a == "--out" && k + 1 < args.size()) {
       out.out_dir = args[++k];
     } else if (a.rfind("--out=", 0) == 0) {
       out.out_dir = a.substr(6);
@@ -80,7 +91,7 @@ bool parse_run_args(const std::vector<std::string>& args, RunArgs& out) {
     } else if (!a.empty() && a[0] == '-') {
       std::fprintf(stderr,
                    "millsim run: unknown option \"%s\"; allowed: --out DIR, --quiet, "
-                   "--log-interval S, --checkpoint-wall S, --resume\n",
+                   "--log-interval S, --checkpoint-wall S, --resume, --files-root DIR\n",
                    a.c_str());
       return false;
     } else if (out.scene_path.empty()) {
@@ -171,20 +182,16 @@ int cmd_run(const std::vector<std::string>& args) {
   RunArgs run_args;
   if (!parse_run_args(args, run_args)) return kBadInput;
   try {
-    const SceneConfig scene = load_scene(run_args.scene_path);
+    SceneConfig scene = load_scene(run_args.scene_path);
+    scene.files_root = run_args.files_root;
     RunOptions options;
     options.out_dir = run_args.out_dir.empty() ? std::filesystem::path("out") / scene.name
                                                : std::filesystem::path(run_args.out_dir);
     // With checkpoints to resume from, the start state is replaced: no gas spin-up for it.
     Simulation sim(scene,
                    run_args.resume && !list_checkpoints(options.out_dir / "checkpoints").empty());
-    {
-      std::ifstream in(run_args.scene_path);
-      std::stringstream text;
-      text << in.rdbuf();
-      options.scene_text = text.str();
-      options.scene_path = run_args.scene_path;
-    }
+    options.scene_text = read_input_file(run_args.scene_path, {});
+    options.scene_path = run_args.scene_path;
     options.checkpoint_wall_s = run_args.checkpoint_wall_s;
     options.resume = run_args.resume;
     std::unique_ptr<ThermoLog> thermo;

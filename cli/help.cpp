@@ -77,7 +77,7 @@ const std::vector<VerbHelp>& verb_help() {
       {"run",
        "run one scene",
        "millsim run SCENE.json [--out DIR] [--quiet] [--log-interval S] [--checkpoint-wall S] "
-       "[--resume]",
+       "[--resume] [--files-root DIR]",
        "Validates the scene (every error at once, exit 2, nothing written), runs it with a "
        "progress line on a terminal, prints the JSON summary on stdout and writes DIR/run.h5, "
        "run.xdmf and result.json. While it runs it keeps its two newest checkpoints in "
@@ -95,7 +95,10 @@ const std::vector<VerbHelp>& verb_help() {
          "output.checkpoint_interval_s adds checkpoints by simulated time)"},
         {"--resume", "off",
          "continue from the newest valid checkpoint in DIR/checkpoints (the one before when it is "
-         "damaged; from the start when there is none); exit 2 for another scene's or build's"}},
+         "damaged; from the start when there is none); exit 2 for another scene's or build's"},
+        {"--files-root DIR", "none",
+         "every file source must be a regular file inside DIR, checked as it is opened (after "
+         "symlinks); a service's workers pass the server's scenes root"}},
        "millsim run cases/spiral_jet_mill.json --out out/mill"},
       {"study",
        "run a parameter study on this machine",
@@ -139,7 +142,8 @@ const std::vector<VerbHelp>& verb_help() {
        "the batch service: HTTP API, queue and workers",
        "millsim serve [--host H] [--port P] [--db FILE] [--workers N] [--out DIR] [--scenes DIR] "
        "[--lease S] [--max-body BYTES] [--max-runs N] [--max-study-bytes BYTES] [--worker-port P] "
-       "[--max-connections N] [--receive-timeout S] [--token-file FILE]",
+       "[--max-connections N] [--max-connections-per-client N] [--receive-timeout S] "
+       "[--token-file FILE]",
        "Serves the HTTP API (docs/openapi.yaml), owns the SQLite file and starts the workers. The "
        "token comes from MILLSIM_TOKEN or --token-file, never from the command line (ps shows "
        "it); without one a token is generated and printed.",
@@ -157,7 +161,10 @@ const std::vector<VerbHelp>& verb_help() {
         {"--worker-port P", "0 (a free port)",
          "a second port serving only the worker protocol; the started workers use it, so slow "
          "public clients cannot make them miss their heartbeats"},
-        {"--max-connections N", "64", "open connections per port; more are closed on accept"},
+        {"--max-connections N", "64",
+         "open connections per port; one over it gets 503 busy (a health probe still 200)"},
+        {"--max-connections-per-client N", "half of --max-connections",
+         "open connections one source address may hold, so one client cannot take every slot"},
         {"--receive-timeout S", "10",
          "seconds a request's head and body may take to arrive (slow clients are cut)"},
         kToken},

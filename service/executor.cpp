@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 #include <vector>
@@ -42,6 +43,22 @@ ExecHandle LocalExecutor::start(const RunRecord& run, double now) {
   const std::string log = (h.out_dir / "log.txt").string();
   const std::string binary = binary_.string();
   const std::string dir = h.out_dir.string();
+  // The engine's arguments and environment, made before fork (the child only execs). It needs
+  // no service token: MILLSIM_TOKEN is not passed on. --files-root: the run's file sources are
+  // checked as they are opened, not only when the study was posted.
+  std::vector<std::string> arg_text = {"millsim", "run",     "scene.json", "--out",
+                                       ".",       "--quiet", "--resume"};
+  if (!run.files_root.empty()) {
+    arg_text.push_back("--files-root");
+    arg_text.push_back(run.files_root);
+  }
+  std::vector<char*> argv;
+  for (std::string& a : arg_text) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  std::vector<char*> envp;
+  for (char** e = environ; *e; ++e)
+    if (std::strncmp(*e, "MILLSIM_TOKEN=", 14) != 0) envp.push_back(*e);
+  envp.push_back(nullptr);
   [[maybe_unused]] const rlim_t memory = rlim_t(run.memory_limit_mb * 1024.0 * 1024.0);
 
   const pid_t pid = fork();
@@ -60,8 +77,7 @@ ExecHandle LocalExecutor::start(const RunRecord& run, double now) {
     setrlimit(RLIMIT_AS, &limit);
 #endif
     // --resume: a later attempt continues from the checkpoints an earlier one left.
-    execl(binary.c_str(), "millsim", "run", "scene.json", "--out", ".", "--quiet", "--resume",
-          static_cast<char*>(nullptr));
+    execve(binary.c_str(), argv.data(), envp.data());
     _exit(4);  // exec failed: an environment error
   }
   setpgid(pid, pid);  // also from the parent, so the group exists before any kill

@@ -44,6 +44,9 @@ struct RunRecord {
   std::string out_dir;
   double wall_limit_s = 0.0, memory_limit_mb = 0.0;
   SlurmOptions slurm;  // the study's batch-job options (Slurm executor)
+  // Where the run's file sources may lead: the server's scenes root, sent with a claim and
+  // passed to `millsim run --files-root` (not stored; empty for a local study).
+  std::string files_root;
 };
 
 struct StudyRecord {

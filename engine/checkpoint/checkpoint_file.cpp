@@ -13,6 +13,7 @@
 #include "contact/contact_forces.h"
 #include "core/errors.h"
 #include "gas/coupling.h"
+#include "io/input_file.h"
 #include "search/neighbor_list.h"
 #include "sim/simulation.h"
 
@@ -130,11 +131,15 @@ std::filesystem::path write_checkpoint(const std::filesystem::path& dir,
 }
 
 Checkpoint read_checkpoint(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw CheckpointError("cannot open it");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  const std::string file = buffer.str();
+  // A checkpoint is a regular file this program wrote: never a symlink, FIFO or device.
+  std::string file;
+  try {
+    file = read_input_file(path, {{}, false});
+  } catch (const InputFileRefused& e) {
+    throw CheckpointError(std::string("refused: ") + e.what());
+  } catch (const IoError& e) {
+    throw CheckpointError(e.what());
+  }
   const std::size_t fixed = sizeof kMagic + 4 + 8 + 8 + 8;
   if (file.size() < fixed)
     throw CheckpointError("it is truncated (" + std::to_string(file.size()) + " bytes)");

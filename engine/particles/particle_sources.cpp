@@ -1,5 +1,7 @@
 #include "particles/particle_sources.h"
 
+#include "io/input_file.h"
+
 #include "core/json_reader.h"
 
 #include <algorithm>
@@ -35,9 +37,8 @@ std::vector<double> header_numbers(const ParticleFile& file, const std::string& 
 
 }  // namespace
 
-ParticleFile read_particle_file(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) throw IoError("cannot read particle file " + path.string());
+ParticleFile read_particle_file(const std::filesystem::path& path, const InputFileRules& rules) {
+  std::istringstream in(read_input_file(path, rules));
   ParticleFile file;
   InputErrors errors;
   std::string line;

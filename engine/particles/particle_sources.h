@@ -11,6 +11,7 @@
 #include "core/errors.h"
 #include "core/rng.h"
 #include "dem/box.h"
+#include "io/input_file.h"
 #include "scene/scene_config.h"
 
 namespace millsim {
@@ -20,9 +21,11 @@ struct ParticleFile {
   std::vector<ParticleSpec> particles;  // the file's ids are not kept: a run numbers particles 1..N
 };
 
-// Reads a particle file; throws InputErrorList naming file:line for malformed content and
-// IoError when it cannot be opened.
-ParticleFile read_particle_file(const std::filesystem::path& path);
+// Reads a particle file; throws InputErrorList naming file:line for malformed content,
+// InputFileRefused for a file the rules refuse (io/input_file.h) and IoError when it cannot be
+// opened.
+ParticleFile read_particle_file(const std::filesystem::path& path,
+                                const InputFileRules& rules = {});
 
 // Builds a scene from a benchmark particle file's header (box, boundary, material, gravity, dt):
 // one material "bench", the file as the only source, fixed time step, end after `steps` steps.

@@ -251,6 +251,9 @@ struct SceneConfig {
   std::optional<GasConfig> gas;    // absent = no gas solver, no fluid fields
   std::optional<MillConfig> mill;  // a cylindrical grinding chamber (geometry/mill.h)
   std::filesystem::path base_dir;  // directory of the scene file, for relative paths
+  // Where file sources may lead (not a scene key: `millsim run --files-root`, which a service's
+  // worker passes); empty: anywhere. Decided when each file is opened (io/input_file.h).
+  std::filesystem::path files_root;
 };
 
 }  // namespace millsim

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "core/json_reader.h"
+#include "io/input_file.h"
 #include "scene/gas_json.h"
 #include "scene/mill_json.h"
 #include "search/hashed_grid.h"
@@ -626,13 +627,15 @@ SceneConfig load_scene(const std::filesystem::path& path) {
   std::error_code ec;  // a name too long for the system is as missing as any other
   if (!std::filesystem::is_regular_file(path, ec))
     throw InputErrorList({{path.string(), "", "no such scene file"}});
-  std::ifstream in(path);
-  if (!in) throw IoError("cannot read scene file " + path.string());
-  std::stringstream text;
-  text << in.rdbuf();
+  std::string text;
+  try {
+    text = read_input_file(path, {});
+  } catch (const InputFileRefused& e) {
+    throw InputErrorList({{path.string(), "", e.what()}});
+  }
   json doc;
   try {
-    doc = parse_untrusted_json(text.str());
+    doc = parse_untrusted_json(text);
   } catch (const json::exception& e) {  // syntax, or a number beyond a double (1e999)
     throw InputErrorList({{"", "", std::string("not valid JSON: ") + e.what()}});
   } catch (const JsonTooDeep& e) {

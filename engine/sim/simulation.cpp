@@ -33,9 +33,11 @@ SourceParticles collect_sources(const SceneConfig& scene, const PeriodicBox& box
         break;
       case SourceKind::File:
         try {
-          specs = read_particle_file(source.file_path).particles;
+          specs = read_particle_file(source.file_path, {scene.files_root}).particles;
         } catch (const InputErrorList& e) {
           for (const InputError& err : e.errors()) errors.push_back(err);
+        } catch (const InputFileRefused& e) {
+          errors.push_back({path + "/path", source.file_path.string(), e.what()});
         } catch (const IoError& e) {
           errors.push_back({path + "/path", source.file_path.string(), e.what()});
         }

@@ -1,0 +1,73 @@
+// The local executor starts the engine as the service means it to (issue 33): with the server's
+// scenes root as --files-root, so the run itself decides what its file sources may open, and
+// without the service token in its environment, which the engine has no use for. The engine is
+// stood in for by a script that records its arguments and environment.
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <thread>
+
+#include "executor.h"
+#include "support/process.h"
+#include "support/scenes.h"
+
+namespace millsim {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Runs `run` through a LocalExecutor whose "engine" is a script writing what it got; returns
+// that record ("" when the script never ran).
+std::string what_the_engine_got(const fs::path& dir, RunRecord run) {
+  const fs::path script = dir / "engine.sh";
+  test::write_file(script,
+                   "#!/bin/sh\n"
+                   "echo \"args: $*\" > got.txt\n"
+                   "env >> got.txt\n");
+  fs::permissions(script, fs::perms::owner_all);
+  LocalExecutor executor(script);
+  run.id = "s000001-r0";
+  run.scene = "{}";
+  run.out_dir = (dir / "run").string();
+  run.wall_limit_s = 60;
+  run.memory_limit_mb = 4096;
+  ExecHandle handle = executor.start(run, 0.0);
+  std::optional<ChildExit> exit;
+  for (int k = 0; k < 3000 && !exit; ++k) {  // at most 30 s on a busy machine
+    exit = executor.poll(handle, 0.0);
+    if (!exit) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  if (!exit) {
+    executor.cancel(handle, 1e9);
+    return "";
+  }
+  return test::read_file(dir / "run" / "got.txt");
+}
+
+TEST(LocalExecutor, TheEngineGetsTheFilesRootAndNotTheToken) {
+  test::TempDir dir;
+  setenv("MILLSIM_TOKEN", "secret-token", 1);
+  setenv("MILLSIM_EXECUTOR_TEST", "kept", 1);
+  RunRecord run;
+  run.files_root = "/srv/scenes";
+  const std::string got = what_the_engine_got(dir.path(), run);
+  unsetenv("MILLSIM_TOKEN");
+  unsetenv("MILLSIM_EXECUTOR_TEST");
+  ASSERT_FALSE(got.empty()) << "the engine script did not run";
+  EXPECT_NE(got.find("args: run scene.json --out . --quiet --resume --files-root /srv/scenes\n"),
+            std::string::npos)
+      << got;
+  EXPECT_EQ(got.find("MILLSIM_TOKEN"), std::string::npos) << got;
+  EXPECT_NE(got.find("MILLSIM_EXECUTOR_TEST=kept"), std::string::npos) << got;  // the rest stays
+
+  // A local study (no server, no root): no --files-root.
+  test::TempDir local;
+  const std::string unrooted = what_the_engine_got(local.path(), RunRecord{});
+  EXPECT_NE(unrooted.find("args: run scene.json --out . --quiet --resume\n"), std::string::npos)
+      << unrooted;
+}
+
+}  // namespace
+}  // namespace millsim
