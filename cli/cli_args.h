@@ -82,6 +82,8 @@ class ArgReader {
     fail("unknown option \"" + current() + "\"; allowed: " + allowed);
   }
   bool ok() const { return ok_; }
+  // A problem found after the options were read (two that disagree).
+  void error(const std::string& message) { fail(message); }
 
  private:
   bool fail(const std::string& message) {

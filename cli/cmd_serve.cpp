@@ -64,6 +64,7 @@ int cmd_serve(const std::vector<std::string>& args) {
   // The token from the environment keeps it out of `ps` (systemd: EnvironmentFile=).
   if (const char* t = std::getenv("MILLSIM_TOKEN")) config.token = t;
   ArgReader r("serve", args);
+  int per_client = 0;
   while (r.next()) {
     if (r.option("--host", config.host)) continue;
     if (r.token_option(config.token)) continue;
@@ -100,14 +101,23 @@ int cmd_serve(const std::vector<std::string>& args) {
       config.limits.max_connections = std::size_t(max_connections);
       continue;
     }
+    if (r.int_option("--max-connections-per-client", per_client, 1, 4096)) continue;
     if (r.int_option("--worker-port", config.worker_port, 0, 65535) ||
         r.double_option("--receive-timeout", config.limits.receive_timeout_s, 0.1, 3600))
       continue;
     r.unknown(
         "--host H, --port P, --db FILE, --token-file FILE, --workers N, --out DIR, --scenes DIR, "
         "--lease S, --max-body BYTES, --max-runs N, --max-study-bytes BYTES, --worker-port P, "
-        "--max-connections N, --receive-timeout S");
+        "--max-connections N, --max-connections-per-client N, --receive-timeout S");
   }
+  // One client (source address) may hold half the connections unless told otherwise.
+  config.limits.max_connections_per_client =
+      per_client > 0 ? std::size_t(per_client)
+                     : std::max<std::size_t>(1, config.limits.max_connections / 2);
+  if (config.limits.max_connections_per_client > config.limits.max_connections)
+    r.error("--max-connections-per-client = " + std::to_string(per_client) +
+            ": expected at most --max-connections (" +
+            std::to_string(config.limits.max_connections) + ")");
   if (!r.ok()) return kBadInput;
   const bool token_generated = config.token.empty();
   if (token_generated) config.token = random_token();

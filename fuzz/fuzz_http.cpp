@@ -2,8 +2,10 @@
 // go through httplib's parsing and the server's routing, checks and handlers (the same
 // ApiServer, on a SQLite file of its own, without a socket: GuardedHttpServer::serve_bytes). A
 // crash, a sanitizer report or an exception out of the server is a finding; every answer must be
-// an HTTP response. Seeds: fuzz/http_seeds/ (requests of every endpoint, with the token
-// "fuzz-token").
+// an HTTP response. Each input is answered twice at once, on this thread and on a second one, so
+// the handlers' shared state (the store, its lock, the results cache) meets concurrent requests.
+// Seeds: fuzz/http_seeds/ (requests of every endpoint, with the token "fuzz-token"; the header
+// variants the guard refuses: any method, case, repeated Content-Length, unknown encodings).
 #include <unistd.h>
 
 #include <cstddef>
@@ -13,6 +15,7 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <thread>
 
 #include "api_server.h"
 
@@ -44,8 +47,13 @@ millsim::ApiServer& server() {
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  const std::string reply =
-      server().serve_bytes(std::string_view(reinterpret_cast<const char*>(data), size));
-  if (!reply.empty() && reply.rfind("HTTP/1.1 ", 0) != 0) std::abort();
+  const std::string_view input(reinterpret_cast<const char*>(data), size);
+  millsim::ApiServer& s = server();
+  std::string other;
+  std::thread concurrent([&] { other = s.serve_bytes(input); });
+  const std::string reply = s.serve_bytes(input);
+  concurrent.join();
+  for (const std::string* r : {&reply, &other})
+    if (!r->empty() && r->rfind("HTTP/1.1 ", 0) != 0) std::abort();
   return 0;
 }

@@ -3,6 +3,7 @@
 #include <httplib.h>
 
 #include <fcntl.h>
+#include <strings.h>
 #include <sys/file.h>
 #include <sys/socket.h>
 #include <unistd.h>
@@ -182,8 +183,66 @@ ordered_json run_json(const RunRecord& r, bool with_scene) {
     j["scene"] = json::parse(r.scene);
     j["out_dir"] = r.out_dir;
     j["slurm"] = r.slurm.to_json();
+    j["files_root"] = r.files_root;
   }
   return j;
+}
+
+const char* const kUnauthorized =
+    "this endpoint needs the header \"Authorization: Bearer <token>\" with the server's token";
+
+bool equals_ignoring_case(std::string_view a, std::string_view b) {
+  return a.size() == b.size() && strncasecmp(a.data(), b.data(), a.size()) == 0;
+}
+
+std::string_view trimmed(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t')) s.remove_suffix(1);
+  return s;
+}
+
+// What the body guard says of a request's head: 0 go on; -1 go on and close the connection
+// after (a body that httplib will not read on this method); else the refusal.
+struct BodyVerdict {
+  int status = 0;
+  std::string code, message;
+};
+
+BodyVerdict check_body_headers(const Request& req, const std::string& expected_authorization) {
+  // httplib reads a body on these, and on DELETE when one is announced (as for any method).
+  const bool body_method = req.method == "POST" || req.method == "PUT" || req.method == "PATCH";
+  const std::size_t lengths = req.get_header_value_count("Content-Length");
+  const bool has_transfer = req.has_header("Transfer-Encoding");
+  bool has_body = has_transfer;
+  for (std::size_t k = 0; k < lengths; ++k)
+    has_body = has_body || trimmed(req.get_header_value("Content-Length", k)) != "0";
+  if (!body_method && !has_body) return {};
+  if (req.get_header_value("Authorization") != expected_authorization)
+    return {401, "unauthorized", kUnauthorized};
+  if (lengths > 1)
+    return {400, "bad_length", "give one Content-Length header; this request has several"};
+  if (lengths == 1) {
+    const std::string_view text = trimmed(req.get_header_value("Content-Length"));
+    if (text.empty() || text.size() > 18 ||
+        text.find_first_not_of("0123456789") != std::string_view::npos)
+      return {400, "bad_length",
+              concat("Content-Length \"", utf8_prefix(valid_utf8(std::string(text)), 40),
+                     "\" is not a byte count")};
+  }
+  if (has_transfer)
+    return {411, "length_required",
+            concat("send the body with a Content-Length; Transfer-Encoding \"",
+                   utf8_prefix(valid_utf8(req.get_header_value("Transfer-Encoding")), 40),
+                   "\" is not accepted")};
+  for (std::size_t k = 0; k < req.get_header_value_count("Content-Encoding"); ++k) {
+    const std::string value = req.get_header_value("Content-Encoding", k);
+    if (!equals_ignoring_case(trimmed(value), "identity"))
+      return {415, "encoded_body",
+              concat("request bodies are accepted as they are, not with Content-Encoding: ",
+                     utf8_prefix(valid_utf8(value), 40))};
+  }
+  if (!body_method && req.method != "DELETE") return {-1, "", ""};
+  return {};
 }
 
 // Scene paths in submitted studies must stay under the server's scenes root.
@@ -212,7 +271,16 @@ ApiServer::ApiServer(ServerConfig config)
     : config_(std::move(config)), http_(std::make_unique<GuardedHttpServer>(config_.limits)) {
   lock_fd_ = lock_database(config_.db);
   store_ = std::make_unique<Store>(config_.db);
-  if (config_.worker_port >= 0) worker_http_ = std::make_unique<GuardedHttpServer>(config_.limits);
+  // The health probe is answered even over the connection cap (with the token off loopback).
+  http_->answer_health_when_busy({"/v1/health",
+                                  is_loopback_host(config_.host) ? "" : "Bearer " + config_.token,
+                                  "{\"status\": \"ok\"}\n"});
+  if (config_.worker_port >= 0) {
+    // The workers all come from the machines that run them: no per-address share there.
+    ConnectionLimits worker_limits = config_.limits;
+    worker_limits.max_connections_per_client = worker_limits.max_connections;
+    worker_http_ = std::make_unique<GuardedHttpServer>(worker_limits);
+  }
   routes(*http_, false);
   if (worker_http_) routes(*worker_http_, true);
 }
@@ -293,10 +361,22 @@ void ApiServer::routes(httplib::Server& s, bool worker_only) {
     else
       send_error(res, res.status, "http_error", concat("HTTP status ", res.status));
   });
+  // Out of memory in a handler fails that request alone (503: the server is short of memory,
+  // try later), never the server.
   s.set_exception_handler([](const Request&, Response& res, std::exception_ptr ep) {
     std::string what = "unknown";
     try {
       std::rethrow_exception(ep);
+    } catch (const std::bad_alloc&) {
+      res.body.clear();
+      res.body.shrink_to_fit();
+      res.status = 503;
+      res.set_header("Retry-After", "10");
+      res.set_content(
+          "{\"error\": {\"code\": \"out_of_memory\", \"message\": \"the server ran out "
+          "of memory answering this request; nothing was stored\"}}\n",
+          "application/json");
+      return;
     } catch (const std::exception& e) {
       what = e.what();
     } catch (...) {
@@ -305,30 +385,22 @@ void ApiServer::routes(httplib::Server& s, bool worker_only) {
   });
   const bool public_reads = !is_loopback_host(config_.host);
   const std::string expected = "Bearer " + config_.token;
-  // Before any body is read (httplib reads it after this handler): a write without the token is
-  // 401 without reading it, and a body whose size the limit cannot bound while it is read is
-  // refused: chunked (411, send a Content-Length) or compressed (415; decompressed it could be
-  // a thousand times the limit). Plain bodies are then held to max_body_bytes by httplib.
+  // Before any body is read (httplib reads it after this handler), for every method alike: a
+  // request that carries a body, or whose method takes one, needs the token (401 unread); its
+  // Content-Length must be one number (400); a Transfer-Encoding (411: send a Content-Length) or
+  // a Content-Encoding other than identity (415: decoded it could be a thousand times the limit)
+  // is refused, their names and values compared case-insensitively. The body is then held to
+  // max_body_bytes by httplib, and its decoded size is its size.
   s.set_pre_routing_handler([expected](const Request& req, Response& res) {
     request_started_at = std::chrono::steady_clock::now();
-    if (req.method != "POST" && req.method != "PUT" && req.method != "PATCH")
+    const BodyVerdict verdict = check_body_headers(req, expected);
+    if (verdict.status == 0) return httplib::Server::HandlerResponse::Unhandled;
+    // The unread body must not become the next request: the connection ends after the reply.
+    res.set_header("Connection", "close");
+    GuardedHttpServer::close_after_response();
+    if (verdict.status < 0)  // a body on a method that takes none: answered, then closed
       return httplib::Server::HandlerResponse::Unhandled;
-    if (req.get_header_value("Authorization") != expected) {
-      send_error(res, 401, "unauthorized",
-                 "this endpoint needs the header \"Authorization: Bearer <token>\" with the "
-                 "server's token");
-    } else if (req.has_header("Content-Encoding") &&
-               req.get_header_value("Content-Encoding") != "identity") {
-      send_error(res, 415, "encoded_body",
-                 concat("request bodies are accepted as they are, not with Content-Encoding: ",
-                        utf8_prefix(valid_utf8(req.get_header_value("Content-Encoding")), 40)));
-    } else if (req.get_header_value("Transfer-Encoding").find("chunked") != std::string::npos) {
-      send_error(res, 411, "length_required",
-                 "send the body with a Content-Length; chunked bodies are not accepted");
-    } else {
-      return httplib::Server::HandlerResponse::Unhandled;
-    }
-    res.set_header("Connection", "close");  // the unread body must not become the next request
+    send_error(res, verdict.status, verdict.code, verdict.message);
     return httplib::Server::HandlerResponse::Handled;
   });
   // One line per request on stderr.
@@ -349,12 +421,8 @@ void ApiServer::routes(httplib::Server& s, bool worker_only) {
   auto guard = [expected](bool needs_token, auto handler) {
     return [expected, needs_token, handler](const Request& req, Response& res) {
       GuardedHttpServer::mark_handler_started();
-      if (needs_token && req.get_header_value("Authorization") != expected) {
-        send_error(res, 401, "unauthorized",
-                   "this endpoint needs the header \"Authorization: Bearer <token>\" with the "
-                   "server's token");
-        return;
-      }
+      if (needs_token && req.get_header_value("Authorization") != expected)
+        return send_error(res, 401, "unauthorized", kUnauthorized);
       handler(req, res);
     };
   };
@@ -377,57 +445,48 @@ void ApiServer::routes(httplib::Server& s, bool worker_only) {
                          {"max_study_bytes", config_.max_study_bytes},
                          {"lease_s", config_.lease_s},
                          {"max_connections", config_.limits.max_connections},
+                         {"max_connections_per_client", config_.limits.max_connections_per_client},
                          {"receive_timeout_s", config_.limits.receive_timeout_s}}}});
           }));
 
-    s.Post(
-        "/v1/studies", guard(true, [this](const Request& req, Response& res) {
-          json spec;
-          if (!parse_body(req, res, spec)) return;
-          std::string problem;
-          if (!scene_path_allowed(spec, problem))
-            return send_error(res, 400, "invalid_study", problem);
-          Study study;
-          try {
-            study = expand_study(spec, config_.scenes_root, config_.max_runs_per_study,
-                                 &config_.scenes_root);
-          } catch (const InputErrorList& e) {
-            ordered_json details = ordered_json::array();
-            const std::size_t shown = std::min(e.errors().size(), kMaxReportedErrors);
-            for (std::size_t k = 0; k < shown; ++k) {
-              const InputError& err = e.errors()[k];
-              details.push_back(
-                  {{"path", err.path}, {"value", err.value}, {"allowed", err.allowed}});
-            }
-            return send_error(
-                res, 400, "invalid_study",
-                concat(e.errors().size(), " problem(s) in the study",
-                       shown < e.errors().size() ? concat(" (the first ", shown, " are listed)")
-                                                 : std::string(),
-                       "; nothing was queued"),
-                details);
-          }
-          // Checked before anything is stored: a large inline scene times many runs.
-          std::size_t stored_bytes = 0;
-          for (const StudyRun& run : study.runs) stored_bytes += run.scene.dump().size();
-          if (stored_bytes > config_.max_study_bytes)
-            return send_error(
-                res, 413, "study_too_large",
-                concat(
-                    "the study would store ", stored_bytes, " bytes of scenes (", study.runs.size(),
-                    " runs), more than this server's limit of ", config_.max_study_bytes,
-                    " (millsim serve --max-study-bytes): use fewer runs or a smaller inline scene; "
-                    "nothing was queued"));
-          std::optional<std::string> key;
-          if (req.has_header("Idempotency-Key")) key = req.get_header_value("Idempotency-Key");
-          std::lock_guard<std::mutex> lock(store_mutex_);
-          const Store::Submitted sub = store_->submit(
-              study, key, std::filesystem::absolute(config_.out_root), wall_clock_s());
-          send_json(res, sub.created ? 201 : 200,
-                    {{"study", sub.study_id},
-                     {"runs", store_->progress(sub.study_id).total},
-                     {"created", sub.created}});
-        }));
+    s.Post("/v1/studies", guard(true, [this](const Request& req, Response& res) {
+             json spec;
+             if (!parse_body(req, res, spec)) return;
+             std::string problem;
+             if (!scene_path_allowed(spec, problem))
+               return send_error(res, 400, "invalid_study", problem);
+             Study study;
+             try {
+               study = expand_study(spec, config_.scenes_root, config_.max_runs_per_study,
+                                    &config_.scenes_root, config_.max_study_bytes);
+             } catch (const StudyTooLarge& e) {
+               return send_error(res, 413, "study_too_large", e.what());
+             } catch (const InputErrorList& e) {
+               ordered_json details = ordered_json::array();
+               const std::size_t shown = std::min(e.errors().size(), kMaxReportedErrors);
+               for (std::size_t k = 0; k < shown; ++k) {
+                 const InputError& err = e.errors()[k];
+                 details.push_back(
+                     {{"path", err.path}, {"value", err.value}, {"allowed", err.allowed}});
+               }
+               return send_error(
+                   res, 400, "invalid_study",
+                   concat(e.errors().size(), " problem(s) in the study",
+                          shown < e.errors().size() ? concat(" (the first ", shown, " are listed)")
+                                                    : std::string(),
+                          "; nothing was queued"),
+                   details);
+             }
+             std::optional<std::string> key;
+             if (req.has_header("Idempotency-Key")) key = req.get_header_value("Idempotency-Key");
+             std::lock_guard<std::mutex> lock(store_mutex_);
+             const Store::Submitted sub = store_->submit(
+                 study, key, std::filesystem::absolute(config_.out_root), wall_clock_s());
+             send_json(res, sub.created ? 201 : 200,
+                       {{"study", sub.study_id},
+                        {"runs", store_->progress(sub.study_id).total},
+                        {"created", sub.created}});
+           }));
 
     auto study_summary = [this](const StudyRecord& st) {
       const Progress p = store_->progress(st.id);
@@ -697,6 +756,7 @@ void ApiServer::routes(httplib::Server& s, bool worker_only) {
           res.status = 204;
           return;
         }
+        c->run.files_root = std::filesystem::absolute(config_.scenes_root).lexically_normal();
         send_json(
             res, 200,
             {{"run", run_json(c->run, true)}, {"token", c->token}, {"lease_s", config_.lease_s}});

@@ -4,6 +4,7 @@
 #include <netinet/in.h>
 #include <netinet/tcp.h>
 #include <poll.h>
+#include <strings.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -22,6 +23,40 @@ using Clock = std::chrono::steady_clock;
 // kept-alive connection.
 constexpr int kReadTimeoutMs = 5000, kWriteTimeoutMs = 5000, kKeepAliveTimeoutMs = 5000;
 constexpr int kKeepAliveMaxCount = 5;
+constexpr int kBusyReadMs = 250;  // how long a connection over the cap may take to ask
+
+// Whether a request head is `GET <path>` (optionally with a query) carrying `authorization`
+// (empty: any or none). Header names compare case-insensitively.
+bool is_probe(const std::string& head, const std::string& path, const std::string& authorization) {
+  const std::string start = "GET " + path;
+  if (head.compare(0, start.size(), start) != 0 || head.size() <= start.size()) return false;
+  const char next = head[start.size()];
+  if (next != ' ' && next != '?') return false;
+  if (authorization.empty()) return true;
+  std::size_t line = head.find("\r\n");
+  while (line != std::string::npos) {
+    const std::size_t begin = line + 2;
+    const std::size_t end = head.find("\r\n", begin);
+    if (end == std::string::npos) break;
+    const std::string text = head.substr(begin, end - begin);
+    const std::size_t colon = text.find(':');
+    if (colon != std::string::npos && strncasecmp(text.c_str(), "Authorization", colon) == 0 &&
+        colon == std::strlen("Authorization")) {
+      std::size_t value = colon + 1;
+      while (value < text.size() && (text[value] == ' ' || text[value] == '\t')) ++value;
+      return text.compare(value, std::string::npos, authorization) == 0;
+    }
+    line = end;
+  }
+  return false;
+}
+
+std::string concat_response(const std::string& status, const std::string& headers,
+                            const std::string& body) {
+  return "HTTP/1.1 " + status +
+         "\r\nContent-Type: application/json\r\nContent-Length: " + std::to_string(body.size()) +
+         "\r\n" + headers + "Connection: close\r\n\r\n" + body;
+}
 
 bool wait_for(socket_t sock, short events, int timeout_ms) {
   pollfd p{sock, events, 0};
@@ -124,6 +159,7 @@ class DeadlineStream final : public httplib::Stream {
 };
 
 thread_local DeadlineStream* current_stream = nullptr;
+thread_local bool close_requested = false;  // by the request being answered on this thread
 
 // Closes a connection after its last response without resetting it: a close with unread bytes
 // (the body of a request refused before it was read, a slow client's dribble) makes the kernel
@@ -181,9 +217,9 @@ class MemoryStream final : public httplib::Stream {
 }  // namespace
 
 GuardedHttpServer::GuardedHttpServer(ConnectionLimits limits) : limits_(limits) {
-  // A thread per admitted connection, and a few more that close those over the cap at once
-  // (a connection waits in the pool's queue until a thread takes it).
-  const std::size_t threads = limits_.max_connections + 4;
+  // A thread per admitted connection, and some more that answer those over the cap (each for
+  // at most kBusyReadMs); a connection waits in the pool's queue until a thread takes it.
+  const std::size_t threads = limits_.max_connections + 16;
   new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
 }
 
@@ -197,31 +233,80 @@ void GuardedHttpServer::mark_handler_started() {
   if (current_stream) current_stream->handler_started();
 }
 
+void GuardedHttpServer::close_after_response() {
+  close_requested = true;
+}
+
 std::string GuardedHttpServer::serve_bytes(std::string_view request) {
   MemoryStream stream(request);
   for (int left = kKeepAliveMaxCount; left > 0 && !stream.at_end(); --left) {
     bool closed = false;
-    if (!process_request(stream, left == 1, closed, nullptr) || closed) break;
+    close_requested = false;
+    if (!process_request(stream, left == 1, closed, nullptr) || closed || close_requested) break;
   }
   return stream.written();
 }
 
 ConnectionStats GuardedHttpServer::stats() const {
-  return {accepted_.load(), refused_.load(), timed_out_.load()};
+  return {accepted_.load(), refused_.load(), timed_out_.load(), exceptions_.load()};
+}
+
+bool GuardedHttpServer::admit(const std::string& client) {
+  std::lock_guard<std::mutex> lock(clients_mutex_);
+  std::size_t& mine = open_by_client_[client];
+  if (open_.load() >= limits_.max_connections || mine >= limits_.max_connections_per_client) {
+    if (mine == 0) open_by_client_.erase(client);
+    return false;
+  }
+  ++mine;
+  ++open_;
+  return true;
+}
+
+void GuardedHttpServer::release(const std::string& client) {
+  std::lock_guard<std::mutex> lock(clients_mutex_);
+  const auto it = open_by_client_.find(client);
+  if (it != open_by_client_.end() && --it->second == 0) open_by_client_.erase(it);
+  --open_;
+}
+
+// A connection over the cap: its request head is read for at most kBusyReadMs; the health
+// probe is answered, anything else is told to come back.
+void GuardedHttpServer::answer_busy(socket_t sock) {
+  const auto until = Clock::now() + std::chrono::milliseconds(kBusyReadMs);
+  std::string head;
+  char chunk[1024];
+  while (head.size() < 8192 && head.find("\r\n\r\n") == std::string::npos) {
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(until - Clock::now()).count();
+    if (left <= 0 || !wait_for(sock, POLLIN, int(left))) break;
+    const ssize_t n = recv(sock, chunk, sizeof chunk, 0);
+    if (n <= 0) break;
+    head.append(chunk, std::size_t(n));
+  }
+  std::string reply;
+  if (!busy_probe_.path.empty() && is_probe(head, busy_probe_.path, busy_probe_.authorization)) {
+    reply = concat_response("200 OK", "", busy_probe_.body);
+  } else {
+    reply = concat_response("503 Service Unavailable", "Retry-After: 1\r\n",
+                            "{\"error\": {\"code\": \"busy\", \"message\": \"the server holds as "
+                            "many connections as it takes (from this address or in all); try "
+                            "again\"}}\n");
+  }
+  if (wait_for(sock, POLLOUT, 200)) send(sock, reply.data(), reply.size(), MSG_NOSIGNAL);
+  linger_and_close(sock);
 }
 
 // httplib's keep-alive loop, over the DeadlineStream: up to kKeepAliveMaxCount requests, each
 // waited for at most kKeepAliveTimeoutMs after the last, the last answered with "Connection:
 // close". The first request's deadline counts from the accept.
 bool GuardedHttpServer::process_and_close_socket(socket_t sock) {
-  const auto close_socket = [sock] {
-    shutdown(sock, SHUT_RDWR);
-    close(sock);
-  };
-  if (open_.fetch_add(1) >= limits_.max_connections) {
-    open_.fetch_sub(1);
+  std::string client;
+  int port = 0;
+  address_of(sock, true, client, port);
+  if (!admit(client)) {
     ++refused_;
-    close_socket();
+    answer_busy(sock);
     return false;
   }
   ++accepted_;
@@ -231,19 +316,25 @@ bool GuardedHttpServer::process_and_close_socket(socket_t sock) {
   current_stream = &stream;
   bool ok = false;
   stream.start_request();  // the first request's deadline counts from the connection
-  for (int left = kKeepAliveMaxCount; left > 0 && is_running(); --left) {
-    if (left < kKeepAliveMaxCount) {
-      if (!wait_for(sock, POLLIN, kKeepAliveTimeoutMs)) break;
-      stream.start_request();
+  try {
+    for (int left = kKeepAliveMaxCount; left > 0 && is_running(); --left) {
+      if (left < kKeepAliveMaxCount) {
+        if (!wait_for(sock, POLLIN, kKeepAliveTimeoutMs)) break;
+        stream.start_request();
+      }
+      bool closed = false;
+      close_requested = false;
+      ok = process_request(stream, left == 1, closed, nullptr);
+      if (stream.timed_out()) ++timed_out_;
+      if (!ok || closed || close_requested || stream.timed_out()) break;
     }
-    bool closed = false;
-    ok = process_request(stream, left == 1, closed, nullptr);
-    if (stream.timed_out()) ++timed_out_;
-    if (!ok || closed || stream.timed_out()) break;
+  } catch (...) {  // what escaped httplib and the handlers (std::bad_alloc): this connection ends
+    ++exceptions_;
+    ok = false;
   }
   current_stream = nullptr;
   linger_and_close(sock);
-  open_.fetch_sub(1);
+  release(client);
   return ok;
 }
 

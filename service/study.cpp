@@ -6,8 +6,10 @@
 #include <fstream>
 #include <set>
 #include <sstream>
+#include <unordered_set>
 
 #include "core/json_reader.h"
+#include "io/input_file.h"
 #include "scene/scene_json.h"
 
 namespace millsim {
@@ -55,6 +57,7 @@ std::vector<Parameter> parse_parameters(JsonObjectReader& top, InputErrors& erro
   std::vector<Parameter> out;
   const json* list = top.array("parameters");
   if (!list) return out;
+  std::unordered_set<std::string> seen;  // a hash set: linear in the number of parameters
   for (std::size_t i = 0; i < list->size(); ++i) {
     const std::string path = json_pointer_join("/parameters", i);
     JsonObjectReader r((*list)[i], path, errors);
@@ -71,9 +74,9 @@ std::vector<Parameter> parse_parameters(JsonObjectReader& top, InputErrors& erro
       errors.push_back({path, "", "expected values (a list) or range {from, to, count|step}"});
     }
     r.finish();
-    for (const Parameter& earlier : out)
-      if (earlier.path == p.path)
-        errors.push_back({r.path_of("path"), "\"" + p.path + "\"", "each parameter once"});
+    if (!seen.insert(p.path).second)
+      errors.push_back(
+          {r.path_of("path"), concat('"', utf8_prefix(p.path, 200), '"'), "each parameter once"});
     out.push_back(std::move(p));
   }
   return out;
@@ -140,11 +143,45 @@ void parse_slurm(const json& value, SlurmOptions& out, InputErrors& errors) {
 
 namespace {
 
-std::string describe_point(const json& params) {
+// "run 3 (dust.threshold_diameter_m = 8e-05)": at most about 200 characters of the point, so
+// the text of every error stays short however many parameters a study varies.
+std::string describe_run(std::size_t index, const json& params) {
   std::string text;
-  for (const auto& [key, value] : params.items())
-    text += (text.empty() ? "" : ", ") + key + " = " + value.dump();
-  return text;
+  for (const auto& [key, value] : params.items()) {
+    if (text.size() > 200) {
+      text += ", ...";
+      break;
+    }
+    if (!text.empty()) text += ", ";
+    text += utf8_prefix(key, 100);
+    text += " = ";
+    text += utf8_prefix(value.dump(), 100);
+  }
+  return concat("run ", index, " (", text, ")");
+}
+
+// The smallest number of bytes a run's scene can take as text: the base scene less everything
+// the parameters replace (a parameter's value is at least one byte).
+std::size_t smallest_run_bytes(const json& scene, const std::vector<std::string>& paths) {
+  std::size_t bytes = scene.dump().size();
+  for (const std::string& path : paths) {
+    const json* node = &scene;
+    for (const std::string& key : parameter_keys(path)) {
+      if (node->is_object() && node->contains(key)) {
+        node = &(*node)[key];
+      } else if (node->is_array()) {
+        char* end = nullptr;
+        const unsigned long index = std::strtoul(key.c_str(), &end, 10);
+        const bool valid = !key.empty() && *end == '\0' && index < node->size();
+        node = valid ? &(*node)[index] : nullptr;
+      } else {
+        node = nullptr;
+      }
+      if (!node) break;
+    }
+    if (node && node != &scene) bytes -= std::min(bytes, node->dump().size());
+  }
+  return bytes;
 }
 
 }  // namespace
@@ -192,17 +229,21 @@ void check_files_inside_root(const json& scene, const std::filesystem::path& sce
     const std::string problem = file_outside_root(text, scene_dir, root);
     if (!problem.empty())
       errors.push_back({concat(prefix, "/sources/", k, "/path"),
-                        "\"" + std::string(utf8_prefix(valid_utf8(text), 200)) + "\"", problem});
+                        concat('"', utf8_prefix(valid_utf8(text), 200), '"'), problem});
   }
 }
 
 json read_json_file(const std::filesystem::path& path, const std::string& what) {
-  std::ifstream in(path);
-  if (!in) throw InputErrorList({{what, path.string(), "cannot read this file"}});
-  std::stringstream text;
-  text << in.rdbuf();
+  std::string text;
   try {
-    return parse_untrusted_json(text.str());
+    text = read_input_file(path, {});
+  } catch (const InputFileRefused& e) {
+    throw InputErrorList({{what, path.string(), e.what()}});
+  } catch (const IoError&) {
+    throw InputErrorList({{what, path.string(), "cannot read this file"}});
+  }
+  try {
+    return parse_untrusted_json(text);
   } catch (const json::exception& e) {  // syntax, or a number beyond a double (1e999)
     throw InputErrorList({{what, path.string(), std::string("not valid JSON: ") + e.what()}});
   } catch (const JsonTooDeep& e) {
@@ -241,8 +282,13 @@ std::vector<std::string> parameter_keys(const std::string& path) {
   return keys;
 }
 
+StudyTooLarge::StudyTooLarge(const std::string& what)
+    : std::runtime_error(what +
+                         " (millsim serve --max-study-bytes): use fewer runs or a smaller inline "
+                         "scene; nothing was queued") {}
+
 Study expand_study(const json& spec, const std::filesystem::path& base_dir, int max_runs,
-                   const std::filesystem::path* files_root) {
+                   const std::filesystem::path* files_root, std::size_t max_stored_bytes) {
   InputErrors errors;
   Study study;
   study.spec = spec;
@@ -330,11 +376,24 @@ Study expand_study(const json& spec, const std::filesystem::path& base_dir, int 
   // The runs are expanded and validated even when the study's own fields have problems, so every
   // problem is reported at once; only a study that cannot be expanded stops here.
   bool expandable = scene.is_object() && total <= max_runs;
-  for (const Parameter& p : parameters) expandable = expandable && !p.values.empty();
+  std::unordered_set<std::string> distinct;  // a parameter given twice leaves its runs undefined
+  for (const Parameter& p : parameters)
+    expandable = expandable && !p.values.empty() && distinct.insert(p.path).second;
   if (combine == "zip")
     for (const Parameter& p : parameters)
       expandable = expandable && p.values.size() == parameters[0].values.size();
   if (!expandable) throw InputErrorList(std::move(errors));
+  // The stored size bounded before anything is expanded, then counted as the runs are made.
+  if (max_stored_bytes > 0) {
+    std::vector<std::string> paths;
+    for (const Parameter& p : parameters) paths.push_back(p.path);
+    const double least = double(smallest_run_bytes(scene, paths)) * total;
+    if (least > double(max_stored_bytes))
+      throw StudyTooLarge(concat("the study would store at least ", least, " bytes of scenes (",
+                                 total, " runs), more than this server's limit of ",
+                                 max_stored_bytes));
+  }
+  std::size_t stored_bytes = 0;
   // A problem of the base scene shows in every run: it is reported for the first run only.
   std::set<std::string> seen_scene_problems;
   std::size_t repeated_problems = 0;
@@ -364,8 +423,7 @@ Study expand_study(const json& spec, const std::filesystem::path& base_dir, int 
       for (const Parameter& p : parameters) {
         std::string problem;
         if (!set_at(run.scene, parameter_keys(p.path), params[p.path], problem))
-          errors.push_back(
-              {concat("run ", run.index, " (", describe_point(params), ")"), p.path, problem});
+          errors.push_back({describe_run(run.index, params), p.path, problem});
       }
       run.seed = run.scene.contains("seed") && run.scene["seed"].is_number_unsigned()
                      ? run.scene["seed"].get<std::uint64_t>() + std::uint64_t(r)
@@ -380,8 +438,8 @@ Study expand_study(const json& spec, const std::filesystem::path& base_dir, int 
           ++repeated_problems;
           continue;
         }
-        errors.push_back({concat("run ", run.index, " (", describe_point(params), ") ", e.path),
-                          e.value, e.allowed});
+        errors.push_back(
+            {concat(describe_run(run.index, params), " ", e.path), e.value, e.allowed});
       }
       if (reference && reference->is_object() && !study.reference_index) {
         bool match = !reference->empty();
@@ -391,6 +449,13 @@ Study expand_study(const json& spec, const std::filesystem::path& base_dir, int 
           run.is_reference = true;
           study.reference_index = run.index;
         }
+      }
+      if (max_stored_bytes > 0) {
+        stored_bytes += run.scene.dump().size();
+        if (stored_bytes > max_stored_bytes)
+          throw StudyTooLarge(concat("the study would store more than ", stored_bytes,
+                                     " bytes of scenes after ", run.index + 1, " of its ", total,
+                                     " runs, more than this server's limit of ", max_stored_bytes));
       }
       study.runs.push_back(std::move(run));
     }

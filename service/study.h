@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -60,8 +61,18 @@ struct Study {
 // `files_root` (a server's scenes root, for studies from outside): every file a run's scene
 // names must be a relative path without "..", and resolve (symlinks followed) inside it. It is
 // checked before the file is opened, and the error names the path, never what is there.
+// `max_stored_bytes` (0: none) bounds the runs' scenes as text: a study that must exceed it is
+// refused before anything is expanded, one that does is stopped at the run that does; both
+// throw StudyTooLarge. Validation is linear in the study's size.
 Study expand_study(const nlohmann::json& spec, const std::filesystem::path& base_dir, int max_runs,
-                   const std::filesystem::path* files_root = nullptr);
+                   const std::filesystem::path* files_root = nullptr,
+                   std::size_t max_stored_bytes = 0);
+
+// A study whose runs' scenes would exceed the server's --max-study-bytes.
+class StudyTooLarge : public std::runtime_error {
+ public:
+  explicit StudyTooLarge(const std::string& what);
+};
 
 // Reads a study file; throws InputErrorList / IoError.
 Study load_study(const std::filesystem::path& path, int max_runs);

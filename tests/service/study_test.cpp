@@ -140,6 +140,72 @@ TEST(Study, OverLargeStudiesAreRefused) {
   EXPECT_EQ(expand_study(spec, ".", 2000).runs.size(), 1200u);
 }
 
+TEST(Study, ARepeatedParameterIsOneProblemPerRepeatAndNothingIsExpanded) {
+  // Issue 33: each parameter was compared with every earlier one and each match reported, so n
+  // identical parameters made n(n-1)/2 problems (4,000 of them: 8 million, 1.7 GB, a minute).
+  const std::size_t n = 2000;
+  json parameters = json::array();
+  for (std::size_t k = 0; k < n; ++k)
+    parameters.push_back({{"path", "time.safety_factor"}, {"values", {0.2}}});
+  const auto errors = errors_of(study_with(parameters));
+  ASSERT_EQ(errors.size(), n - 1);  // the second to the last, each once
+  EXPECT_EQ(errors[0].path, "/parameters/1/path");
+  EXPECT_EQ(errors.back().path, "/parameters/1999/path");
+  EXPECT_EQ(errors.back().allowed, "each parameter once");
+}
+
+TEST(Study, ProblemsOfARunWithThousandsOfParametersStayShort) {
+  // Every problem of a run named the whole point: 2,000 unknown parameters made 2,000 problems
+  // of 40 kB each. The point is cut at about 200 characters.
+  json parameters = json::array();
+  for (int k = 0; k < 2000; ++k)
+    parameters.push_back({{"path", "unknown_" + std::to_string(k)}, {"values", {k}}});
+  const auto errors = errors_of(study_with(parameters));
+  ASSERT_GE(errors.size(), 2000u);  // each unknown key once
+  for (const InputError& e : errors) EXPECT_LT(e.path.size(), 400u) << e.path.substr(0, 400);
+  EXPECT_EQ(errors[0].path.rfind("run 0 (unknown_0 = 0, unknown_1 = 1", 0), 0u) << errors[0].path;
+  EXPECT_NE(errors[0].path.find(", ...)"), std::string::npos);
+}
+
+TEST(Study, TheStoredSizeIsBoundedBeforeTheRunsAreExpanded) {
+  // A large inline scene times many runs: refused from its base scene and the run count alone
+  // when even the smallest run times the count is over the limit, before a run is made.
+  json scene = base_scene();
+  json many = json::array();
+  for (int k = 0; k < 2000; ++k)
+    many.push_back({{"position_m", {5e-4, 5e-4, 5e-4}}, {"diameter_m", 1e-5}});
+  scene["sources"][0]["particles"] = many;  // about 110 kB as text
+  json spec = {
+      {"name", "big"},
+      {"scene", scene},
+      {"parameters", {{{"path", "seed"}, {"range", {{"from", 1}, {"to", 50}, {"step", 1}}}}}}};
+  const std::size_t scene_bytes = scene.dump().size();
+  const std::size_t limit = 40 * scene_bytes + scene_bytes / 2;  // 40.5 runs' worth
+  try {
+    expand_study(spec, ".", 1000, nullptr, limit);
+    FAIL() << "50 runs of " << scene_bytes << " bytes passed a limit of 40 runs' worth";
+  } catch (const StudyTooLarge& e) {
+    EXPECT_NE(std::string(e.what()).find("at least"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("(50 runs)"), std::string::npos) << e.what();
+  }
+  // A parameter that replaces the bulk makes runs small: the bound cannot refuse it beforehand,
+  // and the runs as made fit.
+  spec["parameters"].push_back(
+      {{"path", "sources.0.particles"},
+       {"values", {json::array({{{"position_m", {5e-4, 5e-4, 5e-4}}, {"diameter_m", 1e-4}}})}}});
+  EXPECT_EQ(expand_study(spec, ".", 1000, nullptr, limit).runs.size(), 50u);
+  // Runs that grow past the limit as they are made stop at the run that crosses it.
+  spec["parameters"][1]["values"] = {many};
+  spec["scene"]["sources"][0]["particles"] =
+      json::array({{{"position_m", {5e-4, 5e-4, 5e-4}}, {"diameter_m", 1e-4}}});
+  try {
+    expand_study(spec, ".", 1000, nullptr, limit);
+    FAIL() << "50 runs of " << scene_bytes << " bytes passed a limit of 40 runs' worth";
+  } catch (const StudyTooLarge& e) {
+    EXPECT_NE(std::string(e.what()).find("after 41 of its 50 runs"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Study, ParameterPathsSplitOnDotsOrSlashes) {
   EXPECT_EQ(parameter_keys("dust.threshold_diameter_m"),
             (std::vector<std::string>{"dust", "threshold_diameter_m"}));
