@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "commands.h"
+#include "database_lock.h"
 #include "local_runner.h"
 #include "results.h"
 #include "slurm_executor.h"
@@ -125,6 +126,7 @@ int cmd_study(const std::vector<std::string>& args) {
     std::filesystem::create_directories(std::filesystem::path(a.db).parent_path().empty()
                                             ? "."
                                             : std::filesystem::path(a.db).parent_path());
+    const DatabaseLock lock(a.db);  // not a database a server holds
     Store store(a.db);
     const std::filesystem::path out_root = std::filesystem::absolute(a.out);
     std::string study_id = a.resume;

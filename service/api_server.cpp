@@ -67,28 +67,6 @@ std::string printable(const std::string& path) {
   return path.size() > 200 ? out + "..." : out;
 }
 
-// Holds <db>.lock exclusively (flock) for the server's life; a second server on the same
-// database is refused with the first one's pid.
-int lock_database(const std::filesystem::path& db) {
-  const std::string path = db.string() + ".lock";
-  const int fd = open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-  if (fd < 0) throw IoError("cannot open " + path + ": " + std::strerror(errno));
-  if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
-    char pid[32] = "";
-    const ssize_t n = pread(fd, pid, sizeof pid - 1, 0);
-    pid[n > 0 ? n : 0] = '\0';
-    close(fd);
-    throw IoError(concat("another millsim serve uses ", db.string(), " (pid ",
-                         *pid ? std::string(pid) : "unknown", ", lock ", path,
-                         "); stop it or give another --db"));
-  }
-  const std::string text = std::to_string(getpid());
-  if (ftruncate(fd, 0) != 0 || pwrite(fd, text.data(), text.size(), 0) < 0) {
-    // The lock holds without the pid in it.
-  }
-  return fd;
-}
-
 bool all_digits(std::string_view s) {
   return !s.empty() && s.find_first_not_of("0123456789") == std::string_view::npos;
 }
@@ -269,7 +247,7 @@ bool is_loopback_host(const std::string& host) {
 
 ApiServer::ApiServer(ServerConfig config)
     : config_(std::move(config)), http_(std::make_unique<GuardedHttpServer>(config_.limits)) {
-  lock_fd_ = lock_database(config_.db);
+  lock_ = std::make_unique<DatabaseLock>(config_.db);
   store_ = std::make_unique<Store>(config_.db);
   // The health probe is answered even over the connection cap (with the token off loopback).
   http_->answer_health_when_busy({"/v1/health",
@@ -288,7 +266,6 @@ ApiServer::~ApiServer() {
   stop();
   if (reaper_.joinable()) reaper_.join();
   if (worker_thread_.joinable()) worker_thread_.join();
-  if (lock_fd_ >= 0) close(lock_fd_);
 }
 
 void ApiServer::bind() {

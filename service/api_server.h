@@ -1,7 +1,7 @@
 // The HTTP API under /v1 (docs/openapi.yaml, also served at /v1/openapi.yaml), on cpp-httplib.
-// It owns the Store: one server per database file (an exclusive lock on <db>.lock), and every
-// write to the SQLite file goes through this process, serialised by one mutex; workers (local or on
-// other machines) talk to it over HTTP. JSON error bodies {"error": {"code", "message",
+// It owns the Store: one server per database file (DatabaseLock: a flock on the file itself), and
+// every write to the SQLite file goes through this process, serialised by one mutex; workers (local
+// or on other machines) talk to it over HTTP. JSON error bodies {"error": {"code", "message",
 // "details"}} with 400/401/404/409/413. Mutating endpoints need the bearer token; read endpoints
 // too when the server listens beyond loopback. A background thread re-queues runs whose lease
 // expired. A port in use is an error (no SO_REUSEPORT sharing); a wrong method on a known path
@@ -17,6 +17,7 @@
 #include <string>
 #include <thread>
 
+#include "database_lock.h"
 #include "http_limits.h"
 #include "store.h"
 
@@ -82,7 +83,7 @@ class ApiServer {
   std::atomic<bool> stopping_{false};
   std::thread reaper_;
   int port_ = 0;
-  int lock_fd_ = -1;  // <db>.lock, held (flock) while this server owns the database
+  std::unique_ptr<DatabaseLock> lock_;  // held while this server owns the database
 };
 
 bool is_loopback_host(const std::string& host);

@@ -729,9 +729,22 @@ TEST(Service, ServerStartsSafelyAndAnswersByConvention) {
   EXPECT_NE(r.err.find("cannot listen on 127.0.0.1:" + port), std::string::npos) << r.err;
   r = test::run_millsim("serve --workers 0 --db q.db --port 0", dir.path());
   EXPECT_EQ(r.exit_code, 4);
-  EXPECT_NE(r.err.find("another millsim serve uses q.db (pid " + std::to_string(server.pid())),
-            std::string::npos)
-      << r.err;
+  const std::string holder = "is in use by millsim serve, pid " + std::to_string(server.pid());
+  EXPECT_NE(r.err.find("q.db " + holder), std::string::npos) << r.err;
+  // The same file by another name (issue 33): a symlink, a hard link; and a local study on it.
+  std::filesystem::create_symlink(dir.path() / "q.db", dir.path() / "alias.db");
+  std::filesystem::create_hard_link(dir.path() / "q.db", dir.path() / "hard.db");
+  for (const char* name : {"alias.db", "hard.db"}) {
+    r = test::run_millsim(std::string("serve --workers 0 --port 0 --db ") + name, dir.path());
+    EXPECT_EQ(r.exit_code, 4) << name;
+    EXPECT_NE(r.err.find(holder), std::string::npos) << r.err;
+  }
+  test::write_file(dir.path() / "s.study.json", slow_study(1, 0.001).dump());
+  r = test::run_millsim("study s.study.json --local --db alias.db", dir.path());
+  EXPECT_EQ(r.exit_code, 4) << r.err;
+  EXPECT_NE(r.err.find(holder), std::string::npos) << r.err;
+  std::filesystem::remove(dir.path() / "alias.db");
+  std::filesystem::remove(dir.path() / "hard.db");
 
   // The token is in no process's argv, and the server printed it only as "(given)".
   std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the worker has started
