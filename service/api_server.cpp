@@ -671,8 +671,12 @@ void ApiServer::routes(httplib::Server& s, bool worker_only) {
                                  concat(errors.size(), " problem(s) in the record; nothing stored"),
                                  details);
              }
+             // The server's clock dates a record, not the client's (whatever the body said).
+             const double now = wall_clock_s();
+             record["created_at"] = now;
+             record["created"] = iso_utc(now);
              std::lock_guard<std::mutex> lock(store_mutex_);
-             const std::string id = store_->add_regression(record, wall_clock_s());
+             const std::string id = store_->add_regression(record, now);
              send_json(res, 201, {{"id", id}});
            }));
 

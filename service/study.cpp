@@ -190,7 +190,8 @@ std::size_t smallest_run_bytes(const json& scene, const std::vector<std::string>
 void absolutize_paths(json& scene, const std::filesystem::path& scene_dir) {
   if (!scene.contains("sources") || !scene["sources"].is_array()) return;
   for (json& s : scene["sources"])
-    if (s.is_object() && s.value("type", "") == "file" && s.contains("path") &&
+    // A type that is not a string is the scene parser's to report (value() would throw).
+    if (s.is_object() && s.contains("type") && s["type"] == "file" && s.contains("path") &&
         s["path"].is_string()) {
       const std::filesystem::path p = s["path"].get<std::string>();
       if (p.is_relative())

@@ -14,6 +14,7 @@
 
 #include <cerrno>
 #include <chrono>
+#include <ctime>
 #include <fstream>
 #include <regex>
 #include <set>
@@ -705,14 +706,31 @@ TEST(Service, RegressionRunsThroughTheServerAndItsHistoryIsServed) {
   EXPECT_EQ(json::parse(res->body)["error"]["details"].size(), 2u) << res->body;
   EXPECT_EQ(server.post("/v1/regressions", one.dump(), false)->status, 401);
   EXPECT_EQ(json::parse(server.get("/v1/regressions")->body)["regressions"].size(), 2u);
+  // A record is dated by the server's clock, not by what the client wrote (issue 33).
+  json backdated = one;
+  backdated.erase("id");
+  backdated["created"] = "1999-01-01T00:00:00Z";
+  backdated["created_at"] = 915148800.0;
+  const double before = double(std::time(nullptr));
+  res = server.post("/v1/regressions", backdated.dump());
+  ASSERT_TRUE(res);
+  ASSERT_EQ(res->status, 201) << res->body;
+  const json stored = json::parse(
+      server.get("/v1/regressions/" + json::parse(res->body)["id"].get<std::string>())->body);
+  EXPECT_GE(stored["created_at"].get<double>(), before - 1.0) << stored.dump();
+  EXPECT_EQ(stored["created"].get<std::string>().rfind("1999", 0), std::string::npos);
+  const json listed = json::parse(server.get("/v1/regressions?limit=1")->body)["regressions"][0];
+  EXPECT_EQ(listed["created"], stored["created"]);
+  EXPECT_GE(listed["created_at"].get<double>(), before - 1.0);
 
   r = test::run_millsim("regress --history impact/kinetic_energy_ratio --format json" + common,
                         dir.path());
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const json history = json::parse(r.out);
-  ASSERT_EQ(history.size(), 2u);
+  ASSERT_EQ(history.size(), 3u);  // with the re-posted record
   EXPECT_EQ(history[0]["verdict"], "no_baseline");
   EXPECT_EQ(history[1]["verdict"], "pass");
+  EXPECT_EQ(history[2]["verdict"], "pass");
 }
 
 // Operating the server by convention: one server per port and per database file, the token

@@ -120,6 +120,16 @@ TEST(Study, BadInputNamesTheParameterAndThePoint) {
   EXPECT_EQ(errors[0].path, "/parameters/0");
 }
 
+TEST(Study, ASourceTypeThatIsNotAStringIsAProblemOfTheScene) {
+  // Found in issue 33's study fuzz: a number as sources[0].type threw nlohmann's type_error
+  // (exit 1, HTTP 500) from the path handling before the scene was validated.
+  json spec = study_with({{{"path", "time.safety_factor"}, {"values", {0.2}}}});
+  spec["scene"]["sources"][0]["type"] = 3;
+  const auto errors = errors_of(spec);
+  ASSERT_FALSE(errors.empty());
+  EXPECT_NE(errors[0].path.find("/sources/0/type"), std::string::npos) << errors[0].path;
+}
+
 TEST(Study, AScenePathTooLongForTheSystemIsAMissingScene) {
   // Found by fuzz/fuzz_study.cpp: a 5,000-character scene path made the file check throw
   // std::filesystem::filesystem_error (ENAMETOOLONG) out of the parser.
