@@ -45,6 +45,7 @@ json physics_of(json result) {
 pid_t start_run(const std::filesystem::path& dir, const std::vector<std::string>& args) {
   const pid_t pid = fork();
   if (pid == 0) {
+    test::die_with_parent();
     if (chdir(dir.c_str()) != 0) _exit(99);
     freopen("started.out", "w", stdout);
     freopen("started.err", "w", stderr);

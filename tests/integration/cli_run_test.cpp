@@ -224,6 +224,7 @@ TEST(CliRun, SignalsStopARunWithEveryFileComplete) {
     const pid_t pid = fork();
     ASSERT_GE(pid, 0);
     if (pid == 0) {
+      test::die_with_parent();
       if (chdir(dir.path().c_str()) != 0) _exit(99);
       freopen("/dev/null", "w", stdout);
       freopen("run.err", "w", stderr);

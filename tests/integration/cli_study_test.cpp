@@ -62,6 +62,7 @@ TEST(CliStudy, KilledChildIsRunAgainAndEveryRunCompletesOnce) {
   const pid_t pid = fork();
   ASSERT_GE(pid, 0);
   if (pid == 0) {
+    test::die_with_parent();
     if (chdir(dir.path().c_str()) != 0) _exit(99);
     freopen("/dev/null", "w", stdout);
     execl(MILLSIM_BINARY, "millsim", "study", "study.json", "--local", "--db", "q.db", "--out",

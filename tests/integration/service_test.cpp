@@ -16,9 +16,11 @@
 #include <chrono>
 #include <ctime>
 #include <fstream>
+#include <optional>
 #include <regex>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 #include <thread>
 
 #include "store.h"
@@ -34,6 +36,39 @@ using nlohmann::json;
 
 constexpr const char* kToken = "test-token";
 
+// A client for the server under test: no timeout shorter than 30 s, so a loaded machine slows
+// the suite down instead of failing it (issue 32: a 5 s read timeout failed a test there).
+httplib::Client client_for(const std::string& url) {
+  httplib::Client c(url);
+  c.set_connection_timeout(30);
+  c.set_read_timeout(60);
+  c.set_write_timeout(30);
+  return c;
+}
+
+// A response that may be missing (a timeout, a refused connection). Reading a missing one throws,
+// which fails the test naming the request, where dereferencing it crashed the whole suite.
+class Reply {
+ public:
+  Reply(httplib::Result result, std::string request) : request_(std::move(request)) {
+    if (result)
+      response_ = *result;
+    else
+      error_ = httplib::to_string(result.error());
+  }
+  explicit operator bool() const { return response_.has_value(); }
+  const httplib::Response* operator->() const { return &get(); }
+  const httplib::Response& operator*() const { return get(); }
+
+ private:
+  const httplib::Response& get() const {
+    if (!response_) throw std::runtime_error("no response to " + request_ + " (" + error_ + ")");
+    return *response_;
+  }
+  std::string request_, error_;
+  std::optional<httplib::Response> response_;
+};
+
 // A `millsim serve` child on a free loopback port; stopped (SIGTERM, then SIGKILL) by pid.
 class ServerProcess {
  public:
@@ -43,6 +78,7 @@ class ServerProcess {
     const std::filesystem::path log = dir / ("serve-" + std::to_string(++starts_) + ".log");
     pid_ = fork();
     if (pid_ == 0) {
+      test::die_with_parent();
       if (chdir(dir.c_str()) != 0) _exit(99);
       freopen(log.c_str(), "w", stdout);
       freopen((log.string() + ".err").c_str(), "w", stderr);
@@ -109,17 +145,17 @@ class ServerProcess {
     return true;
   }
 
-  httplib::Result get(const std::string& path, bool auth = false) const {
-    httplib::Client c(url_);
+  Reply get(const std::string& path, bool auth = false) const {
+    httplib::Client c = client_for(url_);
     httplib::Headers h;
     if (auth) h.emplace("Authorization", std::string("Bearer ") + kToken);
-    return c.Get(path.c_str(), h);
+    return Reply(c.Get(path.c_str(), h), "GET " + path);
   }
-  httplib::Result post(const std::string& path, const std::string& body, bool auth = true,
-                       httplib::Headers h = {}) const {
-    httplib::Client c(url_);
+  Reply post(const std::string& path, const std::string& body, bool auth = true,
+             httplib::Headers h = {}) const {
+    httplib::Client c = client_for(url_);
     if (auth) h.emplace("Authorization", std::string("Bearer ") + kToken);
-    return c.Post(path.c_str(), h, body, "application/json");
+    return Reply(c.Post(path.c_str(), h, body, "application/json"), "POST " + path);
   }
 
   // Polls the study until no run is queued, running or canceling.
@@ -218,8 +254,8 @@ TEST(Service, BadRequestsGetTheirStatusAndChangeNothing) {
   test::TempDir dir;
   ServerProcess server(dir.path(), 0);
   ASSERT_FALSE(server.url().empty());
-  auto code = [](const httplib::Result& r) { return r ? r->status : -1; };
-  auto error_code = [](const httplib::Result& r) {
+  auto code = [](const Reply& r) { return r ? r->status : -1; };
+  auto error_code = [](const Reply& r) {
     return json::parse(r->body)["error"]["code"].get<std::string>();
   };
   EXPECT_EQ(code(server.post("/v1/studies", "{}", false)), 401);  // no token
@@ -385,12 +421,12 @@ TEST(Service, BodiesTheLimitCannotBoundAreRefusedBeforeTheyAreRead) {
     void (*previous)(int) = signal(SIGPIPE, SIG_IGN);
     ~IgnoreSigpipe() { signal(SIGPIPE, previous); }
   } ignore_sigpipe;
-  httplib::Client c(server.url());
+  httplib::Client c = client_for(server.url());
   auto res = c.Post("/v1/studies", "{\"name\": \"x\"}", "application/json");
   ASSERT_TRUE(res);
   EXPECT_EQ(res->status, 401) << res->body;
   const httplib::Headers auth = {{"Authorization", std::string("Bearer ") + kToken}};
-  httplib::Client chunked(server.url());
+  httplib::Client chunked = client_for(server.url());
   res = chunked.Post(
       "/v1/studies", auth,
       [](std::size_t, httplib::DataSink& sink) {
@@ -404,7 +440,7 @@ TEST(Service, BodiesTheLimitCannotBoundAreRefusedBeforeTheyAreRead) {
   EXPECT_NE(res->body.find("length_required"), std::string::npos) << res->body;
   httplib::Headers gzip = auth;
   gzip.emplace("Content-Encoding", "gzip");
-  httplib::Client encoded(server.url());
+  httplib::Client encoded = client_for(server.url());
   res = encoded.Post("/v1/studies", gzip, std::string(1000, 'x'), "application/json");
   ASSERT_TRUE(res);
   EXPECT_EQ(res->status, 415) << res->body;
@@ -455,9 +491,8 @@ TEST(Service, SlowClientsAreCutAndWorkersKeepTheirOwnPath) {
     slow.push_back(fd);
   }
   // The worker protocol answers on its own port while the public one is full.
-  httplib::Client worker(std::string("http://127.0.0.1:") + std::to_string(worker_port));
-  worker.set_connection_timeout(1);
-  worker.set_read_timeout(1);
+  httplib::Client worker =
+      client_for(std::string("http://127.0.0.1:") + std::to_string(worker_port));
   const auto claim =
       worker.Post("/v1/worker/claim", {{"Authorization", std::string("Bearer ") + kToken}},
                   "{\"worker\": \"w\"}", "application/json");
@@ -782,8 +817,8 @@ TEST(Service, ServerStartsSafelyAndAnswersByConvention) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("--token-file = missing.txt"), std::string::npos) << r.err;
 
-  httplib::Client c(server.url());
-  auto res = c.Delete("/v1/studies");
+  httplib::Client c = client_for(server.url());
+  Reply res(c.Delete("/v1/studies"), "DELETE /v1/studies");
   ASSERT_TRUE(res);
   EXPECT_EQ(res->status, 405);
   EXPECT_EQ(res->get_header_value("Allow"), "GET, POST");
@@ -853,7 +888,7 @@ TEST(Service, EveryResponseConformsToTheOpenApiSpec) {
   ServerProcess server(dir.path(), 1);
   ASSERT_FALSE(server.url().empty());
   std::string recorded;
-  auto record = [&](const std::string& method, const std::string& path, const httplib::Result& r) {
+  auto record = [&](const std::string& method, const std::string& path, const Reply& r) {
     ASSERT_TRUE(r) << method << " " << path;
     const std::string bare = path.substr(0, path.find('?'));
     recorded +=
@@ -935,8 +970,8 @@ TEST(Service, EveryResponseConformsToTheOpenApiSpec) {
   post("/v1/worker/runs/" + id + "-r0/heartbeat", "{}");
   post("/v1/worker/runs/" + id + "-r0/finish", R"({"token": 999, "state": "COMPLETE"})");
   post("/v1/worker/runs/" + id + "-r0/finish", "{}");
-  httplib::Client c(server.url());
-  record("DELETE", "/v1/studies", c.Delete("/v1/studies"));
+  httplib::Client c = client_for(server.url());
+  record("DELETE", "/v1/studies", Reply(c.Delete("/v1/studies"), "DELETE /v1/studies"));
   get("/v1/nothing/here");
 
   test::write_file(dir.path() / "responses.jsonl", recorded);

@@ -87,6 +87,7 @@ TEST(Slurm, CancelReachesTheJobs) {
   const pid_t pid = fork();
   ASSERT_GE(pid, 0);
   if (pid == 0) {
+    test::die_with_parent();
     if (chdir(dir.path().c_str()) != 0) _exit(99);
     freopen("/dev/null", "w", stdout);
     execl(MILLSIM_BINARY, "millsim", "study", "study.json", "--local", "--executor", "slurm",
@@ -173,6 +174,7 @@ TEST(Slurm, SignalledJobCheckpointsRequeuesAndResumes) {
   test::write_file(dir.path() / "study.json", study.dump());
   const pid_t runner = fork();
   if (runner == 0) {
+    test::die_with_parent();
     if (chdir(dir.path().c_str()) != 0) _exit(99);
     freopen("study.out", "w", stdout);
     freopen("study.err", "w", stderr);

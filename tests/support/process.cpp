@@ -1,6 +1,9 @@
 #include "support/process.h"
 
+#include <signal.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <fstream>
@@ -24,6 +27,12 @@ CommandResult run_millsim(const std::string& args, const std::filesystem::path& 
   text << err.rdbuf();
   result.err = text.str();
   return result;
+}
+
+void die_with_parent() {
+  const pid_t parent = getppid();
+  prctl(PR_SET_PDEATHSIG, SIGTERM);
+  if (getppid() != parent) raise(SIGTERM);  // the parent died before the line above
 }
 
 std::vector<pid_t> children_of(pid_t parent) {

@@ -22,6 +22,10 @@ CommandResult run_millsim(const std::string& args, const std::filesystem::path& 
 // Processes whose parent is `parent` (from /proc/*/stat).
 std::vector<pid_t> children_of(pid_t parent);
 
+// Call in a child just forked by a test: it gets SIGTERM when the test process dies (even by a
+// crash), so no server or run outlives the suite. Kept across exec.
+void die_with_parent();
+
 void write_file(const std::filesystem::path& path, const std::string& text);
 std::string read_file(const std::filesystem::path& path);  // "" when missing
 
