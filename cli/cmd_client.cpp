@@ -81,7 +81,8 @@ Reply request(const char* verb, const ClientArgs& a, const std::string& method,
               const std::string& path, const std::string& body = "",
               httplib::Headers headers = {}) {
   httplib::Client client(a.server);
-  client.set_connection_timeout(5);
+  client.set_connection_timeout(30);  // a busy server or machine is slow, not gone
+  client.set_read_timeout(60);
   client.set_tcp_nodelay(true);
   if (!a.token.empty()) headers.emplace("Authorization", "Bearer " + a.token);
   auto res = method == "GET" ? client.Get(path.c_str(), headers)

@@ -188,7 +188,7 @@ std::map<std::string, CheckOutcome> run_locally(const RegressionSuite& suite, St
 class Remote {
  public:
   explicit Remote(const RegressArgs& a) : client_(a.server), token_(a.token), server_(a.server) {
-    client_.set_connection_timeout(5);
+    client_.set_connection_timeout(30);
     client_.set_read_timeout(60);
     client_.set_tcp_nodelay(true);
   }

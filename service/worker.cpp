@@ -16,7 +16,7 @@ using nlohmann::json;
 class ServerLink {
  public:
   explicit ServerLink(const WorkerConfig& c) : client_(c.server), token_(c.token) {
-    client_.set_connection_timeout(5);
+    client_.set_connection_timeout(30);
     client_.set_read_timeout(30);
     client_.set_tcp_nodelay(true);  // heartbeats are small requests: no Nagle delay
   }
