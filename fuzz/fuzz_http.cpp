@@ -53,7 +53,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   std::thread concurrent([&] { other = s.serve_bytes(input); });
   const std::string reply = s.serve_bytes(input);
   concurrent.join();
-  for (const std::string* r : {&reply, &other})
-    if (!r->empty() && r->rfind("HTTP/1.1 ", 0) != 0) std::abort();
+  for (const std::string& r : {reply, other})
+    if (!r.empty() && r.rfind("HTTP/1.1 ", 0) != 0) std::abort();
   return 0;
 }
