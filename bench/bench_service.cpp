@@ -15,8 +15,8 @@
 #include <thread>
 #include <vector>
 
-#include "api_server.h"
-#include "store.h"
+#include "http/api_server.h"
+#include "queue/store.h"
 
 using namespace millsim;
 using Clock = std::chrono::steady_clock;

@@ -15,7 +15,7 @@
 #include <functional>
 #include <string>
 
-#include "study.h"
+#include "studies/study.h"
 
 using millsim::expand_study;
 using nlohmann::json;

@@ -21,7 +21,7 @@
 #include "commands.h"
 #include "core/json_reader.h"
 #include "help.h"
-#include "results.h"
+#include "studies/results.h"
 
 namespace millsim::cli {
 namespace {

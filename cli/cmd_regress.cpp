@@ -20,11 +20,11 @@
 #include "build_info.h"
 #include "cli_args.h"
 #include "commands.h"
+#include "executors/local_runner.h"
+#include "executors/slurm_executor.h"
 #include "io/text_file.h"
-#include "local_runner.h"
-#include "regression.h"
-#include "results.h"
-#include "slurm_executor.h"
+#include "regression/regression.h"
+#include "studies/results.h"
 
 namespace millsim::cli {
 namespace {

@@ -2,7 +2,7 @@
 // [--worker-port P] [--max-connections N] [--receive-timeout S] (and the limits in --help)
 //               [--scenes DIR] [--lease S] [--max-body BYTES] [--max-runs N]
 //               [--max-study-bytes BYTES]
-// The batch service: the HTTP API (service/api_server.h) on H:P (default 127.0.0.1:8080), the
+// The batch service: the HTTP API (service/http/api_server.h) on H:P (default 127.0.0.1:8080), the
 // SQLite file (default ./millsim.db), and N worker processes (`millsim worker`, default one per
 // core; a worker that dies is started again). The token comes from MILLSIM_TOKEN or --token-file
 // (never from argv, where ps shows it); without one a token is generated and printed.
@@ -17,10 +17,10 @@
 #include <thread>
 #include <vector>
 
-#include "api_server.h"
 #include "cli_args.h"
 #include "commands.h"
 #include "core/errors.h"
+#include "http/api_server.h"
 
 namespace millsim::cli {
 namespace {
@@ -60,7 +60,7 @@ pid_t start_worker(const std::string& self, const std::string& url, const std::s
 int cmd_serve(const std::vector<std::string>& args) {
   ServerConfig config;
   config.workers = int(std::max(1u, std::thread::hardware_concurrency()));
-  config.worker_port = 0;  // the started workers' own path (service/http_limits.h)
+  config.worker_port = 0;  // the started workers' own path (service/http/http_limits.h)
   // The token from the environment keeps it out of `ps` (systemd: EnvironmentFile=).
   if (const char* t = std::getenv("MILLSIM_TOKEN")) config.token = t;
   ArgReader r("serve", args);

@@ -15,11 +15,11 @@
 #include <thread>
 
 #include "commands.h"
-#include "database_lock.h"
-#include "local_runner.h"
-#include "results.h"
-#include "slurm_executor.h"
-#include "study.h"
+#include "executors/local_runner.h"
+#include "executors/slurm_executor.h"
+#include "queue/database_lock.h"
+#include "studies/results.h"
+#include "studies/study.h"
 
 namespace millsim::cli {
 namespace {

@@ -1,7 +1,7 @@
 // millsim worker [--server URL] [--token-file FILE] [--name NAME] [--until-empty]
 //                [--executor local|slurm] [--slots N] [--sbatch-args "..."]
-// One worker process (service/worker.h): claims runs from the server and executes each as a
-// `millsim run` child (local) or a Slurm batch job (slurm; --slots jobs at once). SIGTERM/SIGINT
+// One worker process (service/executors/worker.h): claims runs from the server and executes each as
+// a `millsim run` child (local) or a Slurm batch job (slurm; --slots jobs at once). SIGTERM/SIGINT
 // stop it; the runs it was executing go back to the queue.
 #include <signal.h>
 
@@ -12,8 +12,8 @@
 #include "cli_args.h"
 #include "commands.h"
 #include "core/errors.h"
-#include "slurm_executor.h"
-#include "worker.h"
+#include "executors/slurm_executor.h"
+#include "executors/worker.h"
 
 namespace millsim::cli {
 namespace {

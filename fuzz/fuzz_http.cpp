@@ -17,7 +17,7 @@
 #include <string_view>
 #include <thread>
 
-#include "api_server.h"
+#include "http/api_server.h"
 
 namespace {
 

@@ -8,7 +8,7 @@
 
 #include "core/errors.h"
 #include "fuzz_json.h"
-#include "study.h"
+#include "studies/study.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace millsim;

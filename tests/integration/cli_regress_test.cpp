@@ -9,7 +9,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "store.h"
+#include "queue/store.h"
 #include "support/process.h"
 #include "support/scenes.h"
 

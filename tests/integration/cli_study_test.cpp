@@ -11,7 +11,7 @@
 #include <fstream>
 #include <thread>
 
-#include "store.h"
+#include "queue/store.h"
 #include "support/process.h"
 #include "support/scenes.h"
 

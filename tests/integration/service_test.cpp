@@ -23,7 +23,7 @@
 #include <stdexcept>
 #include <thread>
 
-#include "store.h"
+#include "queue/store.h"
 #include "support/process.h"
 #include "support/scenes.h"
 

@@ -10,8 +10,8 @@
 #include <fstream>
 #include <thread>
 
-#include "slurm_executor.h"
-#include "store.h"
+#include "executors/slurm_executor.h"
+#include "queue/store.h"
 #include "support/process.h"
 #include "support/scenes.h"
 

@@ -18,7 +18,7 @@ std::set<std::string> codes_sent() {
   std::set<std::string> codes;
   const std::regex sent(R"((send_error\(\s*res,\s*[0-9a-z.]+,\s*|\{[0-9]{3},\s*)\"([a-z_]+)\")");
   const std::regex written(R"(\\\"code\\\": \\\"([a-z_]+)\\\")");
-  for (const char* file : {"service/api_server.cpp", "service/http_limits.cpp"}) {
+  for (const char* file : {"service/http/api_server.cpp", "service/http/http_limits.cpp"}) {
     const std::string text = test::read_file(std::string(MILLSIM_SOURCE_DIR "/") + file);
     EXPECT_FALSE(text.empty()) << file;
     for (auto it = std::sregex_iterator(text.begin(), text.end(), sent);

@@ -9,7 +9,7 @@
 #include <cstdlib>
 #include <thread>
 
-#include "executor.h"
+#include "executors/executor.h"
 #include "support/process.h"
 #include "support/scenes.h"
 

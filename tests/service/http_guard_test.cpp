@@ -15,7 +15,7 @@
 #include <thread>
 #include <vector>
 
-#include "api_server.h"
+#include "http/api_server.h"
 #include "support/scenes.h"
 
 namespace millsim {

@@ -6,8 +6,8 @@
 #include <cstdlib>
 #include <fstream>
 
-#include "results.h"
-#include "store.h"
+#include "queue/store.h"
+#include "studies/results.h"
 #include "support/process.h"
 #include "support/scenes.h"
 

@@ -2,7 +2,7 @@
 // quantities are measured from result.json documents as their definitions say, each tolerance
 // decides pass and drift at its edge, `exact` is compared only against the same build, a failed
 // check fails its quantities, the JUnit text counts them, and a stored record is validated.
-#include "regression.h"
+#include "regression/regression.h"
 
 #include <gtest/gtest.h>
 

@@ -4,7 +4,7 @@
 
 #include <csignal>
 
-#include "run_state.h"
+#include "queue/run_state.h"
 
 namespace millsim {
 namespace {

@@ -1,7 +1,7 @@
 // The SQLite queue: schema version, idempotent submission, atomic claims under concurrent
 // claimers (each with its own connection, as separate processes would have), leases, fencing,
 // retries bounded by max_attempts, and cancel.
-#include "store.h"
+#include "queue/store.h"
 
 #include <gtest/gtest.h>
 

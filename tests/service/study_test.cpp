@@ -1,9 +1,9 @@
 // Study expansion: grids, zips and ranges give the expected points; the reference is found;
 // every run's scene is validated and a bad path or value names the parameter and the point;
 // over-large studies are refused before anything is queued.
-#include "study.h"
-#include "results.h"
-#include "slurm_executor.h"
+#include "studies/study.h"
+#include "executors/slurm_executor.h"
+#include "studies/results.h"
 
 #include <gtest/gtest.h>
 

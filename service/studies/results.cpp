@@ -1,4 +1,4 @@
-#include "results.h"
+#include "studies/results.h"
 
 #include <cmath>
 #include <cstdio>

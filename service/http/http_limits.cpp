@@ -1,4 +1,4 @@
-#include "http_limits.h"
+#include "http/http_limits.h"
 
 #include <arpa/inet.h>
 #include <netinet/in.h>

@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "executor.h"
-#include "store.h"
+#include "executors/executor.h"
+#include "queue/store.h"
 
 namespace millsim {
 

@@ -1,4 +1,4 @@
-#include "study.h"
+#include "studies/study.h"
 
 #include <algorithm>
 #include <cmath>

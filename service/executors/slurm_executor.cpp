@@ -1,4 +1,4 @@
-#include "slurm_executor.h"
+#include "executors/slurm_executor.h"
 
 #include <algorithm>
 #include <cmath>

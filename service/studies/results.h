@@ -14,7 +14,7 @@
 #include <optional>
 #include <string>
 
-#include "store.h"
+#include "queue/store.h"
 
 namespace millsim {
 

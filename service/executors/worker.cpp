@@ -1,4 +1,4 @@
-#include "worker.h"
+#include "executors/worker.h"
 
 #include <httplib.h>
 #include <unistd.h>

@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "study.h"
+#include "studies/study.h"
 
 namespace millsim {
 

@@ -14,9 +14,9 @@
 #include <string>
 #include <vector>
 
-#include "run_state.h"
-#include "sqlite_db.h"
-#include "study.h"
+#include "queue/run_state.h"
+#include "queue/sqlite_db.h"
+#include "studies/study.h"
 
 namespace millsim {
 
@@ -60,7 +60,7 @@ struct StudyRecord {
 };
 
 // One regression run of the history (millsim regress): its record is the JSON of
-// regression_record() (service/regression.h).
+// regression_record() (service/regression/regression.h).
 struct RegressionEntry {
   std::string id;  // "g" and six digits
   std::string suite;

@@ -1,4 +1,4 @@
-#include "sqlite_db.h"
+#include "queue/sqlite_db.h"
 
 #include <type_traits>
 

@@ -1,4 +1,4 @@
-#include "regression.h"
+#include "regression/regression.h"
 
 #include <cmath>
 #include <cstdio>

@@ -1,4 +1,4 @@
-#include "database_lock.h"
+#include "queue/database_lock.h"
 
 #include <fcntl.h>
 #include <sys/file.h>

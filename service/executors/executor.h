@@ -13,7 +13,7 @@
 #include <optional>
 #include <string>
 
-#include "store.h"
+#include "queue/store.h"
 
 namespace millsim {
 

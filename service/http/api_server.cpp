@@ -1,4 +1,4 @@
-#include "api_server.h"
+#include "http/api_server.h"
 
 #include <httplib.h>
 
@@ -16,15 +16,15 @@
 
 #include "core/errors.h"
 #include "core/json_reader.h"
-#include "executor.h"
-#include "regression.h"
-#include "results.h"
+#include "executors/executor.h"
+#include "regression/regression.h"
 #include "sim/run.h"
+#include "studies/results.h"
 
 namespace millsim {
 
 extern const char* const kOpenApiYaml;  // docs/openapi.yaml (generated openapi_yaml.cpp)
-// The dashboard, service/web/ (generated web_*.cpp).
+// The dashboard, service/http/web/ (generated web_*.cpp).
 extern const char* const kWeb_index_html;
 extern const char* const kWeb_dashboard_js;
 extern const char* const kWeb_dashboard_css;

@@ -1,4 +1,4 @@
-#include "local_runner.h"
+#include "executors/local_runner.h"
 
 #include <unistd.h>
 

@@ -1,4 +1,4 @@
-#include "run_state.h"
+#include "queue/run_state.h"
 
 namespace millsim {
 

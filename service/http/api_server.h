@@ -17,9 +17,9 @@
 #include <string>
 #include <thread>
 
-#include "database_lock.h"
-#include "http_limits.h"
-#include "store.h"
+#include "http/http_limits.h"
+#include "queue/database_lock.h"
+#include "queue/store.h"
 
 namespace millsim {
 
@@ -37,7 +37,7 @@ struct ServerConfig {
   double lease_s = 30.0;
   int workers = 0;          // reported in /v1/info (the serve command starts them)
   bool request_log = true;  // one line per request on stderr
-  // Slow clients: the connection cap and the receive deadline (service/http_limits.h).
+  // Slow clients: the connection cap and the receive deadline (service/http/http_limits.h).
   ConnectionLimits limits;
   // A second port that serves the worker protocol alone (claim, heartbeat, finish), so workers
   // keep a path however busy the public port is: -1 none, 0 any free port.

@@ -10,7 +10,7 @@
 #include <atomic>
 #include <string>
 
-#include "executor.h"
+#include "executors/executor.h"
 
 namespace millsim {
 
