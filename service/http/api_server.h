@@ -10,16 +10,18 @@
 
 #include <atomic>
 #include <filesystem>
-#include <map>
 #include <memory>
-#include <mutex>
-#include <nlohmann/json.hpp>
 #include <string>
+#include <string_view>
 #include <thread>
 
-#include "http/http_limits.h"
+#include "http/connection_limits.h"
 #include "queue/database_lock.h"
 #include "queue/store.h"
+
+namespace httplib {
+class Server;
+}
 
 namespace millsim {
 
@@ -44,6 +46,9 @@ struct ServerConfig {
   int worker_port = -1;
 };
 
+class GuardedHttpServer;
+struct ApiState;
+
 class ApiServer {
  public:
   explicit ApiServer(ServerConfig config);
@@ -54,32 +59,23 @@ class ApiServer {
   // Binds; throws IoError when the address is taken.
   void bind();
   int bound_port() const { return port_; }
-  int bound_worker_port() const { return worker_port_; }  // -1 without a worker port
+  int bound_worker_port() const;  // -1 without a worker port
   // The public server's answer to one connection's bytes, without a socket (fuzzing).
-  std::string serve_bytes(std::string_view request) { return http_->serve_bytes(request); }
+  std::string serve_bytes(std::string_view request);
   // Connections of the public server (tests, /v1/info).
-  ConnectionStats connection_stats() const { return http_->stats(); }
+  ConnectionStats connection_stats() const;
   // Serves until stop(); call from one thread.
   void serve();
   void stop();
 
  private:
-  // Registers the handlers on `s`: everything, or the worker protocol alone.
+  // Sets up `s` (limits, the body guard, the log) and registers the routes: all of them, or
+  // the worker protocol alone.
   void routes(httplib::Server& s, bool worker_only);
-  // The study's results table, rebuilt only when one of its runs changed (store_mutex_ held).
-  const nlohmann::ordered_json& cached_results(const std::string& study_id);
-  struct CachedTable {
-    std::string signature;
-    nlohmann::ordered_json table;
-  };
-  std::map<std::string, CachedTable> results_cache_;
-  ServerConfig config_;
+  std::unique_ptr<ApiState> state_;  // what the handlers share (http/handlers.h)
   std::unique_ptr<GuardedHttpServer> http_;
   std::unique_ptr<GuardedHttpServer> worker_http_;  // with a worker port
   std::thread worker_thread_;
-  int worker_port_ = -1;
-  std::unique_ptr<Store> store_;
-  std::mutex store_mutex_;
   std::atomic<bool> stopping_{false};
   std::thread reaper_;
   int port_ = 0;

@@ -95,9 +95,11 @@ class DeadlineStream final : public httplib::Stream {
             std::chrono::duration<double>(receive_timeout_s))) {}
 
   void start_request() {
-    deadline_ = Clock::now() + receive_timeout_;
+    started_ = Clock::now();
+    deadline_ = started_ + receive_timeout_;
     receiving_ = true;
   }
+  Clock::time_point request_started() const { return started_; }
   void handler_started() { receiving_ = false; }
   bool timed_out() const { return timed_out_; }
 
@@ -151,7 +153,7 @@ class DeadlineStream final : public httplib::Stream {
 
   socket_t sock_;
   Clock::duration receive_timeout_;
-  Clock::time_point deadline_;
+  Clock::time_point started_, deadline_;
   bool receiving_ = true;
   bool timed_out_ = false;
   char buffer_[4096];
@@ -235,6 +237,12 @@ void GuardedHttpServer::mark_handler_started() {
 
 void GuardedHttpServer::close_after_response() {
   close_requested = true;
+}
+
+double GuardedHttpServer::current_request_ms() {
+  if (!current_stream) return 0.0;
+  return std::chrono::duration<double, std::milli>(Clock::now() - current_stream->request_started())
+      .count();
 }
 
 std::string GuardedHttpServer::serve_bytes(std::string_view request) {

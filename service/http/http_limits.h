@@ -18,6 +18,8 @@
 
 #include <httplib.h>
 
+#include "http/connection_limits.h"
+
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
@@ -27,19 +29,6 @@
 #include <string_view>
 
 namespace millsim {
-
-struct ConnectionLimits {
-  std::size_t max_connections = 64;             // open at once; more are answered busy (503)
-  std::size_t max_connections_per_client = 32;  // from one source address
-  double receive_timeout_s = 10.0;              // for a request's head and body
-};
-
-struct ConnectionStats {
-  std::uint64_t accepted = 0;
-  std::uint64_t refused = 0;     // over a cap: answered busy (or the health probe's 200)
-  std::uint64_t timed_out = 0;   // cut by the receive deadline
-  std::uint64_t exceptions = 0;  // a request that threw past its handler: connection closed
-};
 
 // What a connection over the cap may still ask: GET `path` (a health probe), answered 200 with
 // `body`, when it carries `authorization` as its Authorization header (empty: none needed).
@@ -60,6 +49,10 @@ class GuardedHttpServer : public httplib::Server {
 
   // Call when a route handler starts: the request has arrived whole.
   static void mark_handler_started();
+
+  // Milliseconds since the request being answered on this thread began to arrive (its first
+  // byte waited for), for the request log; 0 off a connection (serve_bytes).
+  static double current_request_ms();
 
   // Call from a handler (or the pre-routing handler): this connection ends after the response,
   // whatever its request asked (an unread body must not become the next request).
