@@ -8,6 +8,7 @@
 #include <httplib.h>
 #include <netinet/in.h>
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -72,8 +73,11 @@ class Reply {
 // A `millsim serve` child on a free loopback port; stopped (SIGTERM, then SIGKILL) by pid.
 class ServerProcess {
  public:
+  // `address_space_mb` > 0: the server's address space is limited to it (RLIMIT_AS), so a
+  // request that wants more meets std::bad_alloc.
   ServerProcess(const std::filesystem::path& dir, int workers, double lease_s = 2.0,
-                const std::string& scenes = ".", std::vector<std::string> extra = {})
+                const std::string& scenes = ".", std::vector<std::string> extra = {},
+                std::size_t address_space_mb = 0)
       : dir_(dir) {
     const std::filesystem::path log = dir / ("serve-" + std::to_string(++starts_) + ".log");
     pid_ = fork();
@@ -84,6 +88,12 @@ class ServerProcess {
       freopen((log.string() + ".err").c_str(), "w", stderr);
       const std::string w = std::to_string(workers), lease = std::to_string(lease_s);
       setenv("MILLSIM_TOKEN", kToken, 1);  // as a systemd EnvironmentFile gives it
+      if (address_space_mb > 0) {
+        setenv("MALLOC_ARENA_MAX", "2", 1);  // each arena reserves 64 MB of address space
+        const rlim_t bytes = rlim_t(address_space_mb) << 20;
+        const struct rlimit limit = {bytes, bytes};
+        setrlimit(RLIMIT_AS, &limit);
+      }
       std::vector<std::string> args = {"millsim",    "serve",    "--port",
                                        "0",          "--db",     "q.db",
                                        "--workers",  w,          "--lease",
@@ -447,6 +457,47 @@ TEST(Service, BodiesTheLimitCannotBoundAreRefusedBeforeTheyAreRead) {
   EXPECT_NE(res->body.find("gzip"), std::string::npos) << res->body;
   EXPECT_EQ(server.get("/v1/health")->status, 200);
   EXPECT_TRUE(json::parse(server.get("/v1/studies")->body)["studies"].empty());
+}
+
+// A request that runs the server out of memory fails alone (issue 33: a std::bad_alloc escaped
+// a handler while other requests were in flight and the server died with SIGABRT). The server
+// runs in 1.5 GB of address space; a study whose runs grow past it as they are expanded (a large
+// particle list as a parameter value, times 4,000 seeds; the size bound cannot refuse it from
+// the base scene, and the byte cap is raised out of the way) gets 503 out_of_memory, and the
+// server goes on answering, storing and serving.
+TEST(Service, ARequestThatRunsOutOfMemoryFailsAloneAndTheServerLives) {
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_UNDEFINED__)
+  GTEST_SKIP() << "ASan reserves terabytes of address space: no RLIMIT_AS under it";
+#endif
+  test::TempDir dir;
+  ServerProcess server(dir.path(), 0, 2.0, ".",
+                       {"--max-body", "1000000", "--max-study-bytes", "1e12", "--max-connections",
+                        "8", "--max-runs", "100000"},
+                       1536);
+  ASSERT_FALSE(server.url().empty()) << server.output();
+  std::ifstream in(MILLSIM_SOURCE_DIR "/cases/impact_two_spheres.json");
+  json scene = json::parse(in);
+  json many = json::array();
+  for (int k = 0; k < 6000; ++k)
+    many.push_back({{"position_m", {1e-3 + 1e-5 * (k % 100), 1e-3, 1e-3}}, {"diameter_m", 1e-6}});
+  json study = {{"name", "greedy"},
+                {"scene", scene},
+                {"parameters",
+                 {{{"path", "seed"}, {"range", {{"from", 1}, {"to", 4000}, {"step", 1}}}},
+                  {{"path", "sources.0.particles"}, {"values", {many}}}}}};
+  const std::string body = study.dump();
+  ASSERT_LT(body.size(), 1000000u);
+  auto res = server.post("/v1/studies", body);
+  ASSERT_TRUE(res) << "no answer: " << server.output().substr(0, 2000);
+  EXPECT_EQ(res->status, 503) << res->body.substr(0, 400);
+  EXPECT_NE(res->body.find("out_of_memory"), std::string::npos) << res->body.substr(0, 400);
+  EXPECT_EQ(res->get_header_value("Retry-After"), "10");
+  // The server lives: it answers, nothing of the study was stored, and a study fits afterwards.
+  EXPECT_EQ(server.get("/v1/health")->status, 200);
+  EXPECT_TRUE(json::parse(server.get("/v1/studies")->body)["studies"].empty());
+  res = server.post("/v1/studies", slow_study(1, 0.001).dump());
+  EXPECT_EQ(res->status, 201) << res->body;
+  EXPECT_EQ(waitpid(server.pid(), nullptr, WNOHANG), 0) << "the server exited";
 }
 
 // Slow clients (slowloris: a request head dribbled a byte at a time, each byte inside httplib's
