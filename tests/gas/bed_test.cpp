@@ -11,6 +11,7 @@
 
 #include "scene/scene_json.h"
 #include "sim/simulation.h"
+#include "support/sanitizers.h"
 
 namespace millsim {
 namespace {
@@ -120,6 +121,8 @@ TEST(PackedBed, PressureGradientMatchesErgun) {
 // summed over the bed, 18 μ φ F(ε, Re) U / d² with F = F0 + ½ F3 Re (Hill, Koch & Ladd 2001, the
 // dense branch 10 φ/ε³ here), Re = ρ d U / μ, at the bed's measured voidage.
 TEST(PackedBed, PressureGradientMatchesKochHill) {
+  MILLSIM_RELEASE_ONLY(
+      "PackedBed.PressureGradientMatchesErgun (the same bed and solver, another drag law)");
   const double U = 0.1;
   const Bed bed = run_bed(U, 0.2, DragLaw::KochHill);
   ASSERT_GT(bed.voidage, 0.3);
@@ -135,6 +138,7 @@ TEST(PackedBed, PressureGradientMatchesKochHill) {
 }
 
 TEST(FluidizedBed, FluidizesBetweenPointEightAndOnePointTwoTimesErgunMinimum) {
+  MILLSIM_RELEASE_ONLY("PackedBed.PressureGradientMatchesErgun and tests/gas/coupling_test.cpp");
   const Bed packed = run_bed(0.1, 0.2);
   const double u_mf = ergun_minimum_fluidization(packed);
   const Bed below = run_bed(0.8 * u_mf, 0.25);

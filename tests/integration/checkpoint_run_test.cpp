@@ -17,6 +17,7 @@
 
 #include "checkpoint/checkpoint_file.h"
 #include "support/process.h"
+#include "support/sanitizers.h"
 #include "support/scenes.h"
 
 namespace millsim {
@@ -80,6 +81,7 @@ std::map<std::string, std::uint64_t> fingerprint(const std::filesystem::path& di
 }
 
 TEST(Checkpoint, KilledRunResumesToTheSameResult) {
+  MILLSIM_RELEASE_ONLY("Checkpoint.RestoredRunContinuesBitForBit");
   test::TempDir dir;
   test::write_file(dir.path() / "scene.json", attrition_scene().dump(2));
   const test::CommandResult whole =
@@ -142,6 +144,7 @@ TEST(Checkpoint, KilledRunResumesToTheSameResult) {
 }
 
 TEST(Checkpoint, SigtermWritesACheckpointAndResumeFinishesTheRun) {
+  MILLSIM_RELEASE_ONLY("Checkpoint.RestoredRunContinuesBitForBit");
   test::TempDir dir;
   json scene = attrition_scene();
   scene["output"].erase("checkpoint_interval_s");  // only the one the signal asks for

@@ -14,6 +14,7 @@
 #include "particles/restitution.h"
 #include "scene/scene_json.h"
 #include "sim/simulation.h"
+#include "support/sanitizers.h"
 #include "support/scenes.h"
 
 namespace millsim {
@@ -107,6 +108,9 @@ INSTANTIATE_TEST_SUITE_P(BelowTheDampersReach, LowRestitution,
                          testing::Values(0.0, 0.01, 0.03, 0.049, 0.05, 0.2));
 
 TEST(LowRestitution, AColumnPouredAtZeroRestitutionComesToRest) {
+  MILLSIM_RELEASE_ONLY(
+      "LowRestitution.TwoSpheresSeparateAtETimesTheImpactSpeed and "
+      "tests/physics/settling_test.cpp");
   SceneConfig s = load_scene(std::string(MILLSIM_SOURCE_DIR) + "/cases/settling_column.json");
   for (MaterialConfig& m : s.materials) m.restitution = 0.0;
   s.output.write_h5 = false;

@@ -14,6 +14,7 @@
 
 #include "contact/penetration_limit.h"
 #include "sim/simulation.h"
+#include "support/sanitizers.h"
 #include "support/scenes.h"
 
 namespace millsim {
@@ -66,6 +67,7 @@ double relative_error(const Impact& c, DampingModel damping) {
 }
 
 TEST(OverlapSweep, TwoHundredImpactsMatchTheMaxOverlapPredictors) {
+  MILLSIM_RELEASE_ONLY("tests/physics/impact_test.cpp");
   std::mt19937_64 rng(2013);
   std::vector<Impact> impacts;
   while (impacts.size() < 200) {
