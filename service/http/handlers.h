@@ -1,9 +1,7 @@
 // What the HTTP API's handlers share, and the handlers themselves, one named function per
-// route (the route table in api_server.cpp maps methods and paths to them). Internal to http/:
-// the one place besides http_limits.h where cpp-httplib's types appear.
+// route (the route table in api_server.cpp maps methods and paths to them). Internal to http/;
+// cpp-httplib's types come through http_limits.h, the one file of the server that includes it.
 #pragma once
-
-#include <httplib.h>
 
 #include <map>
 #include <memory>
@@ -13,6 +11,7 @@
 #include <string>
 
 #include "http/api_server.h"
+#include "http/http_limits.h"
 #include "queue/store.h"
 
 namespace millsim {
