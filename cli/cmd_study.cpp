@@ -92,8 +92,8 @@ bool parse_study_args(const std::vector<std::string>& args, StudyArgs& out) {
   }
   if (!out.local) {
     std::fprintf(stderr,
-                 "millsim study: only --local is available in this version (the server "
-                 "and remote workers come next); add --local\n");
+                 "millsim study: add --local to run the study on this machine, or send it to a "
+                 "server with millsim submit STUDY.json --server URL (millsim serve starts one)\n");
     return false;
   }
   return true;

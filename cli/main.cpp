@@ -33,6 +33,10 @@ int help(const std::vector<std::string>& args) {
     std::fputs(millsim::cli::man_page().c_str(), stdout);
     return 0;
   }
+  if (args[0] == "--help" || args[0] == "-h") {  // help on help: the overview, which lists it
+    millsim::cli::print_overview(stdout);
+    return 0;
+  }
   if (const millsim::cli::VerbHelp* v = millsim::cli::find_verb_help(args[0])) {
     millsim::cli::print_verb_help(*v, stdout);
     return 0;

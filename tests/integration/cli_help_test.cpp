@@ -58,6 +58,28 @@ TEST(CliHelp, AMissingArgumentPrintsTheUsage) {
   }
 }
 
+TEST(CliHelp, HelpOnHelpAndAStudyWithoutLocalPointTheWay) {
+  // Issue 32, item 8: `help --help` exited 2, `study` without --local said the server "comes
+  // next" although `serve` and `submit` exist, and `run --out` without a value was an unknown
+  // option.
+  test::TempDir dir;
+  for (const char* args : {"help --help", "help -h"}) {
+    const test::CommandResult r = test::run_millsim(args, dir.path());
+    EXPECT_EQ(r.exit_code, 0) << args << ": " << r.err;
+    EXPECT_NE(r.out.find("help"), std::string::npos) << args << ": " << r.out;
+  }
+  const test::CommandResult study = test::run_millsim(
+      "study " MILLSIM_SOURCE_DIR "/cases/spiral_jet_mill_quick_scan.study.json", dir.path());
+  EXPECT_EQ(study.exit_code, 2);
+  EXPECT_NE(study.err.find("millsim submit"), std::string::npos) << study.err;
+  EXPECT_EQ(study.err.find("come next"), std::string::npos) << study.err;
+  // `run --out` at the end of the line said "unknown option".
+  const test::CommandResult run = test::run_millsim(
+      "run " MILLSIM_SOURCE_DIR "/cases/impact_two_spheres.json --out", dir.path());
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.err.find("--out needs a value"), std::string::npos) << run.err;
+}
+
 TEST(CliHelp, TheManPageIsValidRoffNamingEveryVerb) {
   test::TempDir dir;
   const test::CommandResult r = test::run_millsim("help --man", dir.path());
