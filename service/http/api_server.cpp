@@ -127,7 +127,8 @@ BodyVerdict check_body_headers(const Request& req, const std::string& expected_a
   if (lengths > 1)
     return {400, "bad_length", "give one Content-Length header; this request has several"};
   if (lengths == 1) {
-    const std::string_view text = trimmed(req.get_header_value("Content-Length"));
+    const std::string length = req.get_header_value("Content-Length");  // owns what text views
+    const std::string_view text = trimmed(length);
     if (text.empty() || text.size() > 18 ||
         text.find_first_not_of("0123456789") != std::string_view::npos)
       return {400, "bad_length",
