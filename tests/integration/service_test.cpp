@@ -519,18 +519,7 @@ TEST(Service, SlowClientsAreCutAndWorkersKeepTheirOwnPath) {
   const int public_port = std::stoi(server.url().substr(server.url().rfind(':') + 1));
   const int worker_port = info["worker_port"].get<int>();
 
-  const auto open_socket = [](int port) {
-    const int fd = socket(AF_INET, SOCK_STREAM, 0);
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_port = htons(std::uint16_t(port));
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    if (connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
-      close(fd);
-      return -1;
-    }
-    return fd;
-  };
+  const auto open_socket = test::connect_loopback;
   // 24 slow clients, three times the cap, each starting a request head.
   const auto start = std::chrono::steady_clock::now();
   std::vector<int> slow;

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "http/api_server.h"
+#include "support/process.h"
 #include "support/scenes.h"
 
 namespace millsim {
@@ -121,22 +122,11 @@ class ServedApi {
   std::thread thread_;
 };
 
-int connect_to(int port) {
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_port = htons(std::uint16_t(port));
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  if (connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
-    close(fd);
-    return -1;
-  }
-  return fd;
-}
+using test::connect_loopback;
 
 // Sends a whole request and reads the reply until the server closes (at most 30 s).
 std::string ask(int port, const std::string& request) {
-  const int fd = connect_to(port);
+  const int fd = connect_loopback(port);
   if (fd < 0) return "";
   timeval timeout{30, 0};
   setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
@@ -165,7 +155,7 @@ TEST(HttpGuard, OneClientCannotTakeEveryConnectionAndHealthIsAnsweredAtTheCap) {
   // This test's client (127.0.0.1) holds three slow connections: its whole share.
   std::vector<int> held;
   for (int k = 0; k < 3; ++k) {
-    held.push_back(connect_to(api.port()));
+    held.push_back(connect_loopback(api.port()));
     ASSERT_GE(held.back(), 0);
     send(held.back(), "GET /v1/info HTTP/1.1\r\n", 23, MSG_NOSIGNAL);  // and never finishes
   }
@@ -203,7 +193,7 @@ TEST(HttpGuard, OffLoopbackTheBusyHealthProbeNeedsTheToken) {
   config.limits.max_connections_per_client = 1;
   config.limits.receive_timeout_s = 60;
   ServedApi api(config);
-  const int hold = connect_to(api.port());
+  const int hold = connect_loopback(api.port());
   ASSERT_GE(hold, 0);
   send(hold, "GET ", 4, MSG_NOSIGNAL);
   for (int k = 0; k < 3000 && api.server().connection_stats().accepted < 1; ++k)

@@ -26,6 +26,9 @@ std::vector<pid_t> children_of(pid_t parent);
 // crash), so no server or run outlives the suite. Kept across exec.
 void die_with_parent();
 
+// A TCP connection to 127.0.0.1:port (its descriptor), or -1.
+int connect_loopback(int port);
+
 void write_file(const std::filesystem::path& path, const std::string& text);
 std::string read_file(const std::filesystem::path& path);  // "" when missing
 
