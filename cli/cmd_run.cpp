@@ -1,5 +1,6 @@
 // millsim run SCENE.json [--out DIR] [--quiet] [--log-interval S] [--checkpoint-wall S] [--resume]
 //   [--files-root DIR] (file sources must lead inside DIR: decided as each is opened)
+//   [--spin-up-cache DIR] (a gas spin-up shared with other runs of the same gas: sim/gas_spin_up.h)
 // Validates the scene (all errors at once, exit 2, nothing written), runs it with a progress
 // line on a terminal, prints the JSON summary on stdout and writes DIR/{run.h5, run.xdmf,
 // result.json}, with checkpoints in DIR/checkpoints while it runs. Default DIR: out/<scene name>.
@@ -49,7 +50,8 @@ struct RunArgs {
   double log_interval_s = 10.0;
   double checkpoint_wall_s = 600.0;
   bool resume = false;
-  std::string files_root;  // where file sources may lead (a service's scenes root)
+  std::string files_root;     // where file sources may lead (a service's scenes root)
+  std::string spin_up_cache;  // the gas spin-up cache shared with other runs (a study's)
 };
 
 // A number option's value in [lo, hi], or false after saying what is allowed.
@@ -68,14 +70,16 @@ bool seconds_value(const std::string& option, const std::string& text, double lo
 bool parse_run_args(const std::vector<std::string>& args, RunArgs& out) {
   for (std::size_t k = 0; k < args.size(); ++k) {
     const std::string& a = args[k];
-    const bool takes_value =
-        a == "--out" || a == "--log-interval" || a == "--checkpoint-wall" || a == "--files-root";
+    const bool takes_value = a == "--out" || a == "--log-interval" || a == "--checkpoint-wall" ||
+                             a == "--files-root" || a == "--spin-up-cache";
     if (takes_value && k + 1 >= args.size()) {
       std::fprintf(stderr, "millsim run: %s needs a value\n", a.c_str());
       return false;
     }
     if (a == "--files-root") {
       out.files_root = args[++k];
+    } else if (a == "--spin-up-cache") {
+      out.spin_up_cache = args[++k];
     } else if (a == "--out" && k + 1 < args.size()) {
       out.out_dir = args[++k];
     } else if (a.rfind("--out=", 0) == 0) {
@@ -91,7 +95,8 @@ bool parse_run_args(const std::vector<std::string>& args, RunArgs& out) {
     } else if (!a.empty() && a[0] == '-') {
       std::fprintf(stderr,
                    "millsim run: unknown option \"%s\"; allowed: --out DIR, --quiet, "
-                   "--log-interval S, --checkpoint-wall S, --resume, --files-root DIR\n",
+                   "--log-interval S, --checkpoint-wall S, --resume, --files-root DIR, "
+                   "--spin-up-cache DIR\n",
                    a.c_str());
       return false;
     } else if (out.scene_path.empty()) {
@@ -149,6 +154,20 @@ class ThermoLog {
           p.eta_s);
   }
 
+  // The gas spin-up before the first step: a line at its start, every interval and at its end.
+  void report_spin_up(const SpinUpProgress& p) {
+    if (spin_up_lines_ > 0 && !p.last && p.elapsed_s - last_spin_up_s_ < interval_s_) return;
+    ++spin_up_lines_;
+    last_spin_up_s_ = p.elapsed_s;
+    if (p.waiting) {
+      write("spin-up: waiting for another run spinning up the same gas (%.0f s)\n", p.elapsed_s);
+      return;
+    }
+    write("spin-up: gas %.4g of %.4g s (%.0f %%), %llu gas steps, elapsed %.1f s, ETA %.0f s%s\n",
+          p.done_s, p.total_s, 100.0 * p.done_s / p.total_s,
+          static_cast<unsigned long long>(p.steps), p.elapsed_s, p.eta_s, p.last ? ", done" : "");
+  }
+
  private:
   template <class... Args>
   void write(const char* format, Args... args) {
@@ -160,6 +179,8 @@ class ThermoLog {
   }
   double interval_s_;
   double last_s_ = 0.0;
+  double last_spin_up_s_ = 0.0;
+  int spin_up_lines_ = 0;
   bool header_written_ = false;
   bool to_stderr_ = true;
   std::FILE* file_ = nullptr;
@@ -176,6 +197,17 @@ void print_progress(const RunProgress& p) {
   std::fflush(stderr);
 }
 
+void print_spin_up_progress(const SpinUpProgress& p) {
+  if (p.waiting)
+    std::fprintf(stderr, "\r[spin-up] waiting for another run spinning up the same gas, %.0f s   ",
+                 p.elapsed_s);
+  else
+    std::fprintf(stderr, "\r[spin-up %5.1f%%] gas %.4g of %.4g s  elapsed %.1f s  ETA %.1f s   ",
+                 100.0 * p.done_s / p.total_s, p.done_s, p.total_s, p.elapsed_s, p.eta_s);
+  if (p.last) std::fprintf(stderr, "\n");
+  std::fflush(stderr);
+}
+
 }  // namespace
 
 int cmd_run(const std::vector<std::string>& args) {
@@ -188,8 +220,12 @@ int cmd_run(const std::vector<std::string>& args) {
     options.out_dir = run_args.out_dir.empty() ? std::filesystem::path("out") / scene.name
                                                : std::filesystem::path(run_args.out_dir);
     // With checkpoints to resume from, the start state is replaced: no gas spin-up for it.
+    // Otherwise the run loop spins the gas up (reported, stoppable, shared through the cache).
     Simulation sim(scene,
-                   run_args.resume && !list_checkpoints(options.out_dir / "checkpoints").empty());
+                   run_args.resume && !list_checkpoints(options.out_dir / "checkpoints").empty()
+                       ? SimulationStart::ForRestore
+                       : SimulationStart::AfterSpinUp);
+    options.spin_up_cache_dir = run_args.spin_up_cache;
     options.scene_text = read_input_file(run_args.scene_path, {});
     options.scene_path = run_args.scene_path;
     options.checkpoint_wall_s = run_args.checkpoint_wall_s;
@@ -197,9 +233,13 @@ int cmd_run(const std::vector<std::string>& args) {
     std::unique_ptr<ThermoLog> thermo;
     if (isatty(STDERR_FILENO)) {
       if (!run_args.quiet) options.on_progress = print_progress;
+      if (!run_args.quiet) options.on_spin_up_progress = print_spin_up_progress;
     } else {
       thermo = std::make_unique<ThermoLog>(options.out_dir, run_args.log_interval_s);
       options.on_progress = [&thermo](const RunProgress& p) { thermo->report(p); };
+      options.on_spin_up_progress = [&thermo](const SpinUpProgress& p) {
+        thermo->report_spin_up(p);
+      };
     }
     // SIGINT (Ctrl-C), SIGTERM (a batch system's stop, a wall-time limit) and SIGUSR1 end the
     // run after the step under way, with run.h5 and result.json complete.
@@ -219,6 +259,18 @@ int cmd_run(const std::vector<std::string>& args) {
                    static_cast<long long>(outcome.failure->step), outcome.failure->time_s,
                    outcome.failure->detail.c_str());
       return kUnstable;
+    }
+    if (outcome.interrupted_by != 0 && outcome.summary["interrupted"].contains("phase")) {
+      std::fprintf(stderr,
+                   "\nmillsim run: interrupted by %s during the gas spin-up (%.4g of %.4g s); "
+                   "result.json says so%s\n",
+                   outcome.summary["interrupted"]["signal"].get<std::string>().c_str(),
+                   outcome.summary["spin_up"]["done_s"].get<double>(),
+                   outcome.summary["spin_up"]["gas_time_s"].get<double>(),
+                   outcome.summary.contains("checkpoints")
+                       ? " and checkpoints/spin-up.ckpt holds the gas: --resume continues it"
+                       : "");
+      return 128 + outcome.interrupted_by;
     }
     if (outcome.interrupted_by != 0) {
       std::fprintf(stderr,

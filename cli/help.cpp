@@ -77,13 +77,15 @@ const std::vector<VerbHelp>& verb_help() {
       {"run",
        "run one scene",
        "millsim run SCENE.json [--out DIR] [--quiet] [--log-interval S] [--checkpoint-wall S] "
-       "[--resume] [--files-root DIR]",
-       "Validates the scene (every error at once, exit 2, nothing written), runs it with a "
-       "progress line on a terminal, prints the JSON summary on stdout and writes DIR/run.h5, "
-       "run.xdmf and result.json. While it runs it keeps its two newest checkpoints in "
-       "DIR/checkpoints, removed when it ends complete. SIGINT, SIGTERM and SIGUSR1 stop it after "
-       "the step under way with a checkpoint and every file complete (result.json status "
-       "\"interrupted\", exit 128 + the signal); --resume continues it bit for bit.",
+       "[--resume] [--files-root DIR] [--spin-up-cache DIR]",
+       "Validates the scene (every error at once, exit 2, nothing written), spins its gas up "
+       "(gas.spin_up_s, with progress lines), runs it with a progress line on a terminal, prints "
+       "the JSON summary on stdout and writes DIR/run.h5, run.xdmf and result.json. While it "
+       "runs it keeps its two newest checkpoints in DIR/checkpoints, removed when it ends "
+       "complete. SIGINT, SIGTERM and SIGUSR1 stop it after the step under way with a checkpoint "
+       "and every file complete (result.json status \"interrupted\", exit 128 + the signal), "
+       "during the gas spin-up too (DIR/checkpoints/spin-up.ckpt); --resume continues it bit for "
+       "bit.",
        {{"--out DIR", "out/<scene name>", "where the run's files go"},
         {"--quiet", "off", "no start line and no progress line on a terminal"},
         {"--log-interval S", "10",
@@ -98,7 +100,12 @@ const std::vector<VerbHelp>& verb_help() {
          "damaged; from the start when there is none); exit 2 for another scene's or build's"},
         {"--files-root DIR", "none",
          "every file source must be a regular file inside DIR, checked as it is opened (after "
-         "symlinks); a service's workers pass the server's scenes root"}},
+         "symlinks); a service's workers pass the server's scenes root"},
+        {"--spin-up-cache DIR", "none",
+         "share the gas spin-up with other runs of the same gas inputs (gas, mill, domain, "
+         "gravity): read it from DIR when one left it there, else spin up and leave it; a run "
+         "waits while another spins up the same gas. Bit for bit the same run; a study's runs "
+         "share one in <study>/spin-up-cache"}},
        "millsim run cases/spiral_jet_mill.json --out out/mill"},
       {"study",
        "run a parameter study on this machine",

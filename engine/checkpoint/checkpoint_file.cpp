@@ -85,9 +85,9 @@ std::uint64_t scene_hash(const std::string& scene_json_text) {
   return fnv1a64(canonical.data(), canonical.size());
 }
 
-std::filesystem::path write_checkpoint(const std::filesystem::path& dir,
-                                       const CheckpointHeader& header, const std::string& state,
-                                       int keep) {
+void write_state_file(const std::filesystem::path& path, const CheckpointHeader& header,
+                      const std::string& state) {
+  const std::filesystem::path dir = path.parent_path().empty() ? "." : path.parent_path();
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   if (ec) throw IoError("cannot create " + dir.string() + ": " + ec.message());
@@ -104,10 +104,9 @@ std::filesystem::path write_checkpoint(const std::filesystem::path& dir,
   std::string tail;
   append_u64(tail, fnv1a64(state.data(), state.size(), fnv1a64(head.data(), head.size())));
 
-  char name[64];
-  std::snprintf(name, sizeof name, "%s%012lld%s", kPrefix, static_cast<long long>(header.step),
-                kSuffix);
-  const std::filesystem::path path = dir / name, temporary = dir / (std::string(name) + ".tmp");
+  // A temporary name of this process's own, so two writers of one shared file never mix bytes.
+  const std::filesystem::path temporary =
+      dir / (path.filename().string() + "." + std::to_string(::getpid()) + ".tmp");
   const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) throw IoError("cannot write " + temporary.string() + ": " + errno_text());
   const bool written =
@@ -124,6 +123,17 @@ std::filesystem::path write_checkpoint(const std::filesystem::path& dir,
     ::fsync(dir_fd);  // the rename itself survives a crash
     ::close(dir_fd);
   }
+}
+
+std::filesystem::path write_checkpoint(const std::filesystem::path& dir,
+                                       const CheckpointHeader& header, const std::string& state,
+                                       int keep) {
+  char name[64];
+  std::snprintf(name, sizeof name, "%s%012lld%s", kPrefix, static_cast<long long>(header.step),
+                kSuffix);
+  const std::filesystem::path path = dir / name;
+  write_state_file(path, header, state);
+  std::error_code ec;
   const std::vector<std::filesystem::path> all = list_checkpoints(dir);
   for (std::size_t k = std::size_t(std::max(keep, 1)); k < all.size(); ++k)
     std::filesystem::remove(all[k], ec);
@@ -182,6 +192,7 @@ std::vector<std::filesystem::path> list_checkpoints(const std::filesystem::path&
 void remove_checkpoints(const std::filesystem::path& dir) {
   std::error_code ec;
   for (const std::filesystem::path& p : list_checkpoints(dir)) std::filesystem::remove(p, ec);
+  std::filesystem::remove(spin_up_checkpoint_path(dir), ec);
   for (const auto& entry : std::filesystem::directory_iterator(dir, ec))
     if (entry.path().extension() == ".tmp") std::filesystem::remove(entry.path(), ec);
   std::filesystem::remove(dir, ec);  // only when empty

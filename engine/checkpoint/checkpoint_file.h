@@ -53,6 +53,18 @@ std::uint64_t fnv1a64(const void* data, std::size_t n, std::uint64_t hash = 0xcb
 // order do not matter; every value does).
 std::uint64_t scene_hash(const std::string& scene_json_text);
 
+// Writes a file of the checkpoint format at `path` (its folder created if missing): to a
+// temporary name, fsynced, renamed over `path`, the folder fsynced. Throws IoError; a failed
+// write leaves what was at `path` as it was.
+void write_state_file(const std::filesystem::path& path, const CheckpointHeader& header,
+                      const std::string& state);
+
+// The gas spin-up's checkpoint in a run's checkpoint folder (sim/gas_spin_up.h): the gas state
+// of a spin-up a stop request cut short. Not listed by list_checkpoints (it holds no step).
+inline std::filesystem::path spin_up_checkpoint_path(const std::filesystem::path& dir) {
+  return dir / "spin-up.ckpt";
+}
+
 // Writes the checkpoint into `dir` (created if missing) and removes all but the newest `keep`.
 // Throws IoError when it cannot write; a failed write leaves the existing checkpoints as they
 // were. Returns the file's path.
@@ -67,7 +79,8 @@ Checkpoint read_checkpoint(const std::filesystem::path& path);
 // The checkpoint files in `dir`, newest (highest step) first; none when it does not exist.
 std::vector<std::filesystem::path> list_checkpoints(const std::filesystem::path& dir);
 
-// Removes every checkpoint file in `dir` (after a run completed) and the folder if empty.
+// Removes every checkpoint file in `dir` (after a run completed), the spin-up's too, and the
+// folder if empty.
 void remove_checkpoints(const std::filesystem::path& dir);
 
 }  // namespace millsim

@@ -339,9 +339,9 @@ std::optional<std::string> GasCoupling::advance(ParticleStore& p, double dem_ste
   return std::nullopt;
 }
 
-std::optional<std::string> GasCoupling::spin_up() {
-  double done_s = 0.0;
-  while (done_s < config_.spin_up_s) {
+std::optional<std::string> GasCoupling::spin_up(std::uint64_t max_steps) {
+  double& done_s = stats_.spin_up_done_s;
+  for (std::uint64_t k = 0; k < max_steps && done_s < config_.spin_up_s; ++k) {
     const double dt = std::min(gas_.stable_step_s(), config_.spin_up_s - done_s);
     if (auto failure = gas_.advance(dt)) return failure;
     done_s += dt;

@@ -60,6 +60,7 @@ class DemCellFluidTable {
                            FluidCellRef& hint);
   std::size_t size() const { return states_.size(); }
   std::uint64_t fills() const { return fills_; }
+  double cell_m() const { return cell_m_; }
   template <class A>
   void checkpoint_io(A& a) {
     io_all(a, keys_, slot_state_, states_, fills_, last_key_, last_state_, generation_);
@@ -95,6 +96,7 @@ struct CouplingStats {
   std::uint64_t cfd_steps = 0;
   std::uint64_t gas_substeps = 0;   // > cfd_steps only when the gas needs a step below the DEM's
   std::uint64_t spin_up_steps = 0;  // gas steps solved alone before time 0 (spin_up_s)
+  double spin_up_done_s = 0.0;      // of config().spin_up_s, so far
   int steps_per_cfd = 1;            // DEM steps per CFD step (the latest)
   int min_steps_per_cfd = 1 << 30, max_steps_per_cfd = 0;
   std::uint64_t drag_evaluations = 0;   // drag (and lift) computed
@@ -121,9 +123,11 @@ class GasCoupling {
   // drag response back, clears the DEM-cell table and chooses the next interval from the gas's
   // stability limit. Returns a message on failure.
   std::optional<std::string> advance(ParticleStore& p, double dem_step_s, std::int64_t step_index);
-  // Solves the gas alone for config().spin_up_s at its own stable step, before any particle
-  // exchange (the developed flow a run starts from). Returns a message when a step fails.
-  std::optional<std::string> spin_up();
+  // Solves the gas alone towards config().spin_up_s at its own stable step, before any particle
+  // exchange (the developed flow a run starts from): at most `max_steps` gas steps, continuing
+  // where the last call stopped. Returns a message when a step fails.
+  std::optional<std::string> spin_up(std::uint64_t max_steps = ~std::uint64_t(0));
+  bool spin_up_done() const { return stats_.spin_up_done_s >= config_.spin_up_s; }
   // Adds drag, lift and the pressure-gradient force to p.force_n. With `accumulate` the drag
   // and lift impulse (F dt) is kept for the gas; off for a force pass that is not a step's.
   void add_fluid_forces(ParticleStore& p, double dem_step_s, bool accumulate);

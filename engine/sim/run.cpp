@@ -398,6 +398,53 @@ std::string sigabbrev(int signal) {
   return name ? std::string("SIG") + name : "signal " + std::to_string(signal);
 }
 
+// How the gas got its spin-up in this attempt, for result.json.
+nlohmann::ordered_json spin_up_json(const SpinUpReport& r, const Simulation& sim) {
+  nlohmann::ordered_json j = {{"source", r.source},
+                              {"gas_time_s", sim.gas()->config().spin_up_s},
+                              {"done_s", r.done_s},
+                              {"seconds", r.wall_s}};
+  if (r.source == "resumed") j["resumed_from_s"] = r.resumed_from_s;
+  if (r.waited_s > 0.01) j["waited_s"] = r.waited_s;
+  if (!r.cache_file.empty()) {
+    j["cache_file"] = r.cache_file.string();
+    j["cache_written"] = r.cache_written;
+  }
+  if (!r.note.empty()) j["note"] = r.note;
+  return j;
+}
+
+// A run stopped during its gas spin-up: result.json says so and where the gas state is (the
+// spin-up checkpoint, which --resume continues); no step was taken, so there is no run.h5.
+RunOutcome spin_up_interrupted(const SceneConfig& scene, const SpinUpReport& r,
+                               const Simulation& sim, const RunOptions& options) {
+  RunOutcome outcome;
+  outcome.interrupted_by = r.interrupted_by;
+  nlohmann::ordered_json& s = outcome.summary;
+  s["millsim_version"] = kMillsimVersion;
+  s["scene"] = scene.name;
+  s["status"] = "interrupted";
+  s["interrupted"] = {{"signal", sigabbrev(r.interrupted_by)},
+                      {"phase", "gas_spin_up"},
+                      {"step", 0},
+                      {"time_s", 0.0},
+                      {"spin_up_done_s", r.done_s}};
+  s["steps"] = 0;
+  s["steps_planned"] = sim.total_steps();
+  s["wall_time_s"] = r.wall_s;
+  if (r.earlier_wall_s > 0.0) s["wall_time_total_s"] = r.earlier_wall_s + r.wall_s;
+  s["spin_up"] = spin_up_json(r, sim);
+  if (!options.out_dir.empty()) {
+    const std::filesystem::path checkpoint =
+        spin_up_checkpoint_path(options.out_dir / "checkpoints");
+    if (std::filesystem::exists(checkpoint))
+      s["checkpoints"] = {{"written", 1}, {"last", checkpoint.filename().string()}};
+    s["outputs"] = {{"result", "result.json"}};
+    write_text_atomically(options.out_dir / "result.json", s.dump(2) + "\n");
+  }
+  return outcome;
+}
+
 }  // namespace
 
 nlohmann::ordered_json energy_json(const EnergyReport& e) {
@@ -410,6 +457,36 @@ nlohmann::ordered_json energy_json(const EnergyReport& e) {
 
 RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOptions& options) {
   const auto start = Clock::now();
+  const bool write_files = !options.out_dir.empty();
+  const std::filesystem::path checkpoint_dir = options.out_dir / "checkpoints";
+  auto prepare_folder = [&] {
+    if (!write_files) return;
+    std::filesystem::create_directories(options.out_dir);
+    // A copy of the scene beside its results (not over itself: the service runs scene.json in
+    // the run's own directory).
+    const std::filesystem::path copy = options.out_dir / "scene.json";
+    std::error_code ec;
+    if (!options.scene_text.empty() && !(std::filesystem::exists(copy) &&
+                                         std::filesystem::equivalent(copy, options.scene_path, ec)))
+      write_text_atomically(copy, options.scene_text);
+  };
+
+  std::optional<SpinUpReport> spin_up;
+  if (sim.start_pending()) {
+    SpinUpOptions o;
+    if (write_files) o.checkpoint_dir = checkpoint_dir;
+    o.cache_dir = options.spin_up_cache_dir;
+    o.scene_text = options.scene_text;
+    o.resume = options.resume;
+    o.stop_request = options.stop_request;
+    o.on_progress = options.on_spin_up_progress;
+    o.progress_interval_s = options.progress_interval_s;
+    spin_up = run_gas_spin_up(sim, o);
+    if (spin_up->interrupted_by != 0) {
+      prepare_folder();
+      return spin_up_interrupted(scene, *spin_up, sim, options);
+    }
+  }
   const double dt = sim.time_step().step_s;
   const std::int64_t total = sim.total_steps();
   const std::int64_t snapshot_every =
@@ -420,25 +497,14 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
       scene.output.checkpoint_interval_s
           ? steps_per_interval(scene.output.checkpoint_interval_s, 0.0, dt)
           : 0;
-  const bool write_files = !options.out_dir.empty();
   const bool write_h5 = write_files && scene.output.write_h5;
-  const std::filesystem::path checkpoint_dir = options.out_dir / "checkpoints";
   const std::uint64_t hash = options.scene_text.empty() ? 0 : scene_hash(options.scene_text);
   LoopState loop{sim.particles().size(), sim.energy()};
   TimeSeries series(has_product(sim), sim);
   const std::optional<ResumePoint> resumed =
       options.resume && write_files ? resume_from(checkpoint_dir, hash, sim, loop, series)
                                     : std::nullopt;
-  if (write_files) {
-    std::filesystem::create_directories(options.out_dir);
-    // A copy of the scene beside its results (not over itself: the service runs scene.json in
-    // the run's own directory).
-    const std::filesystem::path copy = options.out_dir / "scene.json";
-    std::error_code ec;
-    if (!options.scene_text.empty() && !(std::filesystem::exists(copy) &&
-                                         std::filesystem::equivalent(copy, options.scene_path, ec)))
-      write_text_atomically(copy, options.scene_text);
-  }
+  prepare_folder();
 
   std::unique_ptr<H5Writer> h5;
   const std::filesystem::path h5_partial = options.out_dir / "run.h5.partial";
@@ -491,7 +557,9 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
   if (h5) h5->flush();  // readable from the start, should this attempt be killed too
   const std::size_t initial_particles = loop.initial_particles;
   const EnergyReport initial_energy = loop.initial_energy;
-  const double earlier_wall_s = resumed ? resumed->header.wall_time_s : 0.0;
+  const double earlier_wall_s = resumed   ? resumed->header.wall_time_s
+                                : spin_up ? spin_up->earlier_wall_s
+                                          : 0.0;
   int checkpoints_written = 0;
   double checkpoint_seconds = 0.0, checkpoint_bytes = 0.0;
   std::filesystem::path last_checkpoint;
@@ -617,9 +685,10 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
                        {"max_wait_steps", mr->max_wait_steps}};
   }
   s["simulated_time_s"] = sim.time_s();
-  s["wall_time_s"] = wall_s;
+  s["wall_time_s"] = wall_s;  // with the gas spin-up, when this attempt did it
+  if (spin_up) s["spin_up"] = spin_up_json(*spin_up, sim);
+  if (resumed || earlier_wall_s > 0.0) s["wall_time_total_s"] = earlier_wall_s + wall_s;
   if (resumed) {
-    s["wall_time_total_s"] = earlier_wall_s + wall_s;
     s["resumed"] = {{"checkpoint", resumed->checkpoint.filename().string()},
                     {"step", resumed->header.step},
                     {"time_s", resumed->header.time_s},

@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include "scene/scene_config.h"
+#include "sim/gas_spin_up.h"
 #include "sim/simulation.h"
 
 namespace millsim {
@@ -51,6 +52,11 @@ struct RunOptions {
   // Continue from the newest valid checkpoint in out_dir/checkpoints, falling back to the one
   // before when it is damaged; with none there, the run starts from the beginning.
   bool resume = false;
+  // A Simulation built with SimulationStart::AfterSpinUp spins its gas up here first
+  // (sim/gas_spin_up.h): reported through on_spin_up_progress, checkpointed at a stop request,
+  // shared with other runs through the cache in spin_up_cache_dir (empty: none).
+  std::filesystem::path spin_up_cache_dir;
+  std::function<void(const SpinUpProgress&)> on_spin_up_progress;
 };
 
 // A checkpoint that cannot be continued: another scene's, another build's layout, or every one

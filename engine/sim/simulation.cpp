@@ -136,7 +136,7 @@ std::vector<double> default_psd_edges(const SceneConfig& scene, double d_min, do
 
 }  // namespace
 
-Simulation::Simulation(const SceneConfig& scene, bool for_restore)
+Simulation::Simulation(const SceneConfig& scene, SimulationStart start)
     : materials_(scene), contact_(scene.contact), gravity_m_per_s2_(scene.gravity_m_per_s2) {
   InputErrors errors;
   box_ = {scene.domain.min_m, scene.domain.max_m, scene.domain.periodic};
@@ -290,22 +290,6 @@ Simulation::Simulation(const SceneConfig& scene, bool for_restore)
        scene.search.cell_size_m, scene.search.subcells_per_axis, scene.search.grid_levels,
        time_.step_s, scene.search.conventional_nbs ? SearchMethod::Nbs : SearchMethod::Hashed});
   neighbors_.update(particles_, box_, walls_, true);
-  if (gas_ && !for_restore)
-    if (auto failure = gas_->spin_up())
-      throw InputErrorList({{"/gas/spin_up_s", concat(scene.gas->spin_up_s),
-                             "the gas failed while spinning up alone: " + *failure}});
-  if (gas_ && !for_restore)
-    if (auto failure = gas_->advance(particles_, time_.step_s, 0))
-      throw InputErrorList({{"/gas", "", "the first gas step failed: " + *failure}});
-  compute_all_forces();
-  if (contact_stats_.max_overlap_ratio > contact_.penetration_limit)
-    throw InputErrorList({{"/sources", "",
-                           concat(describe_worst_overlap(), " at the start; at most ",
-                                  100.0 * contact_.penetration_limit,
-                                  " % is allowed (/contact/penetration_limit): move them apart, "
-                                  "or use a random source, which never overlaps")}});
-
-  contact_stats_.record_impacts = breakage_.has_value();  // the initial overlaps were no impacts
 
   for (double m : particles_.mass_kg) initial_mass_kg_ += m;
   for (const FeedConfig& f : scene.feeds) {
@@ -318,7 +302,61 @@ Simulation::Simulation(const SceneConfig& scene, bool for_restore)
   for (int a = 0; a < 3 && g > 0.0; ++a)
     if (box_.periodic[a] && gravity_m_per_s2_[a] != 0.0) check_energy_ = false;  // no potential
   if (gas_) check_energy_ = false;  // the gas is an energy source the ledger does not track
+
+  if (gas_ && start == SimulationStart::AfterSpinUp) {
+    // The scene's errors are all found now, before the caller spends the spin-up on it.
+    check_start_overlaps();
+    start_pending_ = true;
+    return;
+  }
+  if (gas_ && start == SimulationStart::Complete) spin_up_gas(~std::uint64_t(0));
+  complete_start(start != SimulationStart::ForRestore);
+}
+
+void Simulation::spin_up_gas(std::uint64_t max_steps) {
+  if (auto failure = gas_->spin_up(max_steps))
+    throw InputErrorList({{"/gas/spin_up_s", concat(gas_->config().spin_up_s),
+                           "the gas failed while spinning up alone: " + *failure}});
+}
+
+void Simulation::finish_start() {
+  if (!start_pending_) return;
+  if (!gas_->spin_up_done()) spin_up_gas(~std::uint64_t(0));
+  complete_start(true);
+}
+
+void Simulation::complete_start(bool first_gas_step) {
+  if (gas_ && first_gas_step)
+    if (auto failure = gas_->advance(particles_, time_.step_s, 0))
+      throw InputErrorList({{"/gas", "", "the first gas step failed: " + *failure}});
+  compute_all_forces();
+  throw_on_start_overlap(contact_stats_);
+  contact_stats_.record_impacts = breakage_.has_value();  // the initial overlaps were no impacts
+  start_pending_ = false;
   set_energy_baseline();
+}
+
+void Simulation::throw_on_start_overlap(const ContactStepStats& stats) const {
+  if (stats.max_overlap_ratio > contact_.penetration_limit)
+    throw InputErrorList({{"/sources", "",
+                           concat(describe_worst_overlap(stats), " at the start; at most ",
+                                  100.0 * contact_.penetration_limit,
+                                  " % is allowed (/contact/penetration_limit): move them apart, "
+                                  "or use a random source, which never overlaps")}});
+}
+
+// The start's overlap check on copies of the particles and the neighbour list, so the state the
+// run starts from is that of a start without the check.
+void Simulation::check_start_overlaps() const {
+  ParticleStore particles = particles_;
+  NeighborList neighbors = neighbors_;
+  ContactStepStats stats;
+  clear_forces(particles, gravity_m_per_s2_);
+  compute_pair_forces(contact_.model, materials_, box_, time_.step_s, contact_.penetration_limit,
+                      particles, neighbors, stats);
+  compute_wall_forces(materials_, walls_, time_.step_s, contact_.penetration_limit, particles,
+                      neighbors, stats);
+  throw_on_start_overlap(stats);
 }
 
 void Simulation::set_energy_baseline() {
@@ -404,8 +442,7 @@ void Simulation::choose_time_step(const SceneConfig& scene, const ParticleStore&
   total_steps_ = std::max<std::int64_t>(1, std::int64_t(std::min(steps, 2e9)));
 }
 
-std::string Simulation::describe_worst_overlap() const {
-  const ContactStepStats& c = contact_stats_;
+std::string Simulation::describe_worst_overlap(const ContactStepStats& c) const {
   const std::string partner = c.max_overlap_wall >= 0
                                   ? "wall \"" + walls_[std::size_t(c.max_overlap_wall)].name + "\""
                                   : concat("particle ", c.max_overlap_partner);
@@ -445,6 +482,7 @@ std::optional<StepFailure> Simulation::step() {
 }
 
 std::optional<StepFailure> Simulation::advance(std::int64_t steps) {
+  finish_start();  // AfterSpinUp without the caller's spin-up: all of it now
   std::optional<StepFailure> failure;
   for (std::int64_t s = 0; s < steps && !failure; ++s) failure = step_once(s + 1 < steps);
   catch_up_free_flight();
@@ -755,14 +793,15 @@ std::optional<StepFailure> Simulation::check_health() {
     }
   const double overlap_guard = 2.0 * contact_.penetration_limit;
   if (contact_stats_.max_overlap_ratio > overlap_guard)
-    return StepFailure{
-        step_index_, time_s(), contact_stats_.max_overlap_particle, "excessive_overlap",
-        concat(describe_worst_overlap(), "; the guard stops runs at ", 100.0 * overlap_guard,
-               " % (twice /contact/penetration_limit). The "
-               "contact is too soft or too fast for the step ",
-               dt_text,
-               ": raise /contact/max_impact_speed_m_per_s, lower the reduced-"
-               "stiffness threshold, or lower the step")};
+    return StepFailure{step_index_, time_s(), contact_stats_.max_overlap_particle,
+                       "excessive_overlap",
+                       concat(describe_worst_overlap(contact_stats_), "; the guard stops runs at ",
+                              100.0 * overlap_guard,
+                              " % (twice /contact/penetration_limit). The "
+                              "contact is too soft or too fast for the step ",
+                              dt_text,
+                              ": raise /contact/max_impact_speed_m_per_s, lower the reduced-"
+                              "stiffness threshold, or lower the step")};
   if (check_energy_ && step_index_ % 256 == 0) {
     const double growth = energy().total_j() - energy_reference_j_ - energy_added_j_;
     if (growth > 0.05 * energy_scale_j_)

@@ -65,16 +65,33 @@ struct MassBalance {
   }
 };
 
+// How far the constructor takes a run.
+enum class SimulationStart {
+  Complete,     // the gas spun up (scene.gas.spin_up_s) and the first forces computed
+  ForRestore,   // a checkpoint's state goes in next (checkpoint_io): no spin-up
+  AfterSpinUp,  // the caller spins the gas up (spin_up_gas, as it likes) and calls finish_start
+};
+
 class Simulation {
  public:
   // Throws InputErrorList when the scene cannot be built (bad particle files, overfull
   // packings, a time step above the stable bound, particles outside the domain or overlapping
-  // past the penetration limit at the start, ...). `for_restore`: a checkpoint's state goes in
-  // next (checkpoint_io), so the gas is not spun up first (seconds on a mill).
-  explicit Simulation(const SceneConfig& scene, bool for_restore = false);
+  // past the penetration limit at the start, ...): with AfterSpinUp too, before any spin-up.
+  Simulation(const SceneConfig& scene, SimulationStart start);
+  // `for_restore`: ForRestore, else Complete.
+  explicit Simulation(const SceneConfig& scene, bool for_restore = false)
+      : Simulation(scene, for_restore ? SimulationStart::ForRestore : SimulationStart::Complete) {}
   // Modules keep pointers to the material table: a simulation stays where it was built.
   Simulation(const Simulation&) = delete;
   Simulation& operator=(const Simulation&) = delete;
+
+  // AfterSpinUp only: the gas still spins up or the first forces are still to compute. Spin-up
+  // steps and the gas state in between are the same however the spin-up is divided into calls.
+  bool start_pending() const { return start_pending_; }
+  // At most `max_steps` more gas steps of the spin-up; throws InputErrorList when the gas fails.
+  void spin_up_gas(std::uint64_t max_steps);
+  // The rest of the spin-up, the first gas step and forces: the state Complete builds.
+  void finish_start();
 
   // One DEM step; returns the failure when the stability guard stops the run. The state is
   // complete on return (with multi-rate stepping, particles in free flight are caught up).
@@ -164,7 +181,12 @@ class Simulation {
   bool health_due() const;
   // One CFD step at the current DEM step; the failure when the gas solver stops.
   std::optional<StepFailure> advance_gas();
-  std::string describe_worst_overlap() const;
+  std::string describe_worst_overlap(const ContactStepStats& stats) const;
+  // The end of the constructor's work: the first gas step (unless restoring), the first forces,
+  // the start's overlap check and the energy guard's reference.
+  void complete_start(bool first_gas_step);
+  void check_start_overlaps() const;
+  void throw_on_start_overlap(const ContactStepStats& stats) const;
 
   MaterialTable materials_;
   ParticleStore particles_;
@@ -207,6 +229,7 @@ class Simulation {
   double drag_relaxation_s_ = 1e300;  // Stokes τ of the smallest particle (gas scenes only)
   bool multi_rate_on_ = false;
   MultiRate multi_rate_;
+  bool start_pending_ = false;  // AfterSpinUp, until finish_start()
 };
 
 template <class A>

@@ -25,6 +25,10 @@ double wall_clock_s() {
 LocalExecutor::LocalExecutor(std::filesystem::path millsim_binary)
     : binary_(std::move(millsim_binary)) {}
 
+std::filesystem::path spin_up_cache_dir(const RunRecord& run) {
+  return std::filesystem::absolute(run.out_dir).lexically_normal().parent_path() / "spin-up-cache";
+}
+
 void prepare_run_directory(const RunRecord& run) {
   const std::filesystem::path dir = run.out_dir;
   std::error_code ec;
@@ -52,6 +56,8 @@ ExecHandle LocalExecutor::start(const RunRecord& run, double now) {
     arg_text.push_back("--files-root");
     arg_text.push_back(run.files_root);
   }
+  arg_text.push_back("--spin-up-cache");
+  arg_text.push_back(spin_up_cache_dir(run).string());
   std::vector<char*> argv;
   for (std::string& a : arg_text) argv.push_back(a.data());
   argv.push_back(nullptr);

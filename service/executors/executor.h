@@ -61,6 +61,10 @@ class LocalExecutor : public Executor {
   std::filesystem::path binary_;
 };
 
+// The gas spin-up cache the runs of one study share (`millsim run --spin-up-cache`): beside
+// their directories, in the study's.
+std::filesystem::path spin_up_cache_dir(const RunRecord& run);
+
 // Writes the run's scene.json into its directory (created) and removes a previous attempt's
 // result.json; throws IoError.
 void prepare_run_directory(const RunRecord& run);

@@ -56,9 +56,11 @@ namespace {
 // SIGUSR1 Slurm sends before the time limit (--signal=B:USR1@lead). The run then writes a
 // checkpoint and exits 138, and the job requeues itself: it starts again under the same job id
 // and resumes from that checkpoint. Any other exit is the job's.
-std::string requeue_script(const std::filesystem::path& binary, const std::string& files_root) {
-  const std::string root = files_root.empty() ? "" : " --files-root " + shell_quoted(files_root);
-  return shell_quoted(binary.string()) + " run scene.json --out . --quiet --resume" + root +
+std::string requeue_script(const std::filesystem::path& binary, const RunRecord& run) {
+  const std::string root =
+      run.files_root.empty() ? "" : " --files-root " + shell_quoted(run.files_root);
+  const std::string cache = " --spin-up-cache " + shell_quoted(spin_up_cache_dir(run).string());
+  return shell_quoted(binary.string()) + " run scene.json --out . --quiet --resume" + root + cache +
          " & pid=$!; stopped=0; "
          "trap 'stopped=1; kill -USR1 $pid 2>/dev/null' USR1; "
          "wait $pid; rc=$?; while kill -0 $pid 2>/dev/null; do wait $pid; rc=$?; done; "
@@ -82,7 +84,7 @@ ExecHandle SlurmExecutor::start(const RunRecord& run, double now) {
   const long minutes = std::max(1L, long(std::ceil(run.wall_limit_s / 60.0)));
   const long memory_mb = std::max(16L, long(run.memory_limit_mb));
   // The job has no use for the service token (sbatch exports the environment): it is unset.
-  std::string job = "unset MILLSIM_TOKEN; " + requeue_script(binary_, run.files_root);
+  std::string job = "unset MILLSIM_TOKEN; " + requeue_script(binary_, run);
 #ifndef __SANITIZE_ADDRESS__  // ASan reserves terabytes of address space for its shadow
   job = "ulimit -v " + std::to_string(memory_mb * 1024) + "; " + job;
 #endif

@@ -13,6 +13,7 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <thread>
 
 #include "checkpoint/checkpoint_file.h"
@@ -182,6 +183,56 @@ TEST(Checkpoint, SigtermWritesACheckpointAndResumeFinishesTheRun) {
       test::run_millsim("run scene.json --out fresh --quiet --resume", dir.path());
   ASSERT_EQ(fresh.exit_code, 0) << fresh.err;
   EXPECT_FALSE(json::parse(fresh.out).contains("resumed"));
+}
+
+// The gas spin-up as a user meets it (issue 32, item 3): a line when it starts and every
+// --log-interval, and a signal during it (here Slurm's SIGUSR1 before a time limit) answered like
+// one during the steps: exit 128 + the signal, result.json saying where it stopped, and a
+// checkpoint of the gas that --resume continues instead of spinning up again from nothing.
+TEST(Checkpoint, ASignalDuringTheGasSpinUpLeavesResultAndCheckpointAndResumeContinuesIt) {
+  test::TempDir dir;
+  std::ifstream in(MILLSIM_SOURCE_DIR "/cases/spiral_jet_mill.json");
+  json scene = json::parse(in);
+  scene["gas"]["spin_up_s"] = 0.002;
+  scene["time"]["end_s"] = 1e-5;
+  test::write_file(dir.path() / "scene.json", scene.dump(2));
+  const pid_t pid =
+      start_run(dir.path(), {"scene.json", "--out", "mill", "--quiet", "--log-interval", "0.05"});
+  auto spin_up_lines = [&] {
+    std::istringstream log(test::read_file(dir.path() / "mill/log.txt"));
+    int count = 0;
+    for (std::string line; std::getline(log, line);) count += line.rfind("spin-up: gas ", 0) == 0;
+    return count;
+  };
+  for (int k = 0; k < 3000 && spin_up_lines() < 3; ++k)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_GE(spin_up_lines(), 3) << test::read_file(dir.path() / "started.err");
+  EXPECT_EQ(test::read_file(dir.path() / "mill/log.txt").rfind("spin-up: gas 0 of 0.002 s", 0), 0u)
+      << "the first line comes when the spin-up starts";
+  kill(pid, SIGUSR1);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 128 + SIGUSR1);
+  EXPECT_NE(test::read_file(dir.path() / "started.err").find("during the gas spin-up"),
+            std::string::npos);
+  const json stopped = json::parse(test::read_file(dir.path() / "mill/result.json"));
+  EXPECT_EQ(stopped["status"], "interrupted");
+  EXPECT_EQ(stopped["interrupted"]["phase"], "gas_spin_up");
+  const double stopped_at_s = stopped["spin_up"]["done_s"];
+  EXPECT_GT(stopped_at_s, 0.0);
+  EXPECT_LT(stopped_at_s, 0.002);
+  ASSERT_TRUE(std::filesystem::exists(dir.path() / "mill/checkpoints/spin-up.ckpt"));
+
+  const test::CommandResult resumed =
+      test::run_millsim("run scene.json --out mill --quiet --resume", dir.path());
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
+  const json result = json::parse(resumed.out);
+  EXPECT_EQ(result["status"], "ok");
+  EXPECT_EQ(result["spin_up"]["source"], "resumed");
+  EXPECT_EQ(result["spin_up"]["resumed_from_s"].get<double>(), stopped_at_s);
+  EXPECT_GT(result["wall_time_total_s"].get<double>(), result["wall_time_s"].get<double>());
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "mill/checkpoints"));
 }
 
 }  // namespace

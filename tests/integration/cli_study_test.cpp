@@ -3,9 +3,11 @@
 // study still completes every run exactly once; the wall-time limit stops a run; a bad study is
 // refused with nothing queued.
 #include <gtest/gtest.h>
+
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include <map>
 
 #include <chrono>
 #include <fstream>
@@ -135,6 +137,38 @@ TEST(CliStudy, WallTimeLimitStopsARunAndBadStudiesQueueNothing) {
 #else
   EXPECT_EQ(store.studies(10, 0).size(), 1u);
 #endif
+}
+
+// The runs of a study whose gas is the same spin it up once (issue 32, item 4): with two runs at
+// a time, one spins the mill's gas up and the other waits and reads it from the study's cache;
+// the shared spin-up is bit for bit the one a run makes alone (tests/engine/gas_spin_up_test).
+TEST(CliStudy, RunsWithTheSameGasShareOneSpinUp) {
+  test::TempDir dir;
+  const json study = {
+      {"name", "shared_gas"},
+      {"scene", MILLSIM_SOURCE_DIR "/cases/spiral_jet_mill.json"},
+      {"set", {{"time.end_s", 1e-5}, {"gas.spin_up_s", 5e-4}, {"output.h5", false}}},
+      {"parameters", {{{"path", "dust.threshold_diameter_m"}, {"values", {8e-5, 5e-5, 3e-5}}}}}};
+  write_file(dir.path() / "study.json", study.dump());
+  const test::CommandResult r = run_millsim(
+      "study study.json --local --db q.db --out runs --workers 2 --format json", dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  const json table = json::parse(r.out);
+  ASSERT_EQ(table["runs"].size(), 3u);
+  const std::filesystem::path study_dir = dir.path() / "runs" / table["study"].get<std::string>();
+  std::map<std::string, int> sources;
+  for (const json& row : table["runs"]) {
+    ASSERT_EQ(row["state"], "COMPLETE");
+    const json result =
+        json::parse(test::read_file(study_dir / row["run"].get<std::string>() / "result.json"));
+    sources[result["spin_up"]["source"].get<std::string>()] += 1;
+    EXPECT_EQ(result["gas"]["spin_up_steps"],
+              json::parse(test::read_file(study_dir / table["runs"][0]["run"].get<std::string>() /
+                                          "result.json"))["gas"]["spin_up_steps"]);
+  }
+  EXPECT_EQ(sources["computed"], 1) << "one run spins the gas up";
+  EXPECT_EQ(sources["cache"], 2) << "the others read it";
+  EXPECT_TRUE(std::filesystem::is_directory(study_dir / "spin-up-cache"));
 }
 
 }  // namespace

@@ -46,6 +46,12 @@ std::string what_the_engine_got(const fs::path& dir, RunRecord run) {
   return test::read_file(dir / "run" / "got.txt");
 }
 
+// The runs of one study share their gas spin-up: the cache is in the study's directory, beside
+// the run's own (out_dir is <study>/<run>).
+std::string cache_arg(const std::filesystem::path& dir) {
+  return " --spin-up-cache " + (dir / "spin-up-cache").string();
+}
+
 TEST(LocalExecutor, TheEngineGetsTheFilesRootAndNotTheToken) {
   test::TempDir dir;
   setenv("MILLSIM_TOKEN", "secret-token", 1);
@@ -56,7 +62,8 @@ TEST(LocalExecutor, TheEngineGetsTheFilesRootAndNotTheToken) {
   unsetenv("MILLSIM_TOKEN");
   unsetenv("MILLSIM_EXECUTOR_TEST");
   ASSERT_FALSE(got.empty()) << "the engine script did not run";
-  EXPECT_NE(got.find("args: run scene.json --out . --quiet --resume --files-root /srv/scenes\n"),
+  EXPECT_NE(got.find("args: run scene.json --out . --quiet --resume --files-root /srv/scenes" +
+                     cache_arg(dir.path()) + "\n"),
             std::string::npos)
       << got;
   EXPECT_EQ(got.find("MILLSIM_TOKEN"), std::string::npos) << got;
@@ -65,7 +72,9 @@ TEST(LocalExecutor, TheEngineGetsTheFilesRootAndNotTheToken) {
   // A local study (no server, no root): no --files-root.
   test::TempDir local;
   const std::string unrooted = what_the_engine_got(local.path(), RunRecord{});
-  EXPECT_NE(unrooted.find("args: run scene.json --out . --quiet --resume\n"), std::string::npos)
+  EXPECT_NE(unrooted.find("args: run scene.json --out . --quiet --resume" +
+                          cache_arg(local.path()) + "\n"),
+            std::string::npos)
       << unrooted;
 }
 
