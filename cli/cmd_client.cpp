@@ -115,12 +115,22 @@ void print_results(const ordered_json& table, const std::string& format) {
     std::cout << results_text(table);
 }
 
+// On a terminal a bar redrawn; off one (a log, CI) a line each time a run starts or ends.
 void print_progress_line(const json& study) {
+  static int last_done = -1, last_running = -1;
   const json& p = study["progress"];
   const int total = p["total"].get<int>();
   const json& c = p["counts"];
   const int done =
       total - c["QUEUED"].get<int>() - c["RUNNING"].get<int>() - c["CANCELING"].get<int>();
+  if (!isatty(STDERR_FILENO)) {
+    if (done == last_done && c["RUNNING"].get<int>() == last_running) return;
+    last_done = done, last_running = c["RUNNING"].get<int>();
+    std::fprintf(stderr, "%s %d/%d done, running %d, failed %d\n",
+                 study["id"].get<std::string>().c_str(), done, total, c["RUNNING"].get<int>(),
+                 c["EXECUTOR_ERROR"].get<int>() + c["SYSTEM_ERROR"].get<int>());
+    return;
+  }
   const int width = 30, filled = total ? width * done / total : width;
   std::fprintf(
       stderr, "\r%s [%s%s] %d/%d  running %d  failed %d%s   ",
@@ -132,12 +142,12 @@ void print_progress_line(const json& study) {
           : "");
 }
 
-// Polls the study until it is finished; a progress bar on a terminal.
+// Polls the study until it is finished, with its progress on stderr.
 Reply wait_for(const char* verb, const ClientArgs& a, const std::string& id) {
   while (true) {
     Reply study = request(verb, a, "GET", "/v1/studies/" + id);
     if (!study) return study;
-    if (isatty(STDERR_FILENO)) print_progress_line(*study);
+    print_progress_line(*study);
     if ((*study)["progress"]["finished"].get<bool>()) {
       if (isatty(STDERR_FILENO)) std::fprintf(stderr, "\n");
       return study;

@@ -99,13 +99,18 @@ bool parse_study_args(const std::vector<std::string>& args, StudyArgs& out) {
   return true;
 }
 
+// On a terminal one line redrawn; off one (a log, CI) a line each time a run starts or ends.
 void print_progress(const Progress& p) {
-  if (!isatty(STDERR_FILENO)) return;
+  static int last_done = -1, last_running = -1;
   const int done = p.total - p.count(RunState::Queued) - p.count(RunState::Running) -
                    p.count(RunState::Canceling);
-  std::fprintf(stderr, "\r[%d/%d] running %d, complete %d, failed %d   ", done, p.total,
-               p.count(RunState::Running), p.count(RunState::Complete),
-               p.count(RunState::ExecutorError) + p.count(RunState::SystemError));
+  const bool terminal = isatty(STDERR_FILENO);
+  if (!terminal && done == last_done && p.count(RunState::Running) == last_running) return;
+  last_done = done, last_running = p.count(RunState::Running);
+  std::fprintf(stderr, "%s[%d/%d] running %d, complete %d, failed %d%s", terminal ? "\r" : "", done,
+               p.total, p.count(RunState::Running), p.count(RunState::Complete),
+               p.count(RunState::ExecutorError) + p.count(RunState::SystemError),
+               terminal ? "   " : "\n");
 }
 
 }  // namespace

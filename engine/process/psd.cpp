@@ -111,12 +111,16 @@ PsdDistance compare_psd(const PsdSummary& a, const PsdSummary& b) {
   return d;
 }
 
+nlohmann::ordered_json psd_size_json(const PsdSummary& s, double d_m) {
+  return s.total_mass_kg > 0.0 ? nlohmann::ordered_json(d_m) : nlohmann::ordered_json(nullptr);
+}
+
 nlohmann::ordered_json psd_json(const PsdSummary& s) {
   return {{"total_count", s.total_count},
           {"total_mass_kg", s.total_mass_kg},
-          {"d10_m", s.d10_m},
-          {"d50_m", s.d50_m},
-          {"d90_m", s.d90_m},
+          {"d10_m", psd_size_json(s, s.d10_m)},
+          {"d50_m", psd_size_json(s, s.d50_m)},
+          {"d90_m", psd_size_json(s, s.d90_m)},
           {"under_range_mass_kg", s.under_mass_kg},
           {"over_range_mass_kg", s.over_mass_kg},
           {"edges_m", s.edges_m},

@@ -59,6 +59,9 @@ struct PsdDistance {
 PsdDistance compare_psd(const PsdSummary& run, const PsdSummary& reference);
 
 nlohmann::ordered_json psd_json(const PsdSummary& s);
+// A size of the distribution (d10, d50, d90) for JSON: null when it holds no mass (an empty
+// product has no d50, not a d50 of 0).
+nlohmann::ordered_json psd_size_json(const PsdSummary& s, double d_m);
 nlohmann::ordered_json psd_distance_json(const PsdDistance& d);
 
 }  // namespace millsim

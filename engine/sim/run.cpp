@@ -14,11 +14,16 @@
 #include "io/h5_writer.h"
 #include "io/text_file.h"
 #include "process/classification.h"
+#include "sim/run_eta.h"
 
 namespace millsim {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
 
 // The run's product columns exist only when the scene has outlets, feeds or breakage.
 bool has_product(const Simulation& sim) {
@@ -112,9 +117,9 @@ void add_product_summary(const Simulation& sim, nlohmann::ordered_json& s) {
   const ParticleStore& p = sim.particles();
   for (std::size_t i = 0; i < p.size(); ++i) all.add(2.0 * p.radius_m[i], p.mass_kg[i]);
   const PsdSummary total = summarize(all);
-  s["total_psd"] = {{"d10_m", total.d10_m},
-                    {"d50_m", total.d50_m},
-                    {"d90_m", total.d90_m},
+  s["total_psd"] = {{"d10_m", psd_size_json(total, total.d10_m)},
+                    {"d50_m", psd_size_json(total, total.d50_m)},
+                    {"d90_m", psd_size_json(total, total.d90_m)},
                     {"total_mass_kg", total.total_mass_kg},
                     {"cumulative_mass", total.cumulative_mass}};
 }
@@ -587,10 +592,10 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
 
   RunOutcome outcome;
   auto last_progress = Clock::now();
+  EtaEstimator eta;
   auto progress_now = [&](std::int64_t step, double elapsed) {
-    RunProgress p{step,         total,
-                  sim.time_s(), sim.particles().size(),
-                  elapsed,      step > 0 ? elapsed / double(step) * double(total - step) : 0.0};
+    eta.add(step, elapsed, sim.particles().size());
+    RunProgress p{step, total, sim.time_s(), sim.particles().size(), elapsed, eta.eta_s(total)};
     p.contacts = sim.contact_stats().touching_pairs + sim.contact_stats().touching_walls;
     p.kinetic_j = sim.energy().kinetic_j;
     p.time_step_s = dt;
@@ -598,7 +603,8 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
     p.particle_steps_per_s = step_seconds > 0 ? sim.particle_steps() / step_seconds : 0.0;
     return p;
   };
-  if (options.on_progress) options.on_progress(progress_now(sim.step_index(), 0.0));
+  if (options.on_progress)
+    options.on_progress(progress_now(sim.step_index(), seconds_since(start)));
   while (sim.step_index() < total) {
     // Advance to the next step anything is recorded at, and at most 256 steps, so progress
     // (checked between advances) stays timely.

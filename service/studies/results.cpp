@@ -14,14 +14,21 @@ namespace {
 using nlohmann::json;
 using nlohmann::ordered_json;
 
+// A number of `j` by key; `fallback` when it is absent or not a number (an empty product's sizes
+// are null: it has none).
+double number_or(const json& j, const char* key, double fallback) {
+  const auto it = j.find(key);
+  return it != j.end() && it->is_number() ? it->get<double>() : fallback;
+}
+
 std::optional<PsdSummary> outlet_psd(const json& result) {
   if (!result.contains("outlet_psd")) return std::nullopt;
   const json& p = result["outlet_psd"];
   PsdSummary s;
   s.edges_m = p.value("edges_m", std::vector<double>{});
   s.cumulative_mass = p.value("cumulative_mass", std::vector<double>{});
-  s.d50_m = p.value("d50_m", 0.0);
-  s.total_mass_kg = p.value("total_mass_kg", 0.0);
+  s.d50_m = number_or(p, "d50_m", 0.0);
+  s.total_mass_kg = number_or(p, "total_mass_kg", 0.0);
   return s;
 }
 
@@ -32,8 +39,8 @@ std::optional<PsdSummary> total_psd(const json& result) {
   if (!s || !result.contains("total_psd")) return std::nullopt;
   const json& t = result["total_psd"];
   s->cumulative_mass = t.value("cumulative_mass", std::vector<double>{});
-  s->d50_m = t.value("d50_m", 0.0);
-  s->total_mass_kg = t.value("total_mass_kg", 0.0);
+  s->d50_m = number_or(t, "d50_m", 0.0);
+  s->total_mass_kg = number_or(t, "total_mass_kg", 0.0);
   if (s->cumulative_mass.size() != s->edges_m.size()) return std::nullopt;
   return s;
 }
@@ -129,8 +136,9 @@ ordered_json results_table(Store& store, const std::string& study_id) {
                                ? ordered_json(result["phase_seconds"])
                                : ordered_json(nullptr);
     for (const char* d : {"d10_m", "d50_m", "d90_m"})
-      row[d] = result.is_object() && result.contains("outlet_psd")
-                   ? ordered_json(result["outlet_psd"].value(d, 0.0))
+      row[d] = result.is_object() && result.contains("outlet_psd") &&
+                       result["outlet_psd"].contains(d) && result["outlet_psd"][d].is_number()
+                   ? ordered_json(result["outlet_psd"][d])
                    : ordered_json(nullptr);
     std::optional<double> error;
     if (result.is_object() && reference.is_object())

@@ -352,6 +352,14 @@ Study expand_study(const json& spec, const std::filesystem::path& base_dir, int 
   const json* reference = top.child("reference");
   if (reference && !reference->is_object())
     errors.push_back({"/reference", json_value_text(*reference), "expected {path: value}"});
+  // Overrides for the reference run alone, e.g. the outputs a user opens (run.h5 for ParaView).
+  const json* reference_set = top.child("reference_set");
+  if (reference_set && !reference_set->is_object())
+    errors.push_back(
+        {"/reference_set", json_value_text(*reference_set), "expected an object {path: value}"});
+  if (reference_set && reference_set->is_object() && !reference)
+    errors.push_back(
+        {"/reference_set", reference_set->dump(), "needs a reference: the run it applies to"});
   top.finish();
 
   // The points: a full grid (last parameter fastest) or zipped lists of equal length.
@@ -426,6 +434,21 @@ Study expand_study(const json& spec, const std::filesystem::path& base_dir, int 
         if (!set_at(run.scene, parameter_keys(p.path), params[p.path], problem))
           errors.push_back({describe_run(run.index, params), p.path, problem});
       }
+      if (reference && reference->is_object() && !study.reference_index) {
+        bool match = !reference->empty();
+        for (const auto& [key, value] : reference->items())
+          match = match && params.contains(key) && params[key] == value;
+        if (match && r == 0) {
+          run.is_reference = true;
+          study.reference_index = run.index;
+          if (reference_set && reference_set->is_object())
+            for (const auto& [path, value] : reference_set->items()) {
+              std::string problem;
+              if (!set_at(run.scene, parameter_keys(path), value, problem))
+                errors.push_back({"/reference_set/" + path, value.dump(), problem});
+            }
+        }
+      }
       run.seed = run.scene.contains("seed") && run.scene["seed"].is_number_unsigned()
                      ? run.scene["seed"].get<std::uint64_t>() + std::uint64_t(r)
                      : base_seed + std::uint64_t(r);
@@ -441,15 +464,6 @@ Study expand_study(const json& spec, const std::filesystem::path& base_dir, int 
         }
         errors.push_back(
             {concat(describe_run(run.index, params), " ", e.path), e.value, e.allowed});
-      }
-      if (reference && reference->is_object() && !study.reference_index) {
-        bool match = !reference->empty();
-        for (const auto& [key, value] : reference->items())
-          match = match && params.contains(key) && params[key] == value;
-        if (match && r == 0) {
-          run.is_reference = true;
-          study.reference_index = run.index;
-        }
       }
       if (max_stored_bytes > 0) {
         stored_bytes += run.scene.dump().size();

@@ -46,6 +46,22 @@ TEST(Psd, EqualMassPerDecadePutsD50OnTheMiddleEdge) {
   EXPECT_NEAR(s.d90_m, 1e-3 * std::pow(10.0, 0.6), 1e-16);
 }
 
+// An empty product (nothing left the mill yet) has no size: its d10/d50/d90 are null in JSON,
+// not 0 m, while a product of one particle has all three.
+TEST(Psd, AnEmptyDistributionHasNoSizes) {
+  const nlohmann::ordered_json empty = psd_json(summarize(PsdTally(decade_edges())));
+  for (const char* d : {"d10_m", "d50_m", "d90_m"}) EXPECT_TRUE(empty[d].is_null()) << d;
+  EXPECT_EQ(empty["total_mass_kg"], 0.0);
+  PsdTally one(decade_edges());
+  one.add(5e-6, 1.0);
+  const nlohmann::ordered_json some = psd_json(summarize(one));
+  for (const char* d : {"d10_m", "d50_m", "d90_m"}) {
+    ASSERT_TRUE(some[d].is_number()) << d;
+    EXPECT_GE(some[d].get<double>(), 1e-6);
+    EXPECT_LE(some[d].get<double>(), 1e-5);
+  }
+}
+
 TEST(Psd, DistanceBetweenDistributions) {
   PsdTally a(decade_edges()), b(decade_edges());
   a.add(3e-5, 1.0);  // all mass in bin 1

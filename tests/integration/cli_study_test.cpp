@@ -52,6 +52,9 @@ TEST(CliStudy, LocalStudyRunsToItsResultsTable) {
                                         row["run"].get<std::string>() / "result.json"));
   }
   EXPECT_EQ(table["runs"][2]["error"].get<double>(), 0.0);  // the reference itself
+  // Off a terminal, a line each time a run starts or ends: the last says all three are done.
+  EXPECT_GE(std::count(r.err.begin(), r.err.end(), '\n'), 4) << r.err;
+  EXPECT_NE(r.err.find("[3/3] running 0, complete 3, failed 0\n"), std::string::npos) << r.err;
   EXPECT_GE(table["runs"][0]["error"].get<double>(), 0.0);
   const std::filesystem::path study_dir = dir.path() / "runs" / table["study"].get<std::string>();
   EXPECT_TRUE(std::filesystem::exists(study_dir / "results.csv"));

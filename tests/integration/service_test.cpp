@@ -252,6 +252,11 @@ TEST(Service, StudyOverHttpFinishesWithResultsAndPsd) {
   ASSERT_EQ(submitted.exit_code, 0) << submitted.err;
   const json cli_table = json::parse(submitted.out.substr(submitted.out.find('{')));
   EXPECT_EQ(cli_table["counts"]["COMPLETE"], 2);
+  // Off a terminal --wait reports as runs end: the last line says both are done.
+  EXPECT_NE(submitted.err.find(cli_table["study"].get<std::string>() +
+                               " 2/2 done, running 0, failed 0\n"),
+            std::string::npos)
+      << submitted.err;
   const test::CommandResult psd_cli = test::run_millsim(
       "psd " + cli_table["study"].get<std::string>() + "-r0" + common, dir.path());
   EXPECT_EQ(psd_cli.exit_code, 0) << psd_cli.err;

@@ -92,5 +92,52 @@ TEST(StudyPlots, RenderWithOneCurvePerRunAndTheReferenceMarked) {
   }
 }
 
+// A run whose product is still empty (null sizes in its result.json): its row has no sizes and
+// no error, shown as "-", and the other runs' rows are unaffected.
+TEST(StudyPlots, AnEmptyProductHasNoSizesAndNoErrorInTheTable) {
+  test::TempDir dir;
+  Store store(dir.path() / "q.db");
+  Study study;
+  study.name = "empty";
+  study.spec = json::object();
+  study.error_metric = "psd_ks";
+  for (int k = 0; k < 2; ++k) {
+    StudyRun r;
+    r.index = k;
+    r.params = {{"dust.threshold_diameter_m", 8e-5 / (k + 1)}};
+    r.scene = json::object();
+    r.is_reference = k == 1;
+    study.runs.push_back(r);
+  }
+  study.reference_index = 1;
+  const std::string id = store.submit(study, std::nullopt, dir.path(), 1.0).study_id;
+  for (int k = 0; k < 2; ++k) {
+    const std::optional<Claim> c = store.claim("w", 60, 2.0, id);
+    ASSERT_TRUE(c);
+    FinishReport done;
+    done.state = RunState::Complete;
+    done.wall_time_s = 10.0;
+    json result = json::parse(result_with_psd(0.5, 10.0));
+    if (k == 0) {
+      result["outlet_psd"]["total_mass_kg"] = 0.0;
+      result["outlet_psd"]["cumulative_mass"] = {0.0, 0.0, 0.0};
+      for (const char* d : {"d10_m", "d50_m", "d90_m"}) result["outlet_psd"][d] = nullptr;
+    }
+    done.result = result.dump();
+    ASSERT_TRUE(store.finish(c->run.id, c->token, done, 3.0));
+  }
+  const nlohmann::ordered_json table = results_table(store, id);
+  ASSERT_EQ(table["runs"].size(), 2u);
+  EXPECT_TRUE(table["runs"][0]["d50_m"].is_null());
+  EXPECT_TRUE(table["runs"][0]["error"].is_null());
+  EXPECT_EQ(table["runs"][1]["d50_m"], 1e-5);
+  const std::string text = results_text(table);
+  const std::size_t row = text.find(table["runs"][0]["run"].get<std::string>());
+  ASSERT_NE(row, std::string::npos);
+  const std::string line = text.substr(row, text.find('\n', row) - row);
+  EXPECT_EQ(line.find(" 0.0 "), std::string::npos) << line;
+  EXPECT_EQ(count(line, " -"), 4u) << "d10, d50, d90 and error: " << line;
+}
+
 }  // namespace
 }  // namespace millsim

@@ -79,6 +79,33 @@ TEST(Study, RepeatsGetSuccessiveSeedsAndTheReferenceIsFound) {
   EXPECT_FALSE(s.runs[1].is_reference);
 }
 
+// reference_set: overrides for the reference run alone (the quick start's run.h5), checked like
+// `set`, refused without a reference to apply to.
+TEST(Study, ReferenceSetChangesTheReferenceRunAlone) {
+  json spec = study_with({{{"path", "time.safety_factor"}, {"values", {0.1, 0.2}}}});
+  spec["repeats"] = 2;
+  spec["reference"] = {{"time.safety_factor", 0.2}};
+  spec["reference_set"] = {{"output.h5", true}};
+  spec["set"] = {{"output.h5", false}};
+  const Study s = expand_study(spec, ".", 1000);
+  ASSERT_EQ(s.runs.size(), 4u);
+  ASSERT_TRUE(s.reference_index.has_value());
+  for (const StudyRun& run : s.runs)
+    EXPECT_EQ(run.scene["output"]["h5"], run.index == *s.reference_index) << run.index;
+
+  json unknown = spec;
+  unknown["reference_set"] = {{"output.h55", true}};
+  std::vector<InputError> errors = errors_of(unknown);
+  ASSERT_FALSE(errors.empty());
+  EXPECT_NE(errors[0].path.find("/output/h55"), std::string::npos) << errors[0].path;
+
+  json orphan = spec;
+  orphan.erase("reference");
+  errors = errors_of(orphan);
+  ASSERT_FALSE(errors.empty());
+  EXPECT_EQ(errors[0].path, "/reference_set");
+}
+
 TEST(Study, BadInputNamesTheParameterAndThePoint) {
   // A value the scene rejects: the run, its point and the scene's own message.
   auto errors = errors_of(study_with({{{"path", "time.safety_factor"}, {"values", {0.2, 5.0}}}}));
