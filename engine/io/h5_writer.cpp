@@ -312,6 +312,17 @@ void close_xdmf(std::ofstream& out, const std::filesystem::path& path) {
   if (!out) throw IoError("cannot write " + path.string());
 }
 
+// The XDMF Dimensions of a snapshot's N×3 datasets (position, velocity, angular_velocity).
+// An empty snapshot (a fed case before its first particle, or after the last has left) stays a
+// time step of the particle collection, so that ParaView shows no particles at that time rather
+// than the nearest non-empty frame; but its N×3 items are described flat, as "0". ParaView's
+// Xdmf3 reader divides an array's size by the product of its leading dimensions when it reads
+// that array again (XdmfArray::getDimensions), and "0 3" makes that a division by zero: SIGFPE
+// on the first frame revisited (stepping back, looping). A flat "0" names the same zero values.
+std::string vector_dimensions(const SnapshotInfo& s) {
+  return s.particle_count == 0 ? "0" : std::to_string(s.particle_count) + " 3";
+}
+
 }  // namespace
 
 void write_xdmf(const std::filesystem::path& xdmf_path, const std::string& h5_name,
@@ -339,7 +350,7 @@ void write_xdmf(const std::filesystem::path& xdmf_path, const std::string& h5_na
   std::size_t largest = 1;  // the length of /vertex_index (H5Writer::write_vertex_index)
   for (const SnapshotInfo& s : snapshots) largest = std::max(largest, s.particle_count);
   for (const SnapshotInfo& s : snapshots) {
-    const std::string n = std::to_string(s.particle_count), n3 = n + " 3";
+    const std::string n = std::to_string(s.particle_count), n3 = vector_dimensions(s);
     // One vertex cell per particle (Polyvertex, one node each): ParaView's default reader
     // draws them as soon as the file is opened.
     out << "   <Grid Name=\"" << s.group.substr(s.group.rfind('/') + 1)
