@@ -201,8 +201,8 @@ const std::vector<VerbHelp>& verb_help() {
       {"status",
        "the server's studies, or one study's progress",
        "millsim status [STUDY] [--watch] [--format table|json|csv] [--server URL]",
-       "Without a study: every study with its progress. With one: its progress by state and "
-       "its runs.",
+       "Without a study: the newest 100 studies with their progress, newest first. With one: "
+       "its progress by state and its runs.",
        {kServer,
         kToken,
         {"--watch", "off", "follow the study until it finishes"},
