@@ -113,7 +113,10 @@ const std::vector<VerbHelp>& verb_help() {
        "table|json|csv] [--resume STUDY_ID] [--executor local|slurm]",
        "Expands and validates the study, records it in the SQLite file, runs its runs as `millsim "
        "run` children and prints the results table: each run's error against the reference run "
-       "and its run time. Writes DIR/<study>/results.json, results.csv and error_vs_time.svg.",
+       "and its run time. Writes DIR/<study>/results.json, results.csv, error_vs_time.svg (with a "
+       "reference run) and psd.svg (every run's outlet PSD, when the runs have one). With "
+       "--executor slurm, the study file's \"slurm\" key sets its batch jobs' options: "
+       "partition, account, qos and sbatch_args (docs/studies.md, \"On Slurm\").",
        {{"--local", "required", "run here (the server's queue is `millsim submit`)"},
         {"--db FILE", "out/millsim.db", "the SQLite file of studies and runs"},
         {"--out DIR", "out/studies", "run directories and results"},
@@ -208,8 +211,8 @@ const std::vector<VerbHelp>& verb_help() {
       {"status",
        "the server's studies, or one study's progress",
        "millsim status [STUDY] [--watch] [--format table|json|csv] [--server URL]",
-       "Without a study: every study with its progress. With one: its progress by state and "
-       "its runs.",
+       "Without a study: the newest 100 studies with their progress, newest first. With one: "
+       "its progress by state and its runs.",
        {kServer,
         kToken,
         {"--watch", "off", "follow the study until it finishes"},

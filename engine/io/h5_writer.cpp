@@ -3,8 +3,11 @@
 #include <hdf5.h>
 
 #include <algorithm>
+#include <charconv>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <iterator>
 #include <string_view>
 #include <utility>
 
@@ -17,13 +20,58 @@ void check(herr_t status, const std::string& what, const std::filesystem::path& 
   if (status < 0) throw IoError("HDF5: " + what + " failed in " + path.string());
 }
 
+// A variable-length UTF-8 string: h5py reads it as str (a fixed-length one comes back as bytes,
+// and `attrs['units'] == 'm'` is then False).
 void write_string_attribute(hid_t object, const char* name, const std::string& value) {
   const hid_t type = H5Tcopy(H5T_C_S1);
-  H5Tset_size(type, value.size() + 1);
+  H5Tset_size(type, H5T_VARIABLE);
+  H5Tset_cset(type, H5T_CSET_UTF8);
   const hid_t space = H5Screate(H5S_SCALAR);
   const hid_t attr = H5Acreate2(object, name, type, space, H5P_DEFAULT, H5P_DEFAULT);
-  H5Awrite(attr, type, value.c_str());
+  const char* text = value.c_str();
+  H5Awrite(attr, type, &text);
   H5Aclose(attr), H5Sclose(space), H5Tclose(type);
+}
+
+void write_uint64_attribute(hid_t object, const char* name, std::uint64_t value) {
+  const hid_t space = H5Screate(H5S_SCALAR);
+  const hid_t attr = H5Acreate2(object, name, H5T_STD_U64LE, space, H5P_DEFAULT, H5P_DEFAULT);
+  H5Awrite(attr, H5T_NATIVE_UINT64, &value);
+  H5Aclose(attr), H5Sclose(space);
+}
+
+// The /meta fields that are numbers, not text: the scene's seed (an unsigned 64-bit integer).
+bool is_integer_meta_field(std::string_view name) {
+  return name == "seed";
+}
+
+// The columns that count things (particles, contacts, events, outlet particles): stored as
+// unsigned 64-bit integers. The dust table's dust_count is an equivalent number (its mass over
+// that of a sphere of the class size), a fraction, and stays a double like every other column.
+bool is_count_column(std::string_view name) {
+  static constexpr std::string_view kCounts[] = {"particles", "contact_pairs", "wall_contacts",
+                                                 "breakage_events", "outlet_count"};
+  return std::find(std::begin(kCounts), std::end(kCounts), name) != std::end(kCounts);
+}
+
+// A count held as a double, back to the integer it is; throws on a value that is not one.
+std::vector<std::uint64_t> counts_of(const std::string& name, const std::vector<double>& values) {
+  std::vector<std::uint64_t> counts(values.size());
+  for (std::size_t k = 0; k < values.size(); ++k) {
+    if (!(values[k] >= 0.0) || values[k] != std::floor(values[k]) || values[k] >= 0x1p64)
+      throw IoError("HDF5: column " + name + " holds " + std::to_string(values[k]) + " at " +
+                    std::to_string(k) + ", not a count");
+    counts[k] = std::uint64_t(values[k]);
+  }
+  return counts;
+}
+
+std::uint64_t parse_uint64(const std::string& name, const std::string& text) {
+  std::uint64_t value = 0;
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (error != std::errc() || end != text.data() + text.size())
+    throw IoError("HDF5: /meta " + name + " = \"" + text + "\" is not an unsigned integer");
+  return value;
 }
 
 bool ends_with(std::string_view s, std::string_view suffix) {
@@ -94,7 +142,17 @@ void H5Writer::write_root_attribute(const std::string& name, const std::string& 
 void H5Writer::write_meta(const std::vector<std::pair<std::string, std::string>>& fields) {
   const hid_t g = H5Gcreate2(file_, "/meta", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
   if (g < 0) throw IoError("HDF5: cannot create /meta in " + path_.string());
-  for (const auto& [name, value] : fields) write_string_attribute(g, name.c_str(), value);
+  try {
+    for (const auto& [name, value] : fields) {
+      if (is_integer_meta_field(name))
+        write_uint64_attribute(g, name.c_str(), parse_uint64(name, value));
+      else
+        write_string_attribute(g, name.c_str(), value);
+    }
+  } catch (...) {
+    H5Gclose(g);
+    throw;
+  }
   H5Gclose(g);
 }
 
@@ -258,10 +316,21 @@ void H5Writer::write_columns(const std::string& group, const std::vector<std::st
                              const std::vector<std::vector<double>>& columns) {
   const hid_t g = H5Gcreate2(file_, group.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
   if (g < 0) throw IoError("HDF5: cannot create " + group + " in " + path_.string());
-  for (std::size_t c = 0; c < names.size(); ++c) {
-    const hsize_t dims[1] = {columns[c].size()};
-    write_dataset(g, names[c].c_str(), H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, 1, dims,
-                  columns[c].data(), path_);
+  try {
+    for (std::size_t c = 0; c < names.size(); ++c) {
+      const hsize_t dims[1] = {columns[c].size()};
+      if (is_count_column(names[c])) {
+        const std::vector<std::uint64_t> counts = counts_of(names[c], columns[c]);
+        write_dataset(g, names[c].c_str(), H5T_NATIVE_UINT64, H5T_STD_U64LE, 1, dims, counts.data(),
+                      path_);
+      } else {
+        write_dataset(g, names[c].c_str(), H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, 1, dims,
+                      columns[c].data(), path_);
+      }
+    }
+  } catch (...) {
+    H5Gclose(g);
+    throw;
   }
   H5Gclose(g);
 }
@@ -312,6 +381,17 @@ void close_xdmf(std::ofstream& out, const std::filesystem::path& path) {
   if (!out) throw IoError("cannot write " + path.string());
 }
 
+// The XDMF Dimensions of a snapshot's N×3 datasets (position, velocity, angular_velocity).
+// An empty snapshot (a fed case before its first particle, or after the last has left) stays a
+// time step of the particle collection, so that ParaView shows no particles at that time rather
+// than the nearest non-empty frame; but its N×3 items are described flat, as "0". ParaView's
+// Xdmf3 reader divides an array's size by the product of its leading dimensions when it reads
+// that array again (XdmfArray::getDimensions), and "0 3" makes that a division by zero: SIGFPE
+// on the first frame revisited (stepping back, looping). A flat "0" names the same zero values.
+std::string vector_dimensions(const SnapshotInfo& s) {
+  return s.particle_count == 0 ? "0" : std::to_string(s.particle_count) + " 3";
+}
+
 }  // namespace
 
 void write_xdmf(const std::filesystem::path& xdmf_path, const std::string& h5_name,
@@ -339,7 +419,7 @@ void write_xdmf(const std::filesystem::path& xdmf_path, const std::string& h5_na
   std::size_t largest = 1;  // the length of /vertex_index (H5Writer::write_vertex_index)
   for (const SnapshotInfo& s : snapshots) largest = std::max(largest, s.particle_count);
   for (const SnapshotInfo& s : snapshots) {
-    const std::string n = std::to_string(s.particle_count), n3 = n + " 3";
+    const std::string n = std::to_string(s.particle_count), n3 = vector_dimensions(s);
     // One vertex cell per particle (Polyvertex, one node each): ParaView's default reader
     // draws them as soon as the file is opened.
     out << "   <Grid Name=\"" << s.group.substr(s.group.rfind('/') + 1)

@@ -10,7 +10,11 @@
 //          /timeseries/<column> (one 1-D dataset per column; "time_s" first)
 //          /psd/<column> (outlet PSD, when the scene has outlets or breakage: edges_m, outlet and
 //                         dust count and mass per class, product cumulative mass)
+//          /meta attributes: the scene as given, its seed, the build
 //          root attributes: scene, millsim_version
+// Types: every string attribute (units, names, /meta) is a variable-length UTF-8 string; the
+// seed is a uint64 attribute; the columns that count things (particles, contact_pairs,
+// wall_contacts, breakage_events, outlet_count) are uint64 datasets; the rest are doubles.
 #pragma once
 
 #include <array>
@@ -66,13 +70,15 @@ class H5Writer {
   void write_geometry(const SurfaceMesh& mesh);
   void write_timeseries(const std::vector<std::string>& names,
                         const std::vector<std::vector<double>>& columns);
-  // One 1-D double dataset per name under a new group (e.g. "/psd").
+  // One 1-D dataset per name under a new group (e.g. "/psd"): uint64 for a count column (its
+  // values must be whole numbers; IoError otherwise), double for the rest.
   void write_columns(const std::string& group, const std::vector<std::string>& names,
                      const std::vector<std::vector<double>>& columns);
   // /vertex_index: 0, 1, …, up to the largest snapshot's particle count, the connectivity every
   // snapshot's vertex cells take a slice of in run.xdmf. Call once, after the last snapshot.
   void write_vertex_index();
-  // /meta: one string attribute per field (the scene as given, the seed, the build).
+  // /meta: one attribute per field (the scene as given, the seed, the build): a string, but the
+  // seed a uint64 (its text must be an unsigned integer; IoError otherwise).
   void write_meta(const std::vector<std::pair<std::string, std::string>>& fields);
   void close();  // flushes; throws IoError on failure
   // Flushes what is written so far to disk (at a checkpoint, so the file is readable up to it).

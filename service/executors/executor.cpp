@@ -73,11 +73,15 @@ ExecHandle LocalExecutor::start(const RunRecord& run, double now) {
     setpgid(0, 0);
     prctl(PR_SET_PDEATHSIG, SIGKILL);  // dies with its worker (no orphan writing the directory)
     if (chdir(dir.c_str()) != 0) _exit(4);
+    // log.txt is the run's log: its stderr (thermo lines, messages). Its stdout carries only the
+    // JSON summary, result.json's copy, which would otherwise be the tail of a finished run's log.
     const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-    if (fd < 0) _exit(4);
-    dup2(fd, STDOUT_FILENO);
+    const int null_fd = open("/dev/null", O_WRONLY);
+    if (fd < 0 || null_fd < 0) _exit(4);
+    dup2(null_fd, STDOUT_FILENO);
     dup2(fd, STDERR_FILENO);
     close(fd);
+    close(null_fd);
 #ifndef __SANITIZE_ADDRESS__  // ASan reserves terabytes of address space for its shadow
     const struct rlimit limit = {memory, memory};
     setrlimit(RLIMIT_AS, &limit);

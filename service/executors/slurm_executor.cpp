@@ -60,8 +60,10 @@ std::string requeue_script(const std::filesystem::path& binary, const RunRecord&
   const std::string root =
       run.files_root.empty() ? "" : " --files-root " + shell_quoted(run.files_root);
   const std::string cache = " --spin-up-cache " + shell_quoted(spin_up_cache_dir(run).string());
+  // The summary on stdout is result.json's copy: kept out of log.txt (the job's output), as
+  // under the local executor, so the log ends with the run's thermo lines.
   return shell_quoted(binary.string()) + " run scene.json --out . --quiet --resume" + root + cache +
-         " & pid=$!; stopped=0; "
+         " >/dev/null & pid=$!; stopped=0; "
          "trap 'stopped=1; kill -USR1 $pid 2>/dev/null' USR1; "
          "wait $pid; rc=$?; while kill -0 $pid 2>/dev/null; do wait $pid; rc=$?; done; "
          "if [ $stopped = 1 ] && [ $rc = 138 ] && [ -n \"$SLURM_JOB_ID\" ]; then "

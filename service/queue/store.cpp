@@ -335,7 +335,9 @@ std::optional<StudyRecord> Store::study(const std::string& id) {
 
 std::vector<StudyRecord> Store::studies(int limit, int offset) {
   std::vector<StudyRecord> out;
-  Statement s = db_.prepare("SELECT id FROM studies ORDER BY created_at, id LIMIT ? OFFSET ?");
+  // Newest first, like the regression history: the first page is what is going on now.
+  Statement s =
+      db_.prepare("SELECT id FROM studies ORDER BY created_at DESC, id DESC LIMIT ? OFFSET ?");
   s.bind(1, std::int64_t(limit)).bind(2, std::int64_t(offset));
   while (s.step()) out.push_back(*study(s.text(0)));
   return out;

@@ -133,7 +133,7 @@ class Store {
   void cancel_study(const std::string& study_id, double now);
 
   std::optional<StudyRecord> study(const std::string& id);
-  std::vector<StudyRecord> studies(int limit, int offset);
+  std::vector<StudyRecord> studies(int limit, int offset);  // newest first
   std::optional<RunRecord> run(const std::string& id);
   std::vector<AttemptRecord> attempts(const std::string& run_id);
   std::vector<RunRecord> runs(const std::string& study_id,

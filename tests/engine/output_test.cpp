@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "io/h5_writer.h"
 #include "sim/run.h"
 #include "support/scenes.h"
 
@@ -72,6 +73,28 @@ TEST(Output, RunWritesSnapshotsTimeSeriesXdmfAndSummary) {
   EXPECT_EQ(summary["status"], "ok");
   EXPECT_EQ(summary["steps"], sim.step_index());
   EXPECT_FALSE(std::filesystem::exists(dir.path() / "run.h5.partial"));
+}
+
+// An empty snapshot (a fed case before its first particle) stays a time step of run.xdmf, and
+// none of its items has a zero leading dimension such as "0 3": ParaView's Xdmf3 reader divides
+// by that product when it reads the frame again (SIGFPE on stepping back; the real reader is run
+// in tests/integration/paraview_test.cpp).
+TEST(Output, EmptySnapshotIsAFrameWithoutZeroLeadingDimensions) {
+  test::TempDir dir;
+  const std::vector<SnapshotInfo> snapshots = {{"/snapshots/s000000000", 0, 0.0, 0},
+                                               {"/snapshots/s000000010", 10, 1e-4, 2}};
+  write_xdmf(dir.path() / "run.xdmf", "run.h5", snapshots);
+  std::ifstream in(dir.path() / "run.xdmf");
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string xdmf = text.str();
+  const std::size_t second = xdmf.find("<Grid Name=\"s000000010\"");
+  ASSERT_NE(second, std::string::npos);
+  const std::string empty = xdmf.substr(0, second), full = xdmf.substr(second);
+  EXPECT_NE(empty.find("<Time Value=\"0\"/>"), std::string::npos);
+  EXPECT_NE(empty.find("s000000000/position"), std::string::npos);
+  EXPECT_EQ(empty.find("Dimensions=\"0 "), std::string::npos) << empty;
+  EXPECT_NE(full.find("Dimensions=\"2 3\""), std::string::npos) << full;
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 #include <regex>
 #include <set>
 
+#include "studies/study.h"
 #include "support/process.h"
 #include "support/scenes.h"
 
@@ -78,6 +79,54 @@ TEST(CliHelp, HelpOnHelpAndAStudyWithoutLocalPointTheWay) {
       "run " MILLSIM_SOURCE_DIR "/cases/impact_two_spheres.json --out", dir.path());
   EXPECT_EQ(run.exit_code, 2);
   EXPECT_NE(run.err.find("--out needs a value"), std::string::npos) << run.err;
+}
+
+// `study --help` is true to what a study does: every file a local study writes beside its run
+// directories (results.json, results.csv, error_vs_time.svg, psd.svg) is named, and so is the
+// study file's `slurm` key with every field the study parser accepts in it (and no other).
+TEST(CliHelp, StudyHelpNamesEveryFileItWritesAndTheSlurmKey) {
+  test::TempDir dir;
+  const test::CommandResult help = test::run_millsim("study --help", dir.path());
+  ASSERT_EQ(help.exit_code, 0) << help.err;
+
+  // Two short attrition runs, fed just above the outlet plane so that particles leave within
+  // the run: an outlet PSD each, and a reference run.
+  std::ifstream in(MILLSIM_SOURCE_DIR "/cases/attrition_target.json");
+  nlohmann::json scene = nlohmann::json::parse(in);
+  scene["feeds"][0]["region"] = {{"min_m", {0.0002, 0, 0.0002}}, {"max_m", {0.001, 0.002, 0.0006}}};
+  scene["feeds"][0]["velocity_m_per_s"] = {0, 0, -8};
+  const nlohmann::json study = {
+      {"name", "attrition"},
+      {"scene", scene},
+      {"set", {{"time.end_s", 1.5e-4}, {"output.h5", false}}},
+      {"parameters", {{{"path", "dust.threshold_diameter_m"}, {"values", {1e-4, 8e-5}}}}},
+      {"reference", {{"dust.threshold_diameter_m", 8e-5}}}};
+  test::write_file(dir.path() / "study.json", study.dump());
+  const test::CommandResult r = test::run_millsim(
+      "study study.json --local --db q.db --out runs --workers 2 --format json", dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  const std::string study_id = nlohmann::json::parse(r.out)["study"];
+  std::set<std::string> written;
+  for (const auto& entry : std::filesystem::directory_iterator(dir.path() / "runs" / study_id))
+    if (entry.is_regular_file()) written.insert(entry.path().filename().string());
+  EXPECT_TRUE(written.count("psd.svg")) << "the runs have outlet PSDs";
+  for (const std::string& file : written)
+    EXPECT_NE(help.out.find(file), std::string::npos) << file << " is not in:\n" << help.out;
+
+  // The slurm key: the fields the help names are accepted, and an unnamed one is refused.
+  EXPECT_NE(help.out.find("\"slurm\""), std::string::npos) << help.out;
+  nlohmann::json slurm = nlohmann::json::object();
+  for (const char* field : {"partition", "account", "qos", "sbatch_args"}) {
+    EXPECT_NE(help.out.find(field), std::string::npos) << field << " is not in:\n" << help.out;
+    slurm[field] = std::string(field) == "sbatch_args" ? nlohmann::json::array({"--time=240"})
+                                                       : nlohmann::json("short");
+  }
+  SlurmOptions options;
+  InputErrors errors;
+  parse_slurm(slurm, options, errors);
+  EXPECT_TRUE(errors.empty()) << errors.front().path;
+  parse_slurm({{"nodes", 2}}, options, errors);
+  EXPECT_FALSE(errors.empty()) << "the parser takes a field the help does not name";
 }
 
 TEST(CliHelp, TheManPageIsValidRoffNamingEveryVerb) {

@@ -309,16 +309,56 @@ TEST(CliRun, BatchLogsGetThermoLines) {
 
 namespace {
 
-// A string attribute of an HDF5 object ("" when absent).
+// A string attribute of an HDF5 object ("" when absent), which must be stored as a
+// variable-length UTF-8 string: h5py reads that as str (a fixed-length one as bytes, so that
+// `attrs['units'] == 'm'` would be False).
 std::string string_attribute(hid_t object, const char* name) {
   if (H5Aexists(object, name) <= 0) return "";
   const hid_t attr = H5Aopen(object, name, H5P_DEFAULT);
   const hid_t type = H5Aget_type(attr);
-  std::string value(H5Tget_size(type), '\0');
-  H5Aread(attr, type, value.data());
+  std::string value;
+  const bool variable_utf8 = H5Tget_class(type) == H5T_STRING && H5Tis_variable_str(type) > 0 &&
+                             H5Tget_cset(type) == H5T_CSET_UTF8;
+  EXPECT_TRUE(variable_utf8) << name << " is not a variable-length UTF-8 string";
+  if (variable_utf8) {
+    char* text = nullptr;
+    H5Aread(attr, type, &text);
+    if (text) value = text;
+    H5free_memory(text);
+  }
   H5Tclose(type);
   H5Aclose(attr);
-  return value.substr(0, value.find('\0'));
+  return value;
+}
+
+// An attribute that must be an unsigned 64-bit integer (0 when it is not).
+std::uint64_t uint64_attribute(hid_t object, const char* name) {
+  if (H5Aexists(object, name) <= 0) return 0;
+  const hid_t attr = H5Aopen(object, name, H5P_DEFAULT);
+  const hid_t type = H5Aget_type(attr);
+  std::uint64_t value = 0;
+  const bool uint64 = H5Tget_class(type) == H5T_INTEGER && H5Tget_sign(type) == H5T_SGN_NONE &&
+                      H5Tget_size(type) == 8;
+  EXPECT_TRUE(uint64) << name << " is not an unsigned 64-bit integer";
+  if (uint64) H5Aread(attr, H5T_NATIVE_UINT64, &value);
+  H5Tclose(type);
+  H5Aclose(attr);
+  return value;
+}
+
+// A 1-D dataset's type class (H5T_INTEGER, H5T_FLOAT) and its values, read as doubles.
+std::pair<H5T_class_t, std::vector<double>> column(hid_t file, const std::string& name) {
+  const hid_t set = H5Dopen2(file, name.c_str(), H5P_DEFAULT);
+  if (set < 0) return {H5T_NO_CLASS, {}};
+  const hid_t type = H5Dget_type(set), space = H5Dget_space(set);
+  std::vector<double> values(
+      std::size_t(std::max<hssize_t>(0, H5Sget_simple_extent_npoints(space))));
+  H5Dread(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data());
+  const H5T_class_t type_class = H5Tget_class(type);
+  H5Sclose(space);
+  H5Tclose(type);
+  H5Dclose(set);
+  return {type_class, values};
 }
 
 }  // namespace
@@ -374,7 +414,7 @@ TEST(CliRun, RunFilesDescribeThemselves) {
   const hid_t meta = H5Gopen2(file, "/meta", H5P_DEFAULT);
   ASSERT_GE(meta, 0);
   EXPECT_EQ(string_attribute(meta, "scene_json"), text);
-  EXPECT_EQ(string_attribute(meta, "seed"), std::to_string(scene["seed"].get<int>()));
+  EXPECT_EQ(uint64_attribute(meta, "seed"), scene["seed"].get<std::uint64_t>());
   EXPECT_EQ(string_attribute(meta, "millsim_version"),
             nlohmann::json::parse(r.out)["millsim_version"]);
   EXPECT_FALSE(string_attribute(meta, "git_commit").empty());
@@ -384,6 +424,23 @@ TEST(CliRun, RunFilesDescribeThemselves) {
     names += std::to_string(m) + " " + scene["materials"][m]["name"].get<std::string>() + "\n";
   EXPECT_EQ(string_attribute(meta, "materials"), names);
   H5Gclose(meta);
+
+  // Counts are integers, equal to the run's own summary; the dust table's count is an equivalent
+  // number (its mass over a sphere's at the class size), a fraction, and stays a float.
+  const nlohmann::json result = nlohmann::json::parse(r.out);
+  for (const char* name :
+       {"/timeseries/particles", "/timeseries/contact_pairs", "/timeseries/wall_contacts",
+        "/timeseries/breakage_events", "/psd/outlet_count"})
+    EXPECT_EQ(column(file, name).first, H5T_INTEGER) << name;
+  EXPECT_EQ(column(file, "/timeseries/particles").second.back(),
+            result["particles"]["final"].get<double>());
+  EXPECT_EQ(column(file, "/timeseries/breakage_events").second.back(),
+            result["breakage"]["events"].get<double>());
+  double outlet_count = 0.0;
+  for (double n : column(file, "/psd/outlet_count").second) outlet_count += n;
+  EXPECT_EQ(outlet_count, result["outlet_particles"]["count"].get<double>());
+  EXPECT_EQ(column(file, "/psd/dust_count").first, H5T_FLOAT);
+  EXPECT_EQ(column(file, "/timeseries/time_s").first, H5T_FLOAT);
   H5Fclose(file);
 }
 

@@ -1035,9 +1035,11 @@ TEST(Service, EveryResponseConformsToTheOpenApiSpec) {
 }
 
 // The dashboard at / in a real headless Chromium (tests/web/dashboard_check.py drives it over
-// the DevTools protocol): the studies with their progress, a submit with the token typed into
-// the page, a cancel, a finished study's results and plots, and a run's PSD and log tail. What
-// the page shows is checked against the API; a study's name with markup in it stays text.
+// the DevTools protocol): the studies with their progress, newest first, a submit with the token
+// typed into the page, a cancel refused with a wrong token (its error kept through refreshes
+// until dismissed), a cancel not confirmed and one confirmed, a finished study's results and
+// plots, and a run's PSD (with its axis titles) and log tail (the thermo lines). What the page
+// shows is checked against the API; a study's name with markup in it stays text.
 TEST(Dashboard, ChromiumShowsStudiesSubmitsAndCancels) {
   if (test::run_shell("command -v chromium >/dev/null").exit_code != 0)
     GTEST_SKIP() << "chromium is not installed (Debian chromium)";
@@ -1071,6 +1073,16 @@ TEST(Dashboard, ChromiumShowsStudiesSubmitsAndCancels) {
   EXPECT_EQ(api_study["name"], slow["name"]);
   EXPECT_EQ(seen["submitted_rows"], 3);
   EXPECT_EQ(api_study["progress"]["total"], 3);
+  // A refused cancel: its error stays through refreshes until dismissed; the page asked first.
+  EXPECT_NE(seen["refused_notice"].get<std::string>().find("HTTP 401"), std::string::npos)
+      << seen["refused_notice"];
+  EXPECT_TRUE(seen["refreshed"].get<bool>()) << "the page refreshed while the error was shown";
+  EXPECT_EQ(seen["refused_notice_after_refreshes"], seen["refused_notice"]);
+  EXPECT_TRUE(seen["notice_dismissed"].get<bool>());
+  EXPECT_NE(seen["confirm_question"].get<std::string>().find("Cancel study " + submitted),
+            std::string::npos)
+      << seen["confirm_question"];
+  EXPECT_FALSE(seen["canceled_when_not_confirmed"].get<bool>());
   EXPECT_TRUE(seen["canceled_shown"].get<bool>());
   EXPECT_TRUE(api_study["canceled"].get<bool>());
 
@@ -1093,7 +1105,19 @@ TEST(Dashboard, ChromiumShowsStudiesSubmitsAndCancels) {
   EXPECT_NE(seen["run_details"]["title"].get<std::string>().find(first_run), std::string::npos);
   EXPECT_EQ(seen["run_details"]["psd_points"], psd["edges_m"].size());
   EXPECT_NE(seen["run_details"]["psd"].get<std::string>().find("d50"), std::string::npos);
-  EXPECT_GT(seen["run_details"]["log_tail"].get<int>(), 0);
+  // The axis titles say what the plot shows: the mass finer than each edge against diameter.
+  const std::set<std::string> psd_texts = seen["run_details"]["psd_texts"];
+  EXPECT_TRUE(psd_texts.count("particle diameter (µm), log scale")) << seen["run_details"];
+  EXPECT_TRUE(psd_texts.count("cumulative mass fraction")) << seen["run_details"];
+  // The log tail is the run's thermo lines, not the end of its JSON summary.
+  const std::string log_tail = seen["run_details"]["log_tail"];
+  EXPECT_NE(log_tail.find("KinEng_J"), std::string::npos) << log_tail;
+  EXPECT_EQ(log_tail.find('{'), std::string::npos) << log_tail;
+
+  // The list is newest first: the study submitted through the page, then the finished one.
+  ASSERT_EQ(seen["studies_after"].size(), 2u) << seen["studies_after"];
+  EXPECT_EQ(seen["studies_after"][0]["id"], submitted);
+  EXPECT_EQ(seen["studies_after"][1]["id"], finished);
 
   // Markup in a name is shown as the text it is.
   bool found = false;

@@ -1,7 +1,9 @@
 """Opens a run's XDMF with ParaView's default reader, as a user pressing Apply would, and prints
 what it shows as JSON: the reader, the time steps, and at each time, for each block (particles,
-gas, geometry), its points, cells, point arrays and cell arrays. Run with pvpython (under
-xvfb-run on a machine without a display).
+gas, geometry), its points, cells, point arrays and cell arrays. The frames are visited forward
+("steps") and then backward, last to first ("backward"), as a user stepping back or looping the
+animation does: the reader must open every frame again. Run with pvpython (under xvfb-run on a
+machine without a display).
 
 usage: pvpython read_xdmf.py RUN.xdmf
 """
@@ -42,11 +44,16 @@ def blocks(data, name, out):
 
 reader = OpenDataFile(sys.argv[1])
 times = list(reader.TimestepValues) if reader.TimestepValues else [0.0]
-steps = []
-for t in times:
+
+
+def visit(t):
     # The proxy's own UpdatePipeline: paraview.simple's drops a time of 0.0 (it tests `if time`).
     reader.UpdatePipeline(t)
     found = {}
     blocks(servermanager.Fetch(reader), "data", found)
-    steps.append({"time": t, "blocks": found})
-print(json.dumps({"reader": reader.GetXMLName(), "steps": steps}))
+    return {"time": t, "blocks": found}
+
+
+steps = [visit(t) for t in times]
+backward = [visit(t) for t in reversed(times)]
+print(json.dumps({"reader": reader.GetXMLName(), "steps": steps, "backward": backward}))

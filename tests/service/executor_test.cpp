@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cstdlib>
 #include <thread>
+#include <utility>
 
 #include "executors/executor.h"
 #include "support/process.h"
@@ -18,14 +19,12 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Runs `run` through a LocalExecutor whose "engine" is a script writing what it got; returns
-// that record ("" when the script never ran).
-std::string what_the_engine_got(const fs::path& dir, RunRecord run) {
+// Runs `run` through a LocalExecutor whose "engine" is `script_body` (a shell script run in the
+// run's directory); returns run/`record` ("" when the run did not end within 30 s).
+std::string run_stand_in_engine(const fs::path& dir, RunRecord run, const std::string& script_body,
+                                const std::string& record) {
   const fs::path script = dir / "engine.sh";
-  test::write_file(script,
-                   "#!/bin/sh\n"
-                   "echo \"args: $*\" > got.txt\n"
-                   "env >> got.txt\n");
+  test::write_file(script, "#!/bin/sh\n" + script_body);
   fs::permissions(script, fs::perms::owner_all);
   LocalExecutor executor(script);
   run.id = "s000001-r0";
@@ -43,7 +42,16 @@ std::string what_the_engine_got(const fs::path& dir, RunRecord run) {
     executor.cancel(handle, 1e9);
     return "";
   }
-  return test::read_file(dir / "run" / "got.txt");
+  return test::read_file(dir / "run" / record);
+}
+
+// Runs `run` through a LocalExecutor whose "engine" is a script writing what it got; returns
+// that record ("" when the script never ran).
+std::string what_the_engine_got(const fs::path& dir, RunRecord run) {
+  return run_stand_in_engine(dir, std::move(run),
+                             "echo \"args: $*\" > got.txt\n"
+                             "env >> got.txt\n",
+                             "got.txt");
 }
 
 // The runs of one study share their gas spin-up: the cache is in the study's directory, beside
@@ -76,6 +84,19 @@ TEST(LocalExecutor, TheEngineGetsTheFilesRootAndNotTheToken) {
                           cache_arg(local.path()) + "\n"),
             std::string::npos)
       << unrooted;
+}
+
+// log.txt is the run's log (its thermo lines and messages on stderr), which the API's log tail
+// and the dashboard show: the JSON summary `millsim run` prints on stdout is result.json's copy
+// and stays out of it, or a finished run's tail would be the end of that JSON.
+TEST(LocalExecutor, TheRunLogHoldsStderrNotTheSummaryOnStdout) {
+  test::TempDir dir;
+  const std::string log = run_stand_in_engine(dir.path(), RunRecord{},
+                                              "echo '      Step   Time_s' >&2\n"
+                                              "echo '{\"status\": \"ok\"}'\n"
+                                              "echo '       100    1e-05' >&2\n",
+                                              "log.txt");
+  EXPECT_EQ(log, "      Step   Time_s\n       100    1e-05\n");
 }
 
 }  // namespace

@@ -46,6 +46,20 @@ TEST(Store, SchemaIsVersionedAndSubmissionIsIdempotent) {
   EXPECT_EQ(again.progress(a.study_id).count(RunState::Queued), 3);
 }
 
+// The studies are listed newest first (the dashboard and `millsim status` show the first page),
+// and the pages follow that order.
+TEST(Store, StudiesAreListedNewestFirst) {
+  test::TempDir dir;
+  Store store(dir.path() / "q.db");
+  std::vector<std::string> submitted;
+  for (double now : {1.0, 2.0, 3.0})
+    submitted.push_back(store.submit(trivial_study(1), std::nullopt, dir.path(), now).study_id);
+  std::vector<std::string> listed;
+  for (int offset : {0, 2})
+    for (const StudyRecord& st : store.studies(2, offset)) listed.push_back(st.id);
+  EXPECT_EQ(listed, (std::vector<std::string>{submitted[2], submitted[1], submitted[0]}));
+}
+
 // A version-1 file (before the regression history) opens, keeps its studies and gains the
 // history table; records are listed newest first and by suite.
 TEST(Store, VersionOneFilesMigrateAndKeepTheRegressionHistory) {

@@ -140,7 +140,45 @@ def main():
             "? location.hash : ''")
         seen["submitted_rows"] = page.js("document.querySelectorAll('#results tr.clickable').length")
 
-        # Cancel it from its page.
+        study_id = seen["submitted_hash"][len("#/studies/"):]
+
+        def api_study():
+            with urllib.request.urlopen(f"{url}/v1/studies/{study_id}", timeout=30) as r:
+                return json.load(r)
+
+        def set_token(value):
+            page.js(f"document.getElementById('token').value = {json.dumps(value)};"
+                    "document.getElementById('token').dispatchEvent(new Event('change')); true")
+
+        # A Cancel refused by the server (a wrong token: 401) stays on the page through the
+        # refreshes (every 3 s) until it is dismissed. The page asks before it cancels.
+        page.js("window.confirm = (m) => { window.askedToConfirm = m; return true; }; true")
+        set_token("wrong-token")
+        page.wait("document.querySelector('button.cancel') !== null")
+        page.js("document.querySelector('button.cancel').click(); true")
+        seen["refused_notice"] = page.wait(
+            "document.getElementById('notice') ? document.getElementById('notice').textContent : ''"
+        ) or ""
+        seen["confirm_question"] = page.js("window.askedToConfirm || ''")
+        page.js("document.getElementById('results').dataset.beforeRefresh = '1'; true")
+        time.sleep(7)
+        seen["refreshed"] = page.js(
+            "document.getElementById('results') !== null && "
+            "document.getElementById('results').dataset.beforeRefresh === undefined")
+        seen["refused_notice_after_refreshes"] = page.js(
+            "document.getElementById('notice') ? document.getElementById('notice').textContent : ''")
+        page.js("const dismiss = document.querySelector('#notice button.dismiss');"
+                "if (dismiss) dismiss.click(); true")
+        seen["notice_dismissed"] = bool(page.wait("document.getElementById('notice') === null"))
+
+        # With the token: a Cancel the user does not confirm sends nothing; a confirmed one cancels.
+        set_token(token)
+        page.js("window.confirm = () => false; true")
+        page.wait("document.querySelector('button.cancel') !== null")
+        page.js("document.querySelector('button.cancel').click(); true")
+        time.sleep(1)
+        seen["canceled_when_not_confirmed"] = api_study()["canceled"]
+        page.js("window.confirm = () => true; true")
         page.wait("document.querySelector('button.cancel') !== null")
         page.js("document.querySelector('button.cancel').click(); true")
         seen["canceled_shown"] = bool(page.wait(
@@ -166,7 +204,8 @@ def main():
             ".match(/outlet PSD: d10 [^µ]*µm, d50 [^µ]*µm, d90 [^µ]*µm/) || [''])[0],"
             "psd_points: document.querySelector('#run-details svg.psd polyline') ? "
             "document.querySelector('#run-details svg.psd polyline').getAttribute('points').split(' ').length : 0,"
-            "log_tail: document.getElementById('log-tail').textContent.length} : null")
+            "psd_texts: Array.from(document.querySelectorAll('#run-details svg.psd text')).map(t => t.textContent),"
+            "log_tail: document.getElementById('log-tail').textContent} : null")
 
         # Back to the list: the submitted study's name, whatever it holds, is text.
         page.js("location.hash = '#/'; true")

@@ -10,9 +10,13 @@ const kStates = ["COMPLETE", "RUNNING", "CANCELING", "QUEUED", "EXECUTOR_ERROR",
 let selectedRun = null;  // the run whose details are open on the study page
 let refreshTimer = null;
 let submitSection = null;  // built once, so a refresh keeps what is typed in it
+// An error of the user's last action (e.g. a 401 on Cancel): shown on every refresh until it is
+// dismissed or the user does something else (navigates, clicks a run, submits, types a token).
+let notice = null;
 
 tokenInput.value = sessionStorage.getItem("millsim-token") || "";
 tokenInput.addEventListener("change", () => {
+  notice = null;
   sessionStorage.setItem("millsim-token", tokenInput.value);
   route();
 });
@@ -73,6 +77,12 @@ function message(text, ok = false) {
   return el("div", { class: ok ? "message ok" : "message" }, text);
 }
 
+// The kept error, with a button that dismisses it.
+function noticeBox() {
+  const dismiss = el("button", { class: "dismiss", onclick: () => { notice = null; route(); } }, "Dismiss");
+  return el("div", { id: "notice", class: "message" }, notice, " ", dismiss);
+}
+
 // An SVG plot from the API, fetched with the token so it works where reads need one.
 async function plot(path, alt) {
   const response = await fetch(path, { headers: headers() });
@@ -81,13 +91,19 @@ async function plot(path, alt) {
   return el("img", { src: url, alt });
 }
 
+// Cancel after the user confirms it: a canceled study's runs are stopped and cannot be resumed.
 async function cancel(id) {
+  notice = null;
+  if (!window.confirm(`Cancel study ${id}? Its queued runs will not start and its running runs are stopped.`)) {
+    route();
+    return;
+  }
   try {
     await api(`/v1/studies/${encodeURIComponent(id)}/cancel`, { method: "POST", body: "{}" });
-    route();
   } catch (e) {
-    main.prepend(message(e.message));
+    notice = `Cancel ${id}: ${e.message}`;
   }
+  route();
 }
 
 function submitForm() {
@@ -101,6 +117,7 @@ function submitForm() {
     id: "submit",
     onclick: async () => {
       result.replaceChildren();
+      notice = null;
       try {
         const r = await api("/v1/studies", { method: "POST", headers: { "Content-Type": "application/json" }, body: text.value });
         result.append(message(`queued study ${r.study} with ${r.runs} runs`, true));
@@ -137,16 +154,17 @@ async function showStudies() {
     submitSection || (submitSection = submitForm()));
 }
 
-// A run's cumulative mass against size as a small inline SVG (log size axis).
+// A run's cumulative mass fraction (the mass finer than each class edge, outlet and dust) against
+// particle diameter as a small inline SVG (log diameter axis).
 function psdSvg(psd) {
   const ns = "http://www.w3.org/2000/svg";
   const svg = document.createElementNS(ns, "svg");
-  svg.setAttribute("width", "360");
-  svg.setAttribute("height", "200");
+  svg.setAttribute("width", "380");
+  svg.setAttribute("height", "230");
   svg.setAttribute("class", "psd");
   const edges = psd.edges_m, q = psd.cumulative_mass;
   const lo = Math.log10(edges[0]), hi = Math.log10(edges[edges.length - 1]);
-  const x = (d) => 40 + (300 * (Math.log10(d) - lo)) / (hi - lo || 1);
+  const x = (d) => 50 + (300 * (Math.log10(d) - lo)) / (hi - lo || 1);
   const y = (f) => 180 - 160 * f;
   const line = document.createElementNS(ns, "polyline");
   line.setAttribute("points", edges.map((d, k) => `${x(d).toFixed(1)},${y(q[k] || 0).toFixed(1)}`).join(" "));
@@ -154,20 +172,26 @@ function psdSvg(psd) {
   line.setAttribute("stroke", "#1e88e5");
   line.setAttribute("stroke-width", "2");
   const axis = document.createElementNS(ns, "path");
-  axis.setAttribute("d", "M40,20 V180 H340");
+  axis.setAttribute("d", "M50,20 V180 H350");
   axis.setAttribute("stroke", "#555");
   axis.setAttribute("fill", "none");
   svg.append(axis, line);
-  for (const [text, tx, ty] of [[`${(edges[0] * 1e6).toPrecision(2)} µm`, 40, 196],
-                                [`${(edges[edges.length - 1] * 1e6).toPrecision(2)} µm`, 300, 196],
-                                ["1", 28, 24], ["0", 28, 180]]) {
+  const label = (text, tx, ty, attributes = {}) => {
     const t = document.createElementNS(ns, "text");
     t.setAttribute("x", tx);
     t.setAttribute("y", ty);
     t.setAttribute("font-size", "11");
+    for (const [key, value] of Object.entries(attributes)) t.setAttribute(key, value);
     t.textContent = text;
     svg.append(t);
-  }
+  };
+  label(`${(edges[0] * 1e6).toPrecision(2)} µm`, 50, 196);
+  label(`${(edges[edges.length - 1] * 1e6).toPrecision(2)} µm`, 350, 196, { "text-anchor": "end" });
+  label("1", 38, 24);
+  label("0", 38, 180);
+  // The axis titles: what is plotted, and in which unit.
+  label("particle diameter (µm), log scale", 200, 220, { class: "x-title", "text-anchor": "middle" });
+  label("cumulative mass fraction", 14, 100, { class: "y-title", "text-anchor": "middle", transform: "rotate(-90 14 100)" });
   return svg;
 }
 
@@ -212,7 +236,7 @@ async function showStudy(id) {
     table.append(el("tr", {
       class: `clickable${r.run === selectedRun ? " selected" : ""}`,
       "data-run": r.run,
-      onclick: () => { selectedRun = r.run; route(); },
+      onclick: () => { selectedRun = r.run; notice = null; route(); },
     },
       el("td", {}, r.run),
       el("td", {}, params + (r.reference ? " (ref)" : "")),
@@ -240,10 +264,12 @@ async function route() {
   } catch (e) {
     main.replaceChildren(message(e.message));
   }
+  document.getElementById("notice")?.remove();  // another refresh's, when two overlapped
+  if (notice) main.prepend(noticeBox());
   refreshTimer = setTimeout(route, 3000);
 }
 
-window.addEventListener("hashchange", () => { selectedRun = null; route(); });
+window.addEventListener("hashchange", () => { selectedRun = null; notice = null; route(); });
 api("/v1/info").then((info) => {
   document.getElementById("server").textContent = `millsim ${info.millsim_version} · ${info.workers} workers`;
 }).catch(() => {});
