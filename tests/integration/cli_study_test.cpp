@@ -165,6 +165,13 @@ TEST(CliStudy, RunsWithTheSameGasShareOneSpinUp) {
     const json result =
         json::parse(test::read_file(study_dir / row["run"].get<std::string>() / "result.json"));
     sources[result["spin_up"]["source"].get<std::string>()] += 1;
+    // The table's run time is what the parameters cost: the engine's wall time, less the
+    // spin-up (computed once, or waited for and read).
+    EXPECT_EQ(row["spin_up_source"], result["spin_up"]["source"]);
+    EXPECT_EQ(row["spin_up_s"], result["spin_up"]["seconds"]);
+    EXPECT_DOUBLE_EQ(
+        row["run_time_s"].get<double>(),
+        result["wall_time_s"].get<double>() - result["spin_up"]["seconds"].get<double>());
     EXPECT_EQ(result["gas"]["spin_up_steps"],
               json::parse(test::read_file(study_dir / table["runs"][0]["run"].get<std::string>() /
                                           "result.json"))["gas"]["spin_up_steps"]);

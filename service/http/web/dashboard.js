@@ -229,7 +229,7 @@ async function showStudy(id) {
       study.canceled ? " (canceled)" : ""),
     p.finished ? null : el("button", { class: "cancel", onclick: () => cancel(study.id) }, "Cancel study"));
   const table = el("table", { id: "results" },
-    el("tr", {}, ["run", "parameters", "state", "wall s", "particle-steps/s", "d10 µm", "d50 µm", "d90 µm", `error (${results.error_metric})`]
+    el("tr", {}, ["run", "parameters", "state", "run s", "particle-steps/s", "d10 µm", "d50 µm", "d90 µm", `error (${results.error_metric})`]
       .map((h) => el("th", {}, h))));
   for (const r of results.runs) {
     const params = Object.entries(r.params).map(([k, v]) => `${k.split(".").pop()}=${v}`).join(", ");
@@ -241,7 +241,7 @@ async function showStudy(id) {
       el("td", {}, r.run),
       el("td", {}, params + (r.reference ? " (ref)" : "")),
       el("td", {}, el("span", { class: "state" }, r.state)),
-      el("td", { class: "num" }, number(r.wall_time_s)),
+      el("td", { class: "num" }, number(r.run_time_s)),
       el("td", { class: "num" }, number(r.particle_steps_per_second)),
       el("td", { class: "num" }, micrometres(r.d10_m)),
       el("td", { class: "num" }, micrometres(r.d50_m)),
