@@ -22,6 +22,7 @@
 #include "commands.h"
 #include "core/errors.h"
 #include "io/input_file.h"
+#include "io/json_text.h"
 #include "scene/scene_json.h"
 #include "sim/run.h"
 #include "sim/simulation.h"
@@ -253,7 +254,7 @@ int cmd_run(const std::vector<std::string>& args) {
                    sim.time_step().automatic ? "auto" : "fixed",
                    static_cast<long long>(sim.total_steps()), options.out_dir.c_str());
     const RunOutcome outcome = run_simulation(sim, scene, options);
-    std::cout << outcome.summary.dump(2) << std::endl;
+    std::cout << readable_json(outcome.summary) << std::endl;
     if (outcome.failure) {
       std::fprintf(stderr, "\nrun stopped at step %lld (t = %.4g s): %s\n",
                    static_cast<long long>(outcome.failure->step), outcome.failure->time_s,

@@ -75,7 +75,8 @@ std::uint64_t checkpoint_layout() {
                                  sizeof(TimeStepInfo),    sizeof(ReducedStiffnessInfo),
                                  sizeof(Impact),          sizeof(StepProfile),
                                  sizeof(FluidCellState),  sizeof(CouplingStats),
-                                 sizeof(GasStepStats),    sizeof(FeedStats)};
+                                 sizeof(GasStepStats),    sizeof(FeedStats),
+                                 sizeof(BreakageEvent),   sizeof(ImpactGroup)};
   return fnv1a64(sizes, sizeof sizes);
 }
 

@@ -19,7 +19,8 @@
 
 namespace millsim {
 
-inline constexpr std::uint32_t kCheckpointFormat = 2;  // 2: multi-rate stepping state
+// 2: multi-rate stepping state; 3: the impact spectrum and the breakage event log.
+inline constexpr std::uint32_t kCheckpointFormat = 3;
 
 struct CheckpointHeader {
   std::string millsim_version;

@@ -58,15 +58,16 @@ double Breakage::impact_energy_j_per_kg(const Impact& impact, bool on_partner,
 
 std::uint64_t Breakage::process(const std::vector<Impact>& impacts,
                                 const std::vector<std::uint32_t>& crushed, double dt_s,
-                                const std::vector<Wall>& walls, const PeriodicBox& box,
-                                ParticleStore& p, ParticleId& next_id,
+                                double time_s, const std::vector<Wall>& walls,
+                                const PeriodicBox& box, ParticleStore& p, ParticleId& next_id,
                                 std::vector<Newborn>& newborn, const ParticleHook& before_removal,
                                 const ParticleHook& after_addition) {
   std::vector<std::uint32_t> broken;
+  std::vector<double> breaking_energy;  // per broken slot: its impact's, 0 when crushed
   for (std::uint32_t slot : crushed)
     if (material_[p.material[slot]] &&
         std::find(broken.begin(), broken.end(), slot) == broken.end())
-      broken.push_back(slot), ++stats_.crush_events;
+      broken.push_back(slot), breaking_energy.push_back(0.0), ++stats_.crush_events;
   for (const Impact& impact : impacts) {
     for (int side = 0; side < (impact.with_wall ? 1 : 2); ++side) {
       const std::uint32_t slot = side ? impact.partner : impact.particle;
@@ -77,7 +78,7 @@ std::uint64_t Breakage::process(const std::vector<Impact>& impacts,
       if (w <= threshold_energy_j_per_kg(m->config.strength, d)) continue;
       ++stats_.impacts;
       if (apply_impact(m->config, d, w, p.remaining_capacity_j_per_kg[slot]))
-        broken.push_back(slot);
+        broken.push_back(slot), breaking_energy.push_back(w);
       else
         ++stats_.fatigue_impacts;
     }
@@ -95,7 +96,13 @@ std::uint64_t Breakage::process(const std::vector<Impact>& impacts,
          std::find(broken.begin(), broken.end(), impact.partner) != broken.end());
     if (breaks_here) complete_impact(impact, walls, box, p);
   }
-  for (std::uint32_t slot : broken) break_particle(slot, dt_s, p, next_id, newborn, after_addition);
+  for (std::size_t k = 0; k < broken.size(); ++k) {
+    BreakageEvent event;
+    event.time_s = time_s;
+    event.specific_energy_j_per_kg = breaking_energy[k];
+    event.crushed = breaking_energy[k] == 0.0;
+    break_particle(broken[k], dt_s, event, p, next_id, newborn, after_addition);
+  }
   // Remove the parents from the highest slot down: each swap then moves in a particle that is
   // not a parent still to be removed.
   std::sort(broken.begin(), broken.end(), std::greater<>());
@@ -179,8 +186,9 @@ std::uint64_t Breakage::spread_below_threshold(const FragmentSizeSampler& sample
   return std::uint64_t(std::llround(count));
 }
 
-void Breakage::break_particle(std::size_t slot, double dt_s, ParticleStore& p, ParticleId& next_id,
-                              std::vector<Newborn>& newborn, const ParticleHook& after_addition) {
+void Breakage::break_particle(std::size_t slot, double dt_s, BreakageEvent event, ParticleStore& p,
+                              ParticleId& next_id, std::vector<Newborn>& newborn,
+                              const ParticleHook& after_addition) {
   const int material = p.material[slot];
   const Material& m = *material_[std::size_t(material)];
   const double density = materials_->material(material).density_kg_per_m3;
@@ -238,6 +246,15 @@ void Breakage::break_particle(std::size_t slot, double dt_s, ParticleStore& p, P
     newborn.push_back({id, family, parent_id});
     after_addition(p, s);
     ++stats_.fragments;
+  }
+  if (event_log_.size() < kMaxLoggedEvents) {
+    event.position_m = x;
+    event.parent_diameter_m = parent_d;
+    event.dust_mass_kg = dust_mass;
+    event.parent_id = parent_id;
+    event.fragments = std::uint32_t(kept_d.size());
+    event.generation = std::uint8_t(parent_generation);
+    event_log_.push_back(event);
   }
 }
 

@@ -46,8 +46,26 @@ struct BreakageStats {
   }
 };
 
+// One breakage event, as run.h5's /breakage_events lists it.
+struct BreakageEvent {
+  double time_s = 0.0;
+  Vec3 position_m;
+  double parent_diameter_m = 0.0;
+  // Of the impact that broke it, by the scene's impact equivalence (the energy the strength
+  // model compared); 0 for a particle crushed past the penetration limit.
+  double specific_energy_j_per_kg = 0.0;
+  double dust_mass_kg = 0.0;  // of the parent, gone to the dust table
+  ParticleId parent_id = 0;
+  std::uint32_t fragments = 0;  // kept as particles
+  std::uint8_t generation = 0;  // of the parent (0: fed or initial)
+  std::uint8_t crushed = 0;
+};
+
 class Breakage {
  public:
+  // The event log keeps the first this many events (the counters count them all).
+  static constexpr std::size_t kMaxLoggedEvents = 1000000;
+
   // `reduced_stiffness_threshold_m`: fragments below it get the reduced stiffness (§4).
   Breakage(const SceneConfig& scene, const MaterialTable& materials,
            std::optional<double> reduced_stiffness_threshold_m, std::uint64_t seed,
@@ -72,14 +90,16 @@ class Breakage {
   // breaks: Hertz contact is meaningless there and the real particle would have fractured; an
   // impact-energy criterion misses such slow squeezes (a fine caught between a wall and a
   // coarse particle). An impact that breaks a particle is completed first (complete_impact).
+  // `time_s`: the time the events are logged at.
   std::uint64_t process(const std::vector<Impact>& impacts,
-                        const std::vector<std::uint32_t>& crushed, double dt_s,
+                        const std::vector<std::uint32_t>& crushed, double dt_s, double time_s,
                         const std::vector<Wall>& walls, const PeriodicBox& box,
                         ParticleStore& particles, ParticleId& next_id,
                         std::vector<Newborn>& newborn, const ParticleHook& before_removal,
                         const ParticleHook& after_addition);
 
   const BreakageStats& stats() const { return stats_; }
+  const std::vector<BreakageEvent>& event_log() const { return event_log_; }
   const PsdTally& dust() const { return dust_; }
   const Vec3& dust_momentum_kg_m_per_s() const { return dust_momentum_; }
 
@@ -87,7 +107,7 @@ class Breakage {
   // the scene's).
   template <class A>
   void checkpoint_io(A& a) {
-    io_all(a, rng_, dust_, dust_momentum_, stats_, pools_);
+    io_all(a, rng_, dust_, dust_momentum_, stats_, pools_, event_log_);
   }
 
  private:
@@ -107,8 +127,10 @@ class Breakage {
   // breakage function; returns the number of particles that mass stands for.
   std::uint64_t spread_below_threshold(const FragmentSizeSampler& sampler, double parent_d,
                                        double density, double mass);
-  void break_particle(std::size_t slot, double dt_s, ParticleStore& p, ParticleId& next_id,
-                      std::vector<Newborn>& newborn, const ParticleHook& after_addition);
+  // `event`: the log's record, filled here with what the breakage made.
+  void break_particle(std::size_t slot, double dt_s, BreakageEvent event, ParticleStore& p,
+                      ParticleId& next_id, std::vector<Newborn>& newborn,
+                      const ParticleHook& after_addition);
 
   const MaterialTable* materials_;
   std::vector<std::optional<Material>> material_;
@@ -121,6 +143,7 @@ class Breakage {
   PsdTally dust_;
   Vec3 dust_momentum_;
   BreakageStats stats_;
+  std::vector<BreakageEvent> event_log_;
 };
 
 }  // namespace millsim

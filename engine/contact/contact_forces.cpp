@@ -120,7 +120,7 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
     const double vn = dot(v_rel, n);
     const Vec3 v_t = v_rel - n * vn;
     if (before == kPairApart && vn < 0.0 && stats.record_impacts)
-      stats.impacts.push_back({i, j, false, -vn});
+      stats.impacts.push_back({i, j, false, -vn, norm(v_t)});
     const double fn = hertz_normal_force_n(s, overlap, sqrt_overlap, vn);
     const Vec3 ft =
         ghost ? Vec3{}
@@ -259,7 +259,7 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Wall>
     const double vn = dot(v_rel, n);
     const Vec3 v_t = v_rel - n * vn;
     if (onset && vn < 0.0 && stats.record_impacts)
-      stats.impacts.push_back({i, nl.wall_index[k], true, -vn});
+      stats.impacts.push_back({i, nl.wall_index[k], true, -vn, norm(v_t)});
     const double fn = hertz_normal_force_n(s, overlap, sqrt_overlap, vn);
     const Vec3 ft = ghost ? Vec3{}
                           : tangential_force(s, sqrt_overlap, fn, pc.friction, n, v_t, dt,

@@ -17,12 +17,15 @@
 namespace millsim {
 
 // The onset of a contact (first force pass in which it touches), approaching at normal speed
-// `speed_m_per_s` > 0: the input of the breakage module (comminution/breakage.h).
+// `speed_m_per_s` > 0, with the tangential relative speed of the contact points then: the input
+// of the breakage module (comminution/breakage.h) and of the impact spectrum
+// (process/impact_spectrum.h).
 struct Impact {
   std::uint32_t particle;  // slot
   std::uint32_t partner;   // slot of the other particle, or the wall index
   bool with_wall;
   double speed_m_per_s;
+  double tangential_speed_m_per_s = 0.0;
 };
 
 struct ContactStepStats {
@@ -35,7 +38,8 @@ struct ContactStepStats {
   // Contacts past the penetration limit (indices into the neighbour list), for Eq. 8.
   std::vector<std::uint32_t> pairs_over_limit;
   std::vector<std::uint32_t> walls_over_limit;
-  // Contact onsets of this pass, recorded only when record_impacts is set (breakage scenes).
+  // Contact onsets of this pass, recorded only when record_impacts is set (breakage scenes, the
+  // impact spectrum).
   bool record_impacts = false;
   std::vector<Impact> impacts;
 

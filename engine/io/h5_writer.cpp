@@ -49,8 +49,9 @@ bool is_integer_meta_field(std::string_view name) {
 // unsigned 64-bit integers. The dust table's dust_count is an equivalent number (its mass over
 // that of a sphere of the class size), a fraction, and stays a double like every other column.
 bool is_count_column(std::string_view name) {
-  static constexpr std::string_view kCounts[] = {"particles", "contact_pairs", "wall_contacts",
-                                                 "breakage_events", "outlet_count"};
+  static constexpr std::string_view kCounts[] = {
+      "particles", "contact_pairs", "wall_contacts", "breakage_events", "outlet_count",
+      "parent_id", "fragments",     "generation",    "crushed"};
   return std::find(std::begin(kCounts), std::end(kCounts), name) != std::end(kCounts);
 }
 
@@ -88,7 +89,8 @@ std::string unit_of(std::string_view name) {
   for (const auto& [field, unit] : kNamed)
     if (name == field) return std::string(unit);
   static constexpr std::pair<std::string_view, std::string_view> kSuffixes[] = {
-      {"_m_per_s", "m/s"}, {"_m", "m"}, {"_s", "s"}, {"_j", "J"}, {"_kg", "kg"}, {"_pa", "Pa"}};
+      {"_m_per_s", "m/s"}, {"_j_per_kg", "J/kg"}, {"_m", "m"},  {"_s", "s"},
+      {"_j", "J"},         {"_kg", "kg"},         {"_pa", "Pa"}};
   for (const auto& [suffix, unit] : kSuffixes)
     if (ends_with(name, suffix)) return std::string(unit);
   return "1";
@@ -332,6 +334,32 @@ void H5Writer::write_columns(const std::string& group, const std::vector<std::st
     H5Gclose(g);
     throw;
   }
+  H5Gclose(g);
+}
+
+void H5Writer::write_count_array(const std::string& group, const std::string& name,
+                                 const std::vector<std::size_t>& dims,
+                                 const std::vector<std::uint64_t>& counts) {
+  const hid_t g = H5Lexists(file_, group.c_str(), H5P_DEFAULT) > 0
+                      ? H5Gopen2(file_, group.c_str(), H5P_DEFAULT)
+                      : H5Gcreate2(file_, group.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (g < 0) throw IoError("HDF5: cannot create " + group + " in " + path_.string());
+  std::vector<hsize_t> extent(dims.begin(), dims.end());
+  try {
+    write_dataset(g, name.c_str(), H5T_NATIVE_UINT64, H5T_STD_U64LE, int(extent.size()),
+                  extent.data(), counts.data(), path_);
+  } catch (...) {
+    H5Gclose(g);
+    throw;
+  }
+  H5Gclose(g);
+}
+
+void H5Writer::write_group_attribute(const std::string& group, const std::string& name,
+                                     const std::string& value) {
+  const hid_t g = H5Gopen2(file_, group.c_str(), H5P_DEFAULT);
+  if (g < 0) throw IoError("HDF5: no group " + group + " in " + path_.string());
+  write_string_attribute(g, name.c_str(), value);
   H5Gclose(g);
 }
 

@@ -74,6 +74,13 @@ class H5Writer {
   // values must be whole numbers; IoError otherwise), double for the rest.
   void write_columns(const std::string& group, const std::vector<std::string>& names,
                      const std::vector<std::vector<double>>& columns);
+  // A uint64 array of any rank under `group` (created when missing), e.g. the impact spectrum.
+  void write_count_array(const std::string& group, const std::string& name,
+                         const std::vector<std::size_t>& dims,
+                         const std::vector<std::uint64_t>& counts);
+  // A string attribute (variable-length UTF-8) on an existing group.
+  void write_group_attribute(const std::string& group, const std::string& name,
+                             const std::string& value);
   // /vertex_index: 0, 1, …, up to the largest snapshot's particle count, the connectivity every
   // snapshot's vertex cells take a slice of in run.xdmf. Call once, after the last snapshot.
   void write_vertex_index();

@@ -228,6 +228,8 @@ struct OutputConfig {
   std::optional<double> timeseries_interval_s;  // absent = end/200
   std::optional<double> checkpoint_interval_s;  // simulated time; absent = by wall clock only
   bool write_h5 = true;
+  // The impact-energy spectrum (process/impact_spectrum.h); absent: on when particles break.
+  std::optional<bool> impact_spectrum;
 };
 
 struct SceneConfig {

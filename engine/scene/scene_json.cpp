@@ -585,6 +585,8 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
     scene.output.checkpoint_interval_s =
         r.optional_number("checkpoint_interval_s", NumberRange::positive());
     scene.output.write_h5 = r.boolean("h5", true);
+    if (r.has("impact_spectrum"))
+      scene.output.impact_spectrum = r.boolean("impact_spectrum", false);
     r.finish();
   }
   top.finish();

@@ -12,8 +12,10 @@
 #include "gas/pressure_probe.h"
 #include "geometry/surface_mesh.h"
 #include "io/h5_writer.h"
+#include "io/json_text.h"
 #include "io/text_file.h"
 #include "process/classification.h"
+#include "process/impact_spectrum_plot.h"
 #include "sim/run_eta.h"
 
 namespace millsim {
@@ -325,6 +327,128 @@ GasFieldSnapshot gas_field(const GasSolver& gas) {
   return f;
 }
 
+// "particle-particle salt/salt", "particle-wall salt/mantle": who met whom.
+std::string impact_group_name(const ImpactGroup& g, const Simulation& sim,
+                              const SceneConfig& scene) {
+  const std::string& material = scene.materials[std::size_t(g.material)].name;
+  const std::string partner = g.with_wall ? sim.walls()[std::size_t(g.partner)].name
+                                          : scene.materials[std::size_t(g.partner)].name;
+  return std::string(g.with_wall ? "particle-wall " : "particle-particle ") + material + "/" +
+         partner;
+}
+
+// [size class][energy bin] as rows.
+nlohmann::ordered_json count_rows(const std::vector<std::uint64_t>& counts, std::size_t bins) {
+  nlohmann::ordered_json rows = nlohmann::ordered_json::array();
+  for (std::size_t at = 0; at < counts.size(); at += bins)
+    rows.push_back(std::vector<std::uint64_t>(counts.begin() + std::ptrdiff_t(at),
+                                              counts.begin() + std::ptrdiff_t(at + bins)));
+  return rows;
+}
+
+// Per energy bin, summed over the size classes.
+std::vector<std::uint64_t> by_energy(const std::vector<std::uint64_t>& counts, std::size_t bins) {
+  std::vector<std::uint64_t> sum(bins, 0);
+  for (std::size_t k = 0; k < counts.size(); ++k) sum[k % bins] += counts[k];
+  return sum;
+}
+
+// The spectrum over the run (per group, size class and energy bin) and per output interval
+// (per group and energy bin, summed over sizes; run.h5 has them by size too).
+nlohmann::ordered_json impact_spectrum_json(const ImpactSpectrum& spectrum, const Simulation& sim,
+                                            const SceneConfig& scene) {
+  const std::size_t bins = spectrum.energy_bins();
+  nlohmann::ordered_json groups = nlohmann::ordered_json::array();
+  for (std::size_t g = 0; g < spectrum.groups().size(); ++g) {
+    const ImpactGroup& group = spectrum.groups()[g];
+    nlohmann::ordered_json intervals_n = nlohmann::ordered_json::array(),
+                           intervals_t = nlohmann::ordered_json::array();
+    for (std::size_t k = 0; k < spectrum.interval_end_s().size(); ++k) {
+      intervals_n.push_back(by_energy(spectrum.interval_normal_counts(k, g), bins));
+      intervals_t.push_back(by_energy(spectrum.interval_tangential_counts(k, g), bins));
+    }
+    nlohmann::ordered_json entry;
+    entry["name"] = impact_group_name(group, sim, scene);
+    entry["kind"] = group.with_wall ? "particle-wall" : "particle-particle";
+    entry["material"] = scene.materials[std::size_t(group.material)].name;
+    entry["partner"] = group.with_wall ? sim.walls()[std::size_t(group.partner)].name
+                                       : scene.materials[std::size_t(group.partner)].name;
+    entry["normal_counts"] = count_rows(spectrum.normal_counts(g), bins);
+    entry["tangential_counts"] = count_rows(spectrum.tangential_counts(g), bins);
+    entry["interval_normal_counts"] = intervals_n;
+    entry["interval_tangential_counts"] = intervals_t;
+    groups.push_back(entry);
+  }
+  return {{"definition",
+           "impacts met per particle (a pair impact counts for both), by specific energy v^2/2 "
+           "of the normal and of the tangential relative speed at the contact point"},
+          {"energy_edges_j_per_kg", spectrum.energy_edges_j_per_kg()},
+          {"size_edges_m", spectrum.size_edges_m()},
+          {"simulated_time_s", sim.time_s()},
+          {"impacts", spectrum.impacts()},
+          {"interval_end_s", spectrum.interval_end_s()},
+          {"groups", groups}};
+}
+
+// /impact_spectrum: the edges, the interval ends, the group names (attribute "groups", one per
+// line) and the counts, [group][size class][energy bin] over the run and
+// [interval][group][size class][energy bin] per output interval.
+void write_impact_spectrum_h5(const ImpactSpectrum& spectrum, const Simulation& sim,
+                              const SceneConfig& scene, H5Writer& h5) {
+  h5.write_columns(
+      "/impact_spectrum", {"energy_edges_j_per_kg", "size_edges_m", "interval_end_s"},
+      {spectrum.energy_edges_j_per_kg(), spectrum.size_edges_m(), spectrum.interval_end_s()});
+  std::string names;
+  for (const ImpactGroup& g : spectrum.groups()) names += impact_group_name(g, sim, scene) + "\n";
+  h5.write_group_attribute("/impact_spectrum", "groups", names);
+  const std::size_t groups = spectrum.groups().size(), sizes = spectrum.size_classes(),
+                    bins = spectrum.energy_bins(), intervals = spectrum.interval_end_s().size();
+  std::vector<std::uint64_t> normal, tangential, interval_normal, interval_tangential;
+  for (std::size_t g = 0; g < groups; ++g) {
+    const auto& n = spectrum.normal_counts(g);
+    const auto& t = spectrum.tangential_counts(g);
+    normal.insert(normal.end(), n.begin(), n.end());
+    tangential.insert(tangential.end(), t.begin(), t.end());
+  }
+  for (std::size_t k = 0; k < intervals; ++k)
+    for (std::size_t g = 0; g < groups; ++g) {
+      const std::vector<std::uint64_t> n = spectrum.interval_normal_counts(k, g);
+      const std::vector<std::uint64_t> t = spectrum.interval_tangential_counts(k, g);
+      interval_normal.insert(interval_normal.end(), n.begin(), n.end());
+      interval_tangential.insert(interval_tangential.end(), t.begin(), t.end());
+    }
+  h5.write_count_array("/impact_spectrum", "normal_counts", {groups, sizes, bins}, normal);
+  h5.write_count_array("/impact_spectrum", "tangential_counts", {groups, sizes, bins}, tangential);
+  h5.write_count_array("/impact_spectrum", "interval_normal_counts",
+                       {intervals, groups, sizes, bins}, interval_normal);
+  h5.write_count_array("/impact_spectrum", "interval_tangential_counts",
+                       {intervals, groups, sizes, bins}, interval_tangential);
+}
+
+// /breakage_events: one row per logged event.
+void write_breakage_events_h5(const Breakage& breakage, H5Writer& h5) {
+  const std::vector<BreakageEvent>& log = breakage.event_log();
+  std::vector<std::vector<double>> c(11);
+  for (const BreakageEvent& e : log) {
+    const double row[] = {e.time_s,
+                          e.position_m.x,
+                          e.position_m.y,
+                          e.position_m.z,
+                          double(e.parent_id),
+                          e.parent_diameter_m,
+                          double(e.generation),
+                          e.specific_energy_j_per_kg,
+                          double(e.crushed),
+                          double(e.fragments),
+                          e.dust_mass_kg};
+    for (std::size_t k = 0; k < c.size(); ++k) c[k].push_back(row[k]);
+  }
+  h5.write_columns("/breakage_events",
+                   {"time_s", "x_m", "y_m", "z_m", "parent_id", "parent_diameter_m", "generation",
+                    "specific_energy_j_per_kg", "crushed", "fragments", "dust_mass_kg"},
+                   c);
+}
+
 // One snapshot: the particles, and the gas field when the scene has gas.
 void write_snapshot(H5Writer& h5, const Simulation& sim) {
   h5.write_snapshot(sim.step_index(), sim.time_s(), sim.particles());
@@ -445,7 +569,7 @@ RunOutcome spin_up_interrupted(const SceneConfig& scene, const SpinUpReport& r,
     if (std::filesystem::exists(checkpoint))
       s["checkpoints"] = {{"written", 1}, {"last", checkpoint.filename().string()}};
     s["outputs"] = {{"result", "result.json"}};
-    write_text_atomically(options.out_dir / "result.json", s.dump(2) + "\n");
+    write_text_atomically(options.out_dir / "result.json", readable_json(s) + "\n");
   }
   return outcome;
 }
@@ -610,7 +734,8 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
     // (checked between advances) stays timely.
     const std::int64_t now = sim.step_index();
     std::int64_t next = std::min({total, now + 256, (now / series_every + 1) * series_every});
-    if (h5) next = std::min(next, (now / snapshot_every + 1) * snapshot_every);
+    if (h5 || sim.impact_spectrum())
+      next = std::min(next, (now / snapshot_every + 1) * snapshot_every);
     if (checkpoint_every > 0)
       next = std::min(next, (now / checkpoint_every + 1) * checkpoint_every);
     outcome.failure = sim.advance(next - now);
@@ -622,6 +747,9 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
       sim.profile().time(Phase::Output, [&] { series.record(sim); });
     if (h5 && (step % snapshot_every == 0 || last))
       sim.profile().time(Phase::Output, [&] { write_snapshot(*h5, sim); });
+    // The impact spectrum's intervals end on the snapshot schedule and at the run's end (not at
+    // a stop, whose resumed run carries on the same interval).
+    if (step % snapshot_every == 0 || step == total) sim.close_impact_interval();
     if (options.on_progress &&
         (last || Clock::now() - last_progress >
                      std::chrono::duration<double>(options.progress_interval_s))) {
@@ -740,6 +868,8 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
   if (sim.gas()) add_gas_summary(sim, s);
   if (!series.drops.empty()) s["pressure_drops"] = pressure_drops_json(sim, series);
   if (sim.mill() && has_product(sim)) add_mill_summary(sim, s);
+  if (const ImpactSpectrum* spectrum = sim.impact_spectrum())
+    s["impact_spectrum"] = impact_spectrum_json(*spectrum, sim, scene);
 
   if (write_files) {
     nlohmann::ordered_json outputs = nlohmann::ordered_json::object();
@@ -747,6 +877,8 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
       h5->write_timeseries(series.names, series.columns);
       if (has_product(sim)) write_psd_h5(sim, *h5);
       if (sim.gas()) write_gas_h5(sim, *h5);
+      if (sim.impact_spectrum()) write_impact_spectrum_h5(*sim.impact_spectrum(), sim, scene, *h5);
+      if (sim.breakage()) write_breakage_events_h5(*sim.breakage(), *h5);
       h5->write_vertex_index();
       h5->close();
       std::filesystem::rename(h5_partial, options.out_dir / "run.h5");
@@ -763,8 +895,15 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
       }
     }
     outputs["result"] = "result.json";
+    if (s.contains("impact_spectrum")) {
+      const std::string svg = impact_spectrum_svg(s["impact_spectrum"], scene.name);
+      if (!svg.empty()) {
+        write_text_atomically(options.out_dir / "impact_spectrum.svg", svg);
+        outputs["impact_spectrum_svg"] = "impact_spectrum.svg";
+      }
+    }
     s["outputs"] = outputs;
-    write_text_atomically(options.out_dir / "result.json", s.dump(2) + "\n");
+    write_text_atomically(options.out_dir / "result.json", readable_json(s) + "\n");
     // A run that reached its end needs its checkpoints no more.
     if (!outcome.failure && outcome.interrupted_by == 0) remove_checkpoints(checkpoint_dir);
   }

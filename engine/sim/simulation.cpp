@@ -11,6 +11,11 @@
 #include "process/outlet.h"
 
 namespace millsim {
+
+// The impact spectrum's energy bins: 1e-4 to 1e6 J/kg (impact speeds of 1.4 cm/s to 1.4 km/s),
+// five per decade.
+constexpr double kImpactSpectrumMinJPerKg = 1e-4, kImpactSpectrumMaxJPerKg = 1e6;
+constexpr int kImpactSpectrumBinsPerDecade = 5;
 namespace {
 
 struct SourceParticles {
@@ -206,6 +211,9 @@ Simulation::Simulation(const SceneConfig& scene, SimulationStart start)
         reduced_ ? std::optional<double>(reduced_->threshold_diameter_m) : std::nullopt,
         scene.seed ^ 0x9e3779b97f4a7c15ULL, psd_edges);
   }
+  if (scene.output.impact_spectrum.value_or(scene.breakage.has_value()))
+    impact_spectrum_.emplace(psd_edges, kImpactSpectrumMinJPerKg, kImpactSpectrumMaxJPerKg,
+                             kImpactSpectrumBinsPerDecade);
   outlets_ = scene.outlets;
   mill_ = scene.mill;
   outlet_ = PsdTally(psd_edges);
@@ -331,9 +339,25 @@ void Simulation::complete_start(bool first_gas_step) {
       throw InputErrorList({{"/gas", "", "the first gas step failed: " + *failure}});
   compute_all_forces();
   throw_on_start_overlap(contact_stats_);
-  contact_stats_.record_impacts = breakage_.has_value();  // the initial overlaps were no impacts
+  // The initial overlaps were no impacts.
+  contact_stats_.record_impacts = breakage_.has_value() || impact_spectrum_.has_value();
   start_pending_ = false;
   set_energy_baseline();
+}
+
+void Simulation::tally_impacts() {
+  const ParticleStore& p = particles_;
+  for (const Impact& impact : contact_stats_.impacts) {
+    const std::uint32_t i = impact.particle, j = impact.partner;
+    const double vn = impact.speed_m_per_s, vt = impact.tangential_speed_m_per_s;
+    if (impact.with_wall) {
+      impact_spectrum_->add({1, p.material[i], std::int32_t(j)}, 2.0 * p.radius_m[i], vn, vt);
+      continue;
+    }
+    // Once for each of the two particles, in its own size class.
+    impact_spectrum_->add({0, p.material[i], p.material[j]}, 2.0 * p.radius_m[i], vn, vt);
+    impact_spectrum_->add({0, p.material[j], p.material[i]}, 2.0 * p.radius_m[j], vn, vt);
+  }
 }
 
 void Simulation::throw_on_start_overlap(const ContactStepStats& stats) const {
@@ -589,6 +613,7 @@ std::optional<StepFailure> Simulation::step_multi_rate() {
                                                    neighbors_, particles_);
   });
   if (full) m.waiting_since_step = step_index_, m.speeds_valid = false;
+  if (impact_spectrum_ && !contact_stats_.impacts.empty()) tally_impacts();
   if (breakage_ || !outlets_.empty() || !feeders_.empty()) process_population();
   if (gas_ && gas_->due(step_index_)) {
     catch_up_free_flight();
@@ -624,6 +649,8 @@ std::optional<StepFailure> Simulation::step_once(bool may_defer) {
   particle_steps_ += double(particles_.size());
   contact_steps_ += contact_stats_.touching_pairs;
   ++step_index_;
+  // The force pass's impacts, while their slots are the ones the pass saw.
+  if (impact_spectrum_ && !contact_stats_.impacts.empty()) tally_impacts();
   const bool limiter = limiter_due();
   const bool population = breakage_ || !outlets_.empty() || !feeders_.empty();
   const bool gas_due = gas_ && gas_->due(step_index_);
@@ -691,8 +718,8 @@ void Simulation::process_population() {
         crushed.push_back(particles_.radius_m[i] <= particles_.radius_m[j] ? i : j);
       }
       for (std::uint32_t k : c.walls_over_limit) crushed.push_back(neighbors_.wall_particle[k]);
-      breakage_->process(c.impacts, crushed, time_.step_s, walls_, box_, particles_, next_id_,
-                         newborn, removed, added);
+      breakage_->process(c.impacts, crushed, time_.step_s, time_s(), walls_, box_, particles_,
+                         next_id_, newborn, removed, added);
       contact_stats_.impacts.clear();  // slots are stale now
       contact_stats_.pairs_over_limit.clear();
       contact_stats_.walls_over_limit.clear();

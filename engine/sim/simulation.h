@@ -18,6 +18,7 @@
 #include "particles/materials.h"
 #include "particles/particle_store.h"
 #include "process/feed.h"
+#include "process/impact_spectrum.h"
 #include "process/psd.h"
 #include "scene/scene_config.h"
 #include "search/neighbor_list.h"
@@ -139,6 +140,14 @@ class Simulation {
   double particle_steps() const { return particle_steps_; }
   // Multi-rate stepping's state and counters (absent unless the scene has /time/multi_rate).
   const MultiRate* multi_rate() const { return multi_rate_on_ ? &multi_rate_ : nullptr; }
+  // The impact-energy spectrum (absent unless the scene's output has it; on with breakage).
+  const ImpactSpectrum* impact_spectrum() const {
+    return impact_spectrum_ ? &*impact_spectrum_ : nullptr;
+  }
+  // Ends the spectrum's output interval now (the run loop, at each snapshot on its schedule).
+  void close_impact_interval() {
+    if (impact_spectrum_) impact_spectrum_->close_interval(time_s());
+  }
   // Σ over steps of the touching particle pairs: contact-steps, for per-contact figures.
   std::uint64_t contact_steps() const { return contact_steps_; }
 
@@ -182,6 +191,8 @@ class Simulation {
   // One CFD step at the current DEM step; the failure when the gas solver stops.
   std::optional<StepFailure> advance_gas();
   std::string describe_worst_overlap(const ContactStepStats& stats) const;
+  // Counts this step's impacts into the spectrum (before breakage turns their slots stale).
+  void tally_impacts();
   // The end of the constructor's work: the first gas step (unless restoring), the first forces,
   // the start's overlap check and the energy guard's reference.
   void complete_start(bool first_gas_step);
@@ -230,6 +241,7 @@ class Simulation {
   bool multi_rate_on_ = false;
   MultiRate multi_rate_;
   bool start_pending_ = false;  // AfterSpinUp, until finish_start()
+  std::optional<ImpactSpectrum> impact_spectrum_;
 };
 
 template <class A>
@@ -243,7 +255,8 @@ void Simulation::checkpoint_io(A& a) {
   if (gas_) io(a, *gas_);
   for (Feeder& f : feeders_) io(a, f);
   io_all(a, outlet_, outlet_mass_kg_, outlet_momentum_, initial_mass_kg_, fed_mass_kg_,
-         last_population_step_, feed_mass_bound_kg_, feed_kinetic_bound_j_, drag_relaxation_s_);
+         last_population_step_, feed_mass_bound_kg_, feed_kinetic_bound_j_, drag_relaxation_s_,
+         impact_spectrum_);
 }
 
 }  // namespace millsim

@@ -67,6 +67,7 @@ void get_run(ApiState&, const httplib::Request&, httplib::Response&);
 void get_run_psd(ApiState&, const httplib::Request&, httplib::Response&);
 void get_run_h5(ApiState&, const httplib::Request&, httplib::Response&);
 void get_run_result(ApiState&, const httplib::Request&, httplib::Response&);
+void get_run_impact_spectrum_plot(ApiState&, const httplib::Request&, httplib::Response&);
 void post_regression(ApiState&, const httplib::Request&, httplib::Response&);
 void list_regressions(ApiState&, const httplib::Request&, httplib::Response&);
 void get_regression(ApiState&, const httplib::Request&, httplib::Response&);

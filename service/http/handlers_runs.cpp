@@ -7,6 +7,7 @@
 #include "core/errors.h"
 #include "executors/executor.h"
 #include "http/handlers.h"
+#include "process/impact_spectrum_plot.h"
 #include "regression/regression.h"
 #include "studies/results.h"
 
@@ -91,6 +92,23 @@ void get_run_h5(ApiState& api, const Request& req, Response& res) {
         sink.write(buffer.data(), std::size_t(stream->gcount()));
         return stream->gcount() > 0;
       });
+}
+
+void get_run_impact_spectrum_plot(ApiState& api, const Request& req, Response& res) {
+  std::lock_guard<std::mutex> lock(api.store_mutex);
+  std::optional<RunRecord> r;
+  if (!with_complete_run(api, req, res, r, "impact spectrum")) return;
+  const json result = json::parse(r->result);
+  const std::string svg = result.contains("impact_spectrum")
+                              ? impact_spectrum_svg(result["impact_spectrum"], r->id)
+                              : std::string();
+  if (svg.empty())
+    return send_error(res, 404, "no_impact_spectrum",
+                      "run " + r->id +
+                          " has no impact spectrum (no impacts counted: the scene "
+                          "breaks nothing and output.impact_spectrum is off, or nothing collided)");
+  res.status = 200;
+  res.set_content(svg, "image/svg+xml");
 }
 
 void get_run_result(ApiState& api, const Request& req, Response& res) {

@@ -196,7 +196,7 @@ TEST(Breakage, SpawningConservesMassMomentumAndCentreOfMass) {
   ParticleId next_id = 2;
   std::vector<Newborn> newborn;
   const auto ignore = [](const ParticleStore&, std::size_t) {};
-  const std::uint64_t events = breakage.process({{0, 0, true, 20.0}}, {}, 1e-8, walls,
+  const std::uint64_t events = breakage.process({{0, 0, true, 20.0}}, {}, 1e-8, 0.25, walls,
                                                 PeriodicBox{s.domain.min_m, s.domain.max_m, {}}, p,
                                                 next_id, newborn, ignore, ignore);
   ASSERT_EQ(events, 1u);
@@ -215,6 +215,22 @@ TEST(Breakage, SpawningConservesMassMomentumAndCentreOfMass) {
   EXPECT_NEAR(mass / parent_mass, 1.0, 1e-14);
   EXPECT_LT(norm(momentum - v * parent_mass), 1e-14 * norm(v) * parent_mass);
   EXPECT_LT(norm(moment * (1.0 / parent_mass) - x), 1e-14 * norm(x));
+
+  // The event log (run.h5 /breakage_events): this one event as it happened. A wall impact of
+  // 20 m/s on a particle against a rigid-enough wall: the strength model compared the energy of
+  // the equivalent speed, at most the approach's v²/2 = 200 J/kg.
+  ASSERT_EQ(breakage.event_log().size(), 1u);
+  const BreakageEvent& e = breakage.event_log()[0];
+  EXPECT_EQ(e.time_s, 0.25);
+  EXPECT_EQ(e.parent_id, 1u);
+  EXPECT_EQ(e.parent_diameter_m, parent_d);
+  EXPECT_EQ(norm(e.position_m - x), 0.0);
+  EXPECT_EQ(e.generation, 0);
+  EXPECT_EQ(e.crushed, 0);
+  EXPECT_GT(e.specific_energy_j_per_kg, 0.0);
+  EXPECT_LE(e.specific_energy_j_per_kg, 0.5 * 20.0 * 20.0 * (1.0 + 1e-12));
+  EXPECT_EQ(e.fragments, p.size());
+  EXPECT_DOUBLE_EQ(e.dust_mass_kg, breakage.dust().total_mass_kg());
 }
 
 // A periodic gas of weak particles shatters through thousands of events: mass (particles + dust)

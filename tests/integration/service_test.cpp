@@ -240,6 +240,13 @@ TEST(Service, StudyOverHttpFinishesWithResultsAndPsd) {
   EXPECT_EQ(json::parse(run->body)["state"], "COMPLETE");
   auto plot = server.get("/v1/studies/" + id + "/plot/error-vs-time");
   EXPECT_NE(plot->body.find("<svg"), std::string::npos);
+  // The attrition case breaks particles: each run has its impact spectrum, drawn by the API.
+  auto spectrum = server.get("/v1/runs/" + id + "-r0/plot/impact-spectrum");
+  ASSERT_TRUE(spectrum);
+  EXPECT_EQ(spectrum->status, 200) << spectrum->body;
+  EXPECT_EQ(spectrum->get_header_value("Content-Type"), "image/svg+xml");
+  EXPECT_NE(spectrum->body.find("normal impact energy"), std::string::npos);
+  EXPECT_EQ(server.get("/v1/runs/" + id + "-r99/plot/impact-spectrum")->status, 404);
   auto runs = server.get("/v1/studies/" + id + "/runs?state=COMPLETE&limit=2");
   EXPECT_EQ(json::parse(runs->body)["runs"].size(), 2u);
 
@@ -1104,6 +1111,9 @@ TEST(Dashboard, ChromiumShowsStudiesSubmitsAndCancels) {
   const json psd = json::parse(server.get("/v1/runs/" + first_run + "/psd")->body)["outlet_psd"];
   EXPECT_NE(seen["run_details"]["title"].get<std::string>().find(first_run), std::string::npos);
   EXPECT_EQ(seen["run_details"]["psd_points"], psd["edges_m"].size());
+  // The run's impact-energy spectrum, drawn by the API, shown as a loaded image.
+  EXPECT_EQ(seen["run_details"]["spectrum"], json::array({"impact-energy spectrum"}))
+      << seen["run_details"];
   EXPECT_NE(seen["run_details"]["psd"].get<std::string>().find("d50"), std::string::npos);
   // The axis titles say what the plot shows: the mass finer than each edge against diameter.
   const std::set<std::string> psd_texts = seen["run_details"]["psd_texts"];

@@ -198,7 +198,11 @@ def main():
             "i.naturalWidth > 0).map(i => i.alt)")
         page.js("document.querySelector('#results tr.clickable').click(); true")
         seen["run_details"] = page.wait(
-            "document.getElementById('run-details') && document.getElementById('log-tail') ? {"
+            "document.getElementById('run-details') && document.getElementById('log-tail') && "
+            "document.querySelector('#run-details img') && "
+            "document.querySelector('#run-details img').complete ? {"
+            "spectrum: Array.from(document.querySelectorAll('#run-details img')).filter(i => "
+            "i.naturalWidth > 0).map(i => i.alt),"
             "title: document.querySelector('#run-details h2').textContent,"
             "psd: (document.getElementById('run-details').textContent"
             ".match(/outlet PSD: d10 [^µ]*µm, d50 [^µ]*µm, d90 [^µ]*µm/) || [''])[0],"

@@ -210,6 +210,9 @@ async function runDetails(runId) {
       box.append(el("p", { class: "state" }, "no outlet PSD (the scene has no outlet or breakage)"));
     }
   }
+  if (run.state === "COMPLETE")
+    box.append(el("h2", {}, "Impact-energy spectrum"),
+      await plot(`/v1/runs/${encodeURIComponent(runId)}/plot/impact-spectrum`, "impact-energy spectrum"));
   if (run.error) box.append(el("h2", {}, "Error"), el("pre", {}, run.error));
   box.append(el("h2", {}, "Log tail"), el("pre", { id: "log-tail" }, run.log_tail || "(empty)"));
   return box;
