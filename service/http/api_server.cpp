@@ -12,6 +12,7 @@
 #include "executors/executor.h"
 #include "http/handlers.h"
 #include "http/http_limits.h"
+#include "http/request_log.h"
 #include "regression/regression.h"
 
 namespace millsim {
@@ -296,15 +297,23 @@ void ApiServer::routes(httplib::Server& s, bool worker_only) {
     send_error(res, verdict.status, verdict.code, verdict.message);
     return httplib::Server::HandlerResponse::Handled;
   });
-  // One line per request on stderr.
+  // One line per request on stderr; a worker's idle polls at most once a minute (request_log.h).
   if (state_->config.request_log)
-    s.set_logger([](const Request& req, const Response& res) {
+    s.set_logger([idle_polls = idle_polls_](const Request& req, const Response& res) {
+      const double now_s = wall_clock_s();
+      std::string note;
+      if (is_idle_poll(req.method, req.path, res.status)) {
+        const std::optional<long> left_out = idle_polls->note(now_s);
+        if (!left_out) return;
+        note = concat(" (idle poll; ", *left_out,
+                      " more since the last such line, logged at most once a minute)");
+      }
       const double ms = GuardedHttpServer::current_request_ms();
       // One write per line, so lines of concurrent requests never interleave.
       char millis[32];
       std::snprintf(millis, sizeof millis, "%.3f", ms);
-      const std::string line = concat(iso_utc(wall_clock_s()), " ", req.method, " ",
-                                      printable(req.path), " ", res.status, " ", millis, " ms\n");
+      const std::string line = concat(iso_utc(now_s), " ", req.method, " ", printable(req.path),
+                                      " ", res.status, " ", millis, " ms", note, "\n");
       std::fputs(line.c_str(), stderr);
     });
   // Each route: the request has arrived whole (its receive deadline stops), then the token check

@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "http/connection_limits.h"
+#include "http/request_log.h"
 #include "queue/database_lock.h"
 #include "queue/store.h"
 
@@ -38,7 +39,7 @@ struct ServerConfig {
   std::size_t max_study_bytes = std::size_t(256) << 20;
   double lease_s = 30.0;
   int workers = 0;          // reported in /v1/info (the serve command starts them)
-  bool request_log = true;  // one line per request on stderr
+  bool request_log = true;  // one line per request on stderr (idle polls: http/request_log.h)
   // Slow clients: the connection cap and the receive deadline (service/http/http_limits.h).
   ConnectionLimits limits;
   // A second port that serves the worker protocol alone (claim, heartbeat, finish), so workers
@@ -80,6 +81,8 @@ class ApiServer {
   std::thread reaper_;
   int port_ = 0;
   std::unique_ptr<DatabaseLock> lock_;  // held while this server owns the database
+  // A worker's idle polls, on either port, share one summary in the request log.
+  std::shared_ptr<IdlePollSummary> idle_polls_ = std::make_shared<IdlePollSummary>();
 };
 
 bool is_loopback_host(const std::string& host);

@@ -1041,6 +1041,44 @@ TEST(Service, EveryResponseConformsToTheOpenApiSpec) {
   EXPECT_NE(text.find(" responses, 0 problems"), std::string::npos) << text;
 }
 
+// The lines of the server's request log that match `pattern`.
+int count_lines(const std::string& log, const std::regex& pattern) {
+  std::istringstream in(log);
+  int n = 0;
+  for (std::string line; std::getline(in, line);) n += std::regex_search(line, pattern) ? 1 : 0;
+  return n;
+}
+
+// An idle worker asks for a run about once a second: those polls (claims answered 204) write at
+// most one request-log line a minute, not one each. A claim that hands out a run and every other
+// request are logged as before.
+TEST(Service, IdleWorkerPollsWriteAtMostOneLogLineAMinute) {
+  test::TempDir dir;
+  ServerProcess server(dir.path(), 0);  // no worker of its own: only these polls claim
+  ASSERT_FALSE(server.url().empty());
+  const int polls = 30;
+  for (int k = 0; k < polls; ++k) {
+    const Reply r = server.post("/v1/worker/claim", R"({"worker": "idle"})");
+    ASSERT_TRUE(r) << "no response to an idle claim";
+    ASSERT_EQ(r->status, 204);
+  }
+  const Reply submitted = server.post("/v1/studies", slow_study(1, 0.01).dump());
+  ASSERT_TRUE(submitted) << "no response to the submit";
+  ASSERT_EQ(submitted->status, 201) << submitted->body;
+  const Reply claim = server.post("/v1/worker/claim", R"({"worker": "busy"})");
+  ASSERT_TRUE(claim) << "no response to the claim";
+  ASSERT_EQ(claim->status, 200) << claim->body;
+  // Lines are written after their response, each by its connection's thread: wait for the last
+  // ones, and a little more for any idle poll's line still on its way.
+  ASSERT_TRUE(server.output_matches_within(std::regex("POST /v1/worker/claim 200"), 30.0))
+      << server.output();
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  const std::string log = server.output();
+  EXPECT_LE(count_lines(log, std::regex("POST /v1/worker/claim 204")), 1) << log;
+  EXPECT_EQ(count_lines(log, std::regex("POST /v1/worker/claim 200")), 1) << log;
+  EXPECT_EQ(count_lines(log, std::regex("POST /v1/studies 201")), 1) << log;
+}
+
 // The dashboard at / in a real headless Chromium (tests/web/dashboard_check.py drives it over
 // the DevTools protocol): the studies with their progress, newest first, a submit with the token
 // typed into the page, a cancel refused with a wrong token (its error kept through refreshes
