@@ -15,6 +15,7 @@
 #include "sim/gas_spin_up.h"
 #include "sim/run.h"
 #include "sim/simulation.h"
+#include "support/sanitizers.h"
 #include "support/scenes.h"
 
 namespace millsim {
@@ -119,6 +120,9 @@ json read_json(const std::filesystem::path& path) {
 }
 
 TEST(GasSpinUp, StoppedAndResumedTheRunIsTheSameAsOneThatNeverStopped) {
+  MILLSIM_RELEASE_ONLY(
+      "Checkpoint.ASignalDuringTheGasSpinUpLeavesResultAndCheckpointAndResume"
+      "ContinuesIt (the same path through the millsim binary)");
   test::TempDir dir;
   const json scene = mill_scene();
   const Ending straight = run_scene(scene, {dir.path() / "straight", {}, false, false});
@@ -151,6 +155,7 @@ TEST(GasSpinUp, StoppedAndResumedTheRunIsTheSameAsOneThatNeverStopped) {
 }
 
 TEST(GasSpinUp, RunsWithTheSameGasShareOneSpinUpAndEndTheSameAsSpinningUpAlone) {
+  MILLSIM_RELEASE_ONLY("CliStudy.RunsWithTheSameGasShareOneSpinUp (the cache through millsim run)");
   test::TempDir dir;
   const std::filesystem::path cache = dir.path() / "cache";
   const json scene = mill_scene();
