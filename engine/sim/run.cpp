@@ -861,6 +861,16 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
       {"occupied_cells", n.last_search.cells},
       {"occupied_subcells", n.last_search.subcells},
       {"fine_particles", n.last_search.fine_particles}};
+  const MomentumBalance momentum = sim.momentum_balance();
+  auto vec3 = [](const Vec3& v) { return std::vector<double>{v.x, v.y, v.z}; };
+  s["momentum_kg_m_per_s"] = {{"initial", vec3(momentum.initial)},
+                              {"fed", vec3(momentum.fed)},
+                              {"particles", vec3(momentum.particles)},
+                              {"in_flight", vec3(momentum.in_flight)},
+                              {"outlet", vec3(momentum.outlet)},
+                              {"dust", vec3(momentum.dust)},
+                              {"external_impulse", vec3(momentum.external_impulse())},
+                              {"scale", sim.momentum_scale_kg_m_per_s()}};
   s["energy"] = {{"initial", energy_json(initial_energy)},
                  {"final", energy_json(final_energy)},
                  {"dissipated_j", initial_energy.total_j() - final_energy.total_j()}};

@@ -343,6 +343,8 @@ void Simulation::complete_start(bool first_gas_step) {
   contact_stats_.record_impacts = breakage_.has_value() || impact_spectrum_.has_value();
   start_pending_ = false;
   set_energy_baseline();
+  const MomentumBalance now = momentum_balance();
+  initial_momentum_ = now.particles + now.in_flight;
 }
 
 void Simulation::tally_impacts() {
@@ -758,6 +760,7 @@ void Simulation::process_population() {
                                                 spec.velocity_m_per_s, {}, spec.diameter_m, scale);
         if (breakage_) breakage_->draw_strength(particles_, slot);
         fed_mass_kg_ += particles_.mass_kg[slot];
+        fed_momentum_ += particles_.motion[slot].velocity_m_per_s * particles_.mass_kg[slot];
         added(particles_, slot);
         newborn.push_back({id, 0, 0});
       }
@@ -785,6 +788,26 @@ MassBalance Simulation::mass_balance() const {
   b.outlet_kg = outlet_.total_mass_kg();
   b.dust_kg = breakage_ ? breakage_->dust().total_mass_kg() : 0.0;
   return b;
+}
+
+MomentumBalance Simulation::momentum_balance() const {
+  MomentumBalance b;
+  b.initial = initial_momentum_;
+  b.fed = fed_momentum_;
+  for (std::size_t i = 0; i < particles_.size(); ++i) {
+    b.particles += particles_.motion[i].velocity_m_per_s * particles_.mass_kg[i];
+    b.in_flight += particles_.load[i].force_n * (0.5 * time_.step_s);
+  }
+  b.outlet = outlet_momentum_;
+  if (breakage_) b.dust = breakage_->dust_momentum_kg_m_per_s();
+  return b;
+}
+
+double Simulation::momentum_scale_kg_m_per_s() const {
+  double scale = 0.0;
+  for (std::size_t i = 0; i < particles_.size(); ++i)
+    scale += particles_.mass_kg[i] * norm(particles_.motion[i].velocity_m_per_s);
+  return scale;
 }
 
 Vec3 Simulation::removed_momentum_kg_m_per_s() const {

@@ -73,6 +73,16 @@ enum class SimulationStart {
   AfterSpinUp,  // the caller spins the gas up (spin_up_gas, as it likes) and calls finish_start
 };
 
+// Where the momentum went (kg m/s): held by the particles (Σ m v, plus ½ dt Σ F, the force in
+// flight that velocity Verlet still owes), carried out by outlet particles and by dust, against
+// what the run started with and what the feeds brought in. Their difference is the impulse of
+// the walls, gravity and the gas: zero to rounding in a closed periodic scene without them.
+struct MomentumBalance {
+  Vec3 initial, fed, particles, in_flight, outlet, dust;
+  Vec3 held() const { return particles + in_flight + outlet + dust; }
+  Vec3 external_impulse() const { return held() - initial - fed; }
+};
+
 class Simulation {
  public:
   // Throws InputErrorList when the scene cannot be built (bad particle files, overfull
@@ -137,6 +147,9 @@ class Simulation {
   MassBalance mass_balance() const;
   // Momentum that left the run with outlet particles and dust.
   Vec3 removed_momentum_kg_m_per_s() const;
+  MomentumBalance momentum_balance() const;
+  // Σ m |v| over the particles: the size of the momentum in play, for relative checks.
+  double momentum_scale_kg_m_per_s() const;
   double particle_steps() const { return particle_steps_; }
   // Multi-rate stepping's state and counters (absent unless the scene has /time/multi_rate).
   const MultiRate* multi_rate() const { return multi_rate_on_ ? &multi_rate_ : nullptr; }
@@ -234,6 +247,8 @@ class Simulation {
   Vec3 outlet_momentum_;
   double initial_mass_kg_ = 0.0;
   double fed_mass_kg_ = 0.0;
+  Vec3 fed_momentum_;      // Σ m v of the fed particles as they entered
+  Vec3 initial_momentum_;  // held by the particles at the start (with the force in flight)
   std::int64_t last_population_step_ = 0;  // when outlets and feeds were last applied
   double feed_mass_bound_kg_ = 0.0;        // what the feeds can bring in over the run
   double feed_kinetic_bound_j_ = 0.0;
@@ -256,7 +271,7 @@ void Simulation::checkpoint_io(A& a) {
   for (Feeder& f : feeders_) io(a, f);
   io_all(a, outlet_, outlet_mass_kg_, outlet_momentum_, initial_mass_kg_, fed_mass_kg_,
          last_population_step_, feed_mass_bound_kg_, feed_kinetic_bound_j_, drag_relaxation_s_,
-         impact_spectrum_);
+         impact_spectrum_, fed_momentum_, initial_momentum_);
 }
 
 }  // namespace millsim

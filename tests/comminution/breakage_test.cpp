@@ -10,7 +10,9 @@
 #include <numeric>
 
 #include "comminution/strength.h"
+#include "sim/run.h"
 #include "sim/simulation.h"
+#include "support/process.h"
 #include "support/scenes.h"
 
 namespace millsim {
@@ -284,6 +286,40 @@ TEST_P(BreakageConservation, MassAndMomentumConservedThroughThousandsOfEvents) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Breakage, BreakageConservation, ::testing::Values(0.1, 0.25));
+
+// The same closed periodic gas, read from outside: result.json's momentum section holds what the
+// particles, the force in flight and the dust carry, and the balance against the start closes to
+// 1e-12 of the momentum in play, dust included (issue 34, item 4).
+TEST(Breakage, MomentumThroughBreakageBalancesInResultJson) {
+  MaterialConfig m = breakable_material(2e4, 2e-4, test::power_law_fragments(1.0, 0.1, 0.7));
+  SizeDistribution sizes;
+  sizes.kind = SizeDistributionKind::Uniform;
+  sizes.min_m = 300e-6;
+  sizes.max_m = 400e-6;
+  SceneConfig s = test::periodic_random_gas(3e-3, 150, sizes, 15.0, m, 9);
+  enable_breakage(s, 60e-6);
+  s.psd.edges_m = {1e-6, 60e-6, 1e-3};
+  s.time.end_s = 30000 * Simulation(s).time_step().step_s;
+  Simulation sim(s);
+  test::TempDir dir;
+  RunOptions options;
+  options.out_dir = dir.path();
+  ASSERT_FALSE(run_simulation(sim, s, options).failure);
+  const nlohmann::json result = nlohmann::json::parse(test::read_file(dir.path() / "result.json"));
+  ASSERT_GT(result["breakage"]["events"].get<int>(), 50);
+  const nlohmann::json& p = result["momentum_kg_m_per_s"];
+  const double scale = p["scale"];
+  auto vec = [&](const char* key) {
+    return Vec3{p[key][0].get<double>(), p[key][1].get<double>(), p[key][2].get<double>()};
+  };
+  EXPECT_GT(norm(vec("dust")), 1e-6 * scale) << "the dust carries momentum away";
+  EXPECT_EQ(norm(vec("fed")), 0.0);
+  EXPECT_EQ(norm(vec("outlet")), 0.0);
+  const Vec3 change =
+      vec("particles") + vec("in_flight") + vec("outlet") + vec("dust") - vec("initial");
+  EXPECT_LT(norm(change), 1e-12 * scale) << p;
+  EXPECT_LT(norm(vec("external_impulse")), 1e-12 * scale) << p;
+}
 
 }  // namespace
 }  // namespace millsim
