@@ -113,7 +113,12 @@ void assign_boundaries(GasGrid& g, const GasConfig& config) {
           g.ghost[g.index(ijk[0], ijk[1], ijk[2])] = bc;
           const bool on_face =
               jb >= 1 && jb <= g.n[std::size_t(b)] && jc >= 1 && jc <= g.n[std::size_t(c)];
-          if (owner >= 0 && on_face) {
+          // A patch's faces and area are those in front of fluid cells: the gas crosses only
+          // those (a patch over a mill's floor blows through the chamber's footprint alone).
+          std::array<int, 3> inside = ijk;
+          inside[std::size_t(axis)] = side == 0 ? 1 : g.n[std::size_t(axis)];
+          const bool open = g.fluid[g.index(inside[0], inside[1], inside[2])] != 0;
+          if (owner >= 0 && on_face && open) {
             ++g.patch_faces[std::size_t(owner)];
             g.patch_area_m2[std::size_t(owner)] += g.face_area_m2(axis);
           }

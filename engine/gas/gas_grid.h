@@ -69,8 +69,9 @@ struct GasGrid {
   std::vector<GhostBoundary> ghost;  // indexed like the fields; meaningful in ghost cells only
   std::size_t fluid_cells = 0;
   bool has_outflow = false;
-  // Per boundary patch of the config: how many boundary faces it ended up owning (a patch
-  // smaller than a cell may own none) and their area.
+  // Per boundary patch of the config: how many boundary faces in front of fluid cells it ended
+  // up owning (a patch smaller than a cell, or over solid cells only, may own none) and their
+  // area: the area the gas crosses.
   std::vector<std::size_t> patch_faces;
   std::vector<double> patch_area_m2;
   // Per jet of the config: the solid–fluid faces it blows through and the volume flow they carry

@@ -307,7 +307,10 @@ GasConfig parse_gas(const json& v, const DomainConfig& domain, InputErrors& erro
       g.pressure_drops.push_back(drop);
     }
   r.finish();
+  return g;
+}
 
+void check_gas_outflow(const GasConfig& g, InputErrors& errors) {
   // Gas blown in must have a way out.
   bool inflow = false, outlet = false;
   for (const GasBoundaryPatch& p : g.boundaries) {
@@ -321,7 +324,6 @@ GasConfig parse_gas(const json& v, const DomainConfig& domain, InputErrors& erro
     errors.push_back({"/gas/boundaries", "",
                       "an inlet blows gas in but no boundary is an outlet: "
                       "add {\"face\": ..., \"type\": \"outlet\"}"});
-  return g;
 }
 
 }  // namespace millsim

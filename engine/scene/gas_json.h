@@ -16,5 +16,8 @@ InflowSchedule parse_inflow_schedule(const nlohmann::json& value, const std::str
                                      InputErrors& errors);
 
 GasConfig parse_gas(const nlohmann::json& value, const DomainConfig& domain, InputErrors& errors);
+// Gas blown in needs an outlet: checked once every section that adds patches has (a mill's
+// vortex finder is an outlet of the gas).
+void check_gas_outflow(const GasConfig& gas, InputErrors& errors);
 
 }  // namespace millsim

@@ -622,6 +622,7 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
       }
   }
   finish_mill_scene(scene, errors);
+  if (scene.gas) check_gas_outflow(*scene.gas, errors);
   return scene;
 }
 

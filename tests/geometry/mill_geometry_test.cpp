@@ -9,6 +9,8 @@
 //   - the outlet tube's inside is the DEM outlet; bad geometry is an input error naming the key.
 #include <gtest/gtest.h>
 
+#include <fstream>
+
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -19,6 +21,7 @@
 #include "process/classification.h"
 #include "process/outlet.h"
 #include "scene/mill_json.h"
+#include "scene/scene_json.h"
 #include "sim/simulation.h"
 #include "support/scenes.h"
 
@@ -345,6 +348,43 @@ TEST(MillGas, WhatTheNozzlesBlowInLeavesThroughTheOutletAndTheGasTurns) {
     EXPECT_GT(v.tangential_m_per_s, 0.0) << "r = " << r;
     EXPECT_LT(v.radial_m_per_s, 0.0) << "r = " << r << ": the gas drains inwards to the outlet";
   }
+}
+
+// A mill with an inlet patch of its own (issue 34, item 6): its gas leaves through the vortex
+// finder, which the mill adds as the gas's outlet, so the scene is accepted, and the outlet
+// carries what the nozzles and the inlet blow in. Gas blown in with no way out is still refused.
+TEST(MillGas, AnInletPatchIsAcceptedAndLeavesThroughTheVortexFinder) {
+  std::ifstream in(MILLSIM_SOURCE_DIR "/cases/spiral_jet_mill.json");
+  nlohmann::json doc = nlohmann::json::parse(in);
+  doc["gas"]["boundaries"] = {{{"name", "floor_air"},
+                               {"face", "z-"},
+                               {"type", "inlet"},
+                               {"velocity_m_per_s", {0.0, 0.0, 0.5}}}};
+  const InputErrors errors = test::scene_errors(doc);
+  ASSERT_TRUE(errors.empty()) << errors[0].path << ": " << errors[0].allowed;
+  InputErrors none;
+  SceneConfig s = parse_scene(doc, MILLSIM_SOURCE_DIR "/cases", none);
+  s.gas->pressure_tolerance = 1e-10;
+  GasSolver solver(*s.gas,
+                   build_gas_grid(*s.gas, s.domain.min_m, s.domain.max_m, {false, false, false}),
+                   {0, 0, 0});
+  const GasGrid& g = solver.grid();
+  ASSERT_GT(g.patch_faces[0], 0u) << "the inlet covers the chamber's floor";
+  for (int step = 0; step < 200; ++step)
+    ASSERT_FALSE(solver.advance(solver.stable_step_s()).has_value());
+  double outflow = 0.0, set_flow = 0.5 * g.patch_area_m2[0];
+  for (std::size_t f = 0; f < g.padded_size; ++f)
+    if (g.face[2][f] == FaceKind::Outflow) outflow += solver.velocity()[2][f] * g.face_area_m2(2);
+  for (const GasJetConfig& jet : s.gas->jets) set_flow += jet.volume_flow_m3_per_s();
+  EXPECT_NEAR(outflow, set_flow, 1e-6 * set_flow);
+
+  // The fluidized bed with its outlet taken away: an inlet and nowhere to go.
+  std::ifstream bed_in(MILLSIM_SOURCE_DIR "/cases/fluidized_bed.json");
+  nlohmann::json bed = nlohmann::json::parse(bed_in);
+  bed["gas"]["boundaries"].erase(1);
+  std::string all;
+  for (const InputError& e : test::scene_errors(bed)) all += e.path + ": " + e.allowed + "\n";
+  EXPECT_NE(all.find("no boundary is an outlet"), std::string::npos) << all;
 }
 
 TEST(MillGas, AScheduledNozzleBlowsTheFlowAndMomentumOfItsSpeedThen) {
