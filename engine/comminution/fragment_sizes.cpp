@@ -125,7 +125,10 @@ FragmentDraw FragmentSizeSampler::draw(double parent_diameter_m, double floor_ra
     free_volume = share;
   }
   out.below_floor_volume = free_volume * drawn_cumulative(floor);
-  const double credit = std::min(pool_state.below_floor_credit, out.below_floor_volume);
+  // A credit (more went below the floor before) lowers this breakage's share; a debt (a large
+  // fragment took some of an earlier share, below) raises it, within what is free.
+  const double credit = std::clamp(pool_state.below_floor_credit,
+                                   out.below_floor_volume - free_volume, out.below_floor_volume);
   out.below_floor_volume -= credit;
   pool_state.below_floor_credit -= credit;
   free_volume -= out.below_floor_volume;
@@ -137,10 +140,21 @@ FragmentDraw FragmentSizeSampler::draw(double parent_diameter_m, double floor_ra
     out.ratios.push_back(std::cbrt(v));
     free_volume -= v;
   };
-  // The pool first, largest first; what does not fit waits for the next breakage.
+  // The pool first, largest first; what does not fit waits for the next breakage. A draw near
+  // the parent's size fits only beside less than the share below the floor (a chip off a parent
+  // that stays nearly whole): it takes the room from that share, and later breakages give the
+  // share back (the pool's debt), so over many breakages the share is B(floor) and B holds up
+  // to r = 1.
   std::sort(pool.begin(), pool.end(), std::greater<>());
   std::size_t kept = 0;
   for (double v : pool) {
+    const double short_by = v - free_volume;
+    if (short_by > 0.0 && short_by <= out.below_floor_volume && v >= floor_volume &&
+        int(out.ratios.size()) + 1 < config_.max_fragments) {
+      out.below_floor_volume -= short_by;
+      free_volume += short_by;
+      pool_state.below_floor_credit -= short_by;
+    }
     if (fits(v))
       place(v);
     else

@@ -87,7 +87,9 @@ FragmentConfig parse_fragments(const json& v, const std::string& path, InputErro
       f.chipping_diameter_m =
           r.required_number("chipping_diameter_m", NumberRange::open_closed(0.0, 10.0));
     f.min_ratio = r.number("min_ratio", 0.05, NumberRange::closed(0.0, 0.9));
-    f.max_ratio = r.number("max_ratio", 0.7, NumberRange::open_closed(0.0, 0.9));
+    // Up to the parent's size: the published domain of B (a draw near 1 is a chip off a
+    // parent that stays nearly whole).
+    f.max_ratio = r.number("max_ratio", 0.7, NumberRange::open_closed(0.0, 1.0));
     if (f.max_ratio <= f.min_ratio)
       errors.push_back({r.path_of("max_ratio"), concat(f.max_ratio),
                         concat("expected > min_ratio = ", f.min_ratio)});

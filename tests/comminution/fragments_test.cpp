@@ -102,7 +102,7 @@ std::vector<double> measured_cumulative(const FragmentSizeSampler& sampler, doub
 // Drawing until a fragment does not fit and making the rest the last fragment missed this by
 // 0.03-0.08 on the same cases (bench/RESULTS.md).
 TEST(FragmentSizes, MassDistributionFollowsThePublishedBreakageFunctions) {
-  const std::vector<double> at = {0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.8};
+  const std::vector<double> at = {0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.8, 0.9, 0.95};
   const auto power = [](double q) { return [q](double r) { return std::pow(r, q); }; };
   const auto broadbent_callcott = [](double r) { return 1.0 - std::exp(-r); };
   const auto austin_luckie_b = [](double r) {
@@ -120,6 +120,11 @@ TEST(FragmentSizes, MassDistributionFollowsThePublishedBreakageFunctions) {
       {model(FragmentModel::BroadbentCallcott, 0.05, 0.7), 0.0, broadbent_callcott},
       {model(FragmentModel::BroadbentCallcott, 0.0, 0.9), 0.05, broadbent_callcott},
       {austin_luckie(0.4, 0.9, 3.5), 0.05, austin_luckie_b},
+      // The published domain whole, up to the parent's size (issue 34, item 3): the published
+      // B itself, no renormalisation below 1.
+      {power_law_fragments(1.0, 0.0, 1.0), 0.03, power(1.0)},
+      {power_law_fragments(0.6, 0.0, 1.0), 0.05, power(0.6)},
+      {model(FragmentModel::BroadbentCallcott, 0.0, 1.0), 0.05, broadbent_callcott},
   };
   for (const Case& c : cases) {
     const FragmentSizeSampler sampler(c.config);

@@ -156,7 +156,7 @@ TEST(SceneJson, BreakageFunctionsNameTheirParameters) {
   EXPECT_EQ(errors.size(), 2u);
 
   doc["materials"][0]["breakage"]["fragments"] =
-      json::parse(R"({"model": "vogel_peukert", "exponent": 1.2, "max_ratio": 0.95})");
+      json::parse(R"({"model": "vogel_peukert", "exponent": 1.2, "max_ratio": 1.05})");
   errors = errors_of(doc);
   EXPECT_NE(find_error(errors, "/materials/0/breakage/fragments/chipping_diameter_m"), nullptr);
   EXPECT_NE(find_error(errors, "/materials/0/breakage/fragments/max_ratio"), nullptr);
