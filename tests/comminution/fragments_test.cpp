@@ -125,6 +125,12 @@ TEST(FragmentSizes, MassDistributionFollowsThePublishedBreakageFunctions) {
       {power_law_fragments(1.0, 0.0, 1.0), 0.03, power(1.0)},
       {power_law_fragments(0.6, 0.0, 1.0), 0.05, power(0.6)},
       {model(FragmentModel::BroadbentCallcott, 0.0, 1.0), 0.05, broadbent_callcott},
+      {[&] {
+         FragmentConfig c = austin_luckie(0.4, 0.9, 3.5);  // 22 % of the mass above r = 0.9
+         c.max_ratio = 1.0;
+         return c;
+       }(),
+       0.05, austin_luckie_b},
   };
   for (const Case& c : cases) {
     const FragmentSizeSampler sampler(c.config);
