@@ -21,6 +21,7 @@
 #include "commands.h"
 #include "core/errors.h"
 #include "http/api_server.h"
+#include "memory_reserve.h"
 
 namespace millsim::cli {
 namespace {
@@ -58,6 +59,9 @@ pid_t start_worker(const std::string& self, const std::string& url, const std::s
 }  // namespace
 
 int cmd_serve(const std::vector<std::string>& args) {
+  // 64 MiB set aside: a request that runs the server out of memory fails alone, whichever
+  // thread's allocation fails first (service/memory_reserve.h).
+  arm_memory_reserve(std::size_t(64) << 20);
   ServerConfig config;
   config.workers = int(std::max(1u, std::thread::hardware_concurrency()));
   config.worker_port = 0;  // the started workers' own path (service/http/http_limits.h)

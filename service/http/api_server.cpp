@@ -13,6 +13,7 @@
 #include "http/handlers.h"
 #include "http/http_limits.h"
 #include "http/request_log.h"
+#include "memory_reserve.h"
 #include "regression/regression.h"
 
 namespace millsim {
@@ -271,6 +272,7 @@ void ApiServer::routes(httplib::Server& s, bool worker_only) {
           "{\"error\": {\"code\": \"out_of_memory\", \"message\": \"the server ran out "
           "of memory answering this request; nothing was stored\"}}\n",
           "application/json");
+      rearm_memory_reserve();  // the request's memory is freed by now (service/memory_reserve.h)
       return;
     } catch (const std::exception& e) {
       what = e.what();

@@ -10,6 +10,7 @@
 
 #include "core/json_reader.h"
 #include "io/input_file.h"
+#include "memory_reserve.h"
 #include "scene/scene_json.h"
 
 namespace millsim {
@@ -424,6 +425,9 @@ Study expand_study(const json& spec, const std::filesystem::path& base_dir, int 
     nlohmann::ordered_json ordered = nlohmann::ordered_json::object();
     for (const Parameter& p : parameters) ordered[p.path] = params[p.path];
     for (int r = 0; r < repeats; ++r) {
+      // Memory ran short somewhere in the server while this grew (service/memory_reserve.h):
+      // this request gives up, not the server.
+      if (memory_reserve_tapped()) throw std::bad_alloc();
       StudyRun run;
       run.index = int(study.runs.size());
       run.params = ordered;
