@@ -23,6 +23,7 @@ std::size_t ImpactSpectrum::size_class(double diameter_m) const {
 
 std::size_t ImpactSpectrum::energy_bin(double j_per_kg) const {
   if (!(j_per_kg > 0.0)) return 0;
+  if (!std::isfinite(j_per_kg)) return energy_bins() - 1;  // no long from an infinite log
   // The edge itself belongs to the bin above it; the log may round an edge down by one ulp,
   // so the result is checked against the edges.
   long k = long(std::floor((std::log10(j_per_kg) - log_min_) * bins_per_decade_));

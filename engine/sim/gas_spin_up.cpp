@@ -131,7 +131,7 @@ std::uint64_t gas_spin_up_key(Simulation& sim, const std::string& scene_text) {
       if (scene.contains(key)) inputs[key] = scene[key];
   std::string text = inputs.dump();  // keys sorted: spacing and key order do not matter
   auto append = [&text](const void* data, std::size_t bytes) {
-    text.append(static_cast<const char*>(data), bytes);
+    if (bytes > 0) text.append(static_cast<const char*>(data), bytes);  // data may be null at 0
   };
   const double cell_m = sim.gas()->table().cell_m();
   const std::uint64_t layout = checkpoint_layout();

@@ -10,6 +10,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <numeric>
 
@@ -50,11 +51,12 @@ TEST(ImpactSpectrum, EqualImpactsLandInTheirBinAndSizeClass) {
   // the last; a particle outside the size classes to the nearest one.
   s.add({1, 0, 2}, 2e-6, std::sqrt(2.0 * s.energy_edges_j_per_kg()[20]), 0.0);
   s.add({1, 0, 2}, 1.0, 1e5, 0.0);
+  s.add({1, 0, 2}, 1.0, std::numeric_limits<double>::infinity(), 0.0);  // a blow-up's speed
   ASSERT_EQ(s.groups().size(), 2u);
   EXPECT_EQ(s.normal_counts(1)[20], 1u);
   EXPECT_EQ(s.tangential_counts(1)[0], 1u);
-  EXPECT_EQ(s.normal_counts(1)[bins + bins - 1], 1u);
-  EXPECT_EQ(s.impacts(), 15u);
+  EXPECT_EQ(s.normal_counts(1)[bins + bins - 1], 2u);
+  EXPECT_EQ(s.impacts(), 16u);
 }
 
 TEST(ImpactSpectrum, IntervalsAddUpToTheRun) {
