@@ -13,6 +13,7 @@
 #include "sim/run.h"
 #include "sim/simulation.h"
 #include "support/process.h"
+#include "support/sanitizers.h"
 #include "support/scenes.h"
 
 namespace millsim {
@@ -291,6 +292,9 @@ INSTANTIATE_TEST_SUITE_P(Breakage, BreakageConservation, ::testing::Values(0.1, 
 // particles, the force in flight and the dust carry, and the balance against the start closes to
 // 1e-12 of the momentum in play, dust included (issue 34, item 4).
 TEST(Breakage, MomentumThroughBreakageBalancesInResultJson) {
+  MILLSIM_RELEASE_ONLY(
+      "BreakageConservation (the same balance in memory) and every run's "
+      "result.json");
   MaterialConfig m = breakable_material(2e4, 2e-4, test::power_law_fragments(1.0, 0.1, 0.7));
   SizeDistribution sizes;
   sizes.kind = SizeDistributionKind::Uniform;
