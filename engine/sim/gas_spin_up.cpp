@@ -194,17 +194,15 @@ SpinUpReport run_gas_spin_up(Simulation& sim, const SpinUpOptions& options) {
     if (ec) throw IoError("cannot create " + options.cache_dir.string() + ": " + ec.message());
     std::filesystem::path lock_path = report.cache_file;
     lock = std::make_unique<CacheLock>(lock_path.replace_extension(".lock"));
-    auto last_report = Clock::now();
-    bool reported = false;
+    Clock::time_point last_report{};  // long ago: the first wait is reported at once
     const auto wait_start = Clock::now();
     while (!lock->try_lock()) {
       if ((report.interrupted_by = stop_signal()) != 0) {
         report.wall_s = seconds_since(start);
         return report;
       }
-      if (!reported || seconds_since(last_report) > options.progress_interval_s) {
+      if (seconds_since(last_report) > options.progress_interval_s) {
         progress(0.0, 0, true, false);
-        reported = true;
         last_report = Clock::now();
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(20));

@@ -327,14 +327,18 @@ GasFieldSnapshot gas_field(const GasSolver& gas) {
   return f;
 }
 
+// The partner of an impact group: a material's name, or a wall's.
+const std::string& impact_partner_name(const ImpactGroup& g, const Simulation& sim,
+                                       const SceneConfig& scene) {
+  return g.with_wall ? sim.walls()[std::size_t(g.partner)].name
+                     : scene.materials[std::size_t(g.partner)].name;
+}
+
 // "particle-particle salt/salt", "particle-wall salt/mantle": who met whom.
 std::string impact_group_name(const ImpactGroup& g, const Simulation& sim,
                               const SceneConfig& scene) {
-  const std::string& material = scene.materials[std::size_t(g.material)].name;
-  const std::string partner = g.with_wall ? sim.walls()[std::size_t(g.partner)].name
-                                          : scene.materials[std::size_t(g.partner)].name;
-  return std::string(g.with_wall ? "particle-wall " : "particle-particle ") + material + "/" +
-         partner;
+  return std::string(g.with_wall ? "particle-wall " : "particle-particle ") +
+         scene.materials[std::size_t(g.material)].name + "/" + impact_partner_name(g, sim, scene);
 }
 
 // [size class][energy bin] as rows.
@@ -371,8 +375,7 @@ nlohmann::ordered_json impact_spectrum_json(const ImpactSpectrum& spectrum, cons
     entry["name"] = impact_group_name(group, sim, scene);
     entry["kind"] = group.with_wall ? "particle-wall" : "particle-particle";
     entry["material"] = scene.materials[std::size_t(group.material)].name;
-    entry["partner"] = group.with_wall ? sim.walls()[std::size_t(group.partner)].name
-                                       : scene.materials[std::size_t(group.partner)].name;
+    entry["partner"] = impact_partner_name(group, sim, scene);
     entry["normal_counts"] = count_rows(spectrum.normal_counts(g), bins);
     entry["tangential_counts"] = count_rows(spectrum.tangential_counts(g), bins);
     entry["interval_normal_counts"] = intervals_n;

@@ -85,18 +85,6 @@ Ending run_scene(const json& doc, const Attempt& a) {
   return e;
 }
 
-// result.json without what depends on the wall clock or on how the run got its spin-up.
-json physics_of(json result) {
-  for (const char* key : {"wall_time_s", "wall_time_total_s", "particle_steps_per_second",
-                          "phase_seconds", "resumed", "checkpoints", "outputs", "spin_up"})
-    result.erase(key);
-  // The pressure matrix is factorised again after a restore (it is not part of the state): one
-  // build more, and no other number changed by it.
-  if (result.contains("gas"))
-    result["gas"].erase("seconds"), result["gas"].erase("pressure_matrix_builds");
-  return result;
-}
-
 void expect_same_run(const Ending& a, const Ending& b, const char* what) {
   SCOPED_TRACE(what);
   ASSERT_GT(a.position.size(), 0u) << "the mill fed no particle: nothing is compared";
@@ -110,8 +98,8 @@ void expect_same_run(const Ending& a, const Ending& b, const char* what) {
   for (int axis = 0; axis < 3; ++axis) ASSERT_EQ(a.gas_velocity[axis], b.gas_velocity[axis]);
   ASSERT_EQ(a.gas_pressure, b.gas_pressure);
   EXPECT_EQ(a.spin_up_steps, b.spin_up_steps);
-  EXPECT_EQ(physics_of(json::parse(a.outcome.summary.dump())),
-            physics_of(json::parse(b.outcome.summary.dump())));
+  EXPECT_EQ(test::physics_of(json::parse(a.outcome.summary.dump())),
+            test::physics_of(json::parse(b.outcome.summary.dump())));
 }
 
 json read_json(const std::filesystem::path& path) {

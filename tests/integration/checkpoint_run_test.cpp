@@ -35,14 +35,6 @@ json attrition_scene() {
   return scene;
 }
 
-// result.json without what depends on the wall clock or on the run having been resumed.
-json physics_of(json result) {
-  for (const char* key : {"wall_time_s", "wall_time_total_s", "particle_steps_per_second",
-                          "phase_seconds", "resumed", "checkpoints", "outputs"})
-    result.erase(key);
-  return result;
-}
-
 // Starts `millsim run ARGS...` in `dir` with stdout and stderr in files; returns its pid.
 pid_t start_run(const std::filesystem::path& dir, const std::vector<std::string>& args) {
   const pid_t pid = fork();
@@ -115,7 +107,7 @@ TEST(Checkpoint, KilledRunResumesToTheSameResult) {
       test::run_millsim("run scene.json --out crashed --quiet --resume", dir.path());
   ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
   const json result = json::parse(resumed.out);
-  EXPECT_EQ(physics_of(result), physics_of(reference));
+  EXPECT_EQ(test::physics_of(result), test::physics_of(reference));
   EXPECT_EQ(result["resumed"]["skipped_damaged"].size(), 1u);
   EXPECT_EQ(result["resumed"]["checkpoint"], saved[1].filename().string());
   EXPECT_GE(result["resumed"]["snapshots_carried"].get<int>(), 1);
@@ -174,7 +166,7 @@ TEST(Checkpoint, SigtermWritesACheckpointAndResumeFinishesTheRun) {
       test::run_millsim("run scene.json --out stopped --quiet --resume", dir.path());
   ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
   const json result = json::parse(resumed.out);
-  EXPECT_EQ(physics_of(result), physics_of(json::parse(whole.out)));
+  EXPECT_EQ(test::physics_of(result), test::physics_of(json::parse(whole.out)));
   EXPECT_TRUE(result["resumed"]["skipped_damaged"].empty());
   EXPECT_EQ(result["outputs"]["snapshots"], json::parse(whole.out)["outputs"]["snapshots"]);
 

@@ -37,32 +37,43 @@ std::size_t count(const std::string& text, const std::string& what) {
   return n;
 }
 
-TEST(StudyPlots, RenderWithOneCurvePerRunAndTheReferenceMarked) {
-  test::TempDir dir;
-  Store store(dir.path() / "q.db");
+// A psd_ks study of `runs` dust thresholds (8e-5 / (k + 1) m), the last the reference,
+// submitted to `store`; returns its id.
+std::string threshold_study(Store& store, const std::filesystem::path& dir, const char* name,
+                            int runs) {
   Study study;
-  study.name = "plots";
+  study.name = name;
   study.spec = json::object();
   study.error_metric = "psd_ks";
-  for (int k = 0; k < 3; ++k) {
+  for (int k = 0; k < runs; ++k) {
     StudyRun r;
     r.index = k;
     r.params = {{"dust.threshold_diameter_m", 8e-5 / (k + 1)}};
     r.scene = json::object();
-    r.is_reference = k == 2;
+    r.is_reference = k == runs - 1;
     study.runs.push_back(r);
   }
-  study.reference_index = 2;
-  const std::string id = store.submit(study, std::nullopt, dir.path(), 1.0).study_id;
-  for (int k = 0; k < 3; ++k) {
-    const std::optional<Claim> c = store.claim("w", 60, 2.0, id);
-    ASSERT_TRUE(c);
-    FinishReport done;
-    done.state = RunState::Complete;
-    done.wall_time_s = 10.0 * (k + 1);
-    done.result = result_with_psd(0.2 + 0.3 * k, done.wall_time_s);
-    ASSERT_TRUE(store.finish(c->run.id, c->token, done, 3.0));
-  }
+  study.reference_index = runs - 1;
+  return store.submit(study, std::nullopt, dir, 1.0).study_id;
+}
+
+// Claims the study's next run and finishes it complete with `result`.
+void complete_next(Store& store, const std::string& id, double wall_s, const std::string& result) {
+  const std::optional<Claim> c = store.claim("w", 60, 2.0, id);
+  ASSERT_TRUE(c);
+  FinishReport done;
+  done.state = RunState::Complete;
+  done.wall_time_s = wall_s;
+  done.result = result;
+  ASSERT_TRUE(store.finish(c->run.id, c->token, done, 3.0));
+}
+
+TEST(StudyPlots, RenderWithOneCurvePerRunAndTheReferenceMarked) {
+  test::TempDir dir;
+  Store store(dir.path() / "q.db");
+  const std::string id = threshold_study(store, dir.path(), "plots", 3);
+  for (int k = 0; k < 3; ++k)
+    complete_next(store, id, 10.0 * (k + 1), result_with_psd(0.2 + 0.3 * k, 10.0 * (k + 1)));
   const std::string psd = psd_svg(store, id);
   const std::string errors = error_vs_time_svg(results_table(store, id));
   EXPECT_EQ(count(psd, "<polyline"), 3u);
@@ -97,34 +108,15 @@ TEST(StudyPlots, RenderWithOneCurvePerRunAndTheReferenceMarked) {
 TEST(StudyPlots, AnEmptyProductHasNoSizesAndNoErrorInTheTable) {
   test::TempDir dir;
   Store store(dir.path() / "q.db");
-  Study study;
-  study.name = "empty";
-  study.spec = json::object();
-  study.error_metric = "psd_ks";
+  const std::string id = threshold_study(store, dir.path(), "empty", 2);
   for (int k = 0; k < 2; ++k) {
-    StudyRun r;
-    r.index = k;
-    r.params = {{"dust.threshold_diameter_m", 8e-5 / (k + 1)}};
-    r.scene = json::object();
-    r.is_reference = k == 1;
-    study.runs.push_back(r);
-  }
-  study.reference_index = 1;
-  const std::string id = store.submit(study, std::nullopt, dir.path(), 1.0).study_id;
-  for (int k = 0; k < 2; ++k) {
-    const std::optional<Claim> c = store.claim("w", 60, 2.0, id);
-    ASSERT_TRUE(c);
-    FinishReport done;
-    done.state = RunState::Complete;
-    done.wall_time_s = 10.0;
     json result = json::parse(result_with_psd(0.5, 10.0));
     if (k == 0) {
       result["outlet_psd"]["total_mass_kg"] = 0.0;
       result["outlet_psd"]["cumulative_mass"] = {0.0, 0.0, 0.0};
       for (const char* d : {"d10_m", "d50_m", "d90_m"}) result["outlet_psd"][d] = nullptr;
     }
-    done.result = result.dump();
-    ASSERT_TRUE(store.finish(c->run.id, c->token, done, 3.0));
+    complete_next(store, id, 10.0, result.dump());
   }
   const nlohmann::ordered_json table = results_table(store, id);
   ASSERT_EQ(table["runs"].size(), 2u);

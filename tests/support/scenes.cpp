@@ -76,6 +76,15 @@ Vec3 total_momentum(const ParticleStore& p) {
   return sum;
 }
 
+nlohmann::json physics_of(nlohmann::json result) {
+  for (const char* key : {"wall_time_s", "wall_time_total_s", "particle_steps_per_second",
+                          "phase_seconds", "resumed", "checkpoints", "outputs", "spin_up"})
+    result.erase(key);
+  if (result.contains("gas"))
+    result["gas"].erase("seconds"), result["gas"].erase("pressure_matrix_builds");
+  return result;
+}
+
 TempDir::TempDir() {
   std::random_device seed;
   path_ = std::filesystem::temp_directory_path() /

@@ -34,6 +34,11 @@ FragmentConfig power_law_fragments(double exponent, double min_ratio, double max
 // Every error parse_scene reports for a scene document (base directory ".").
 InputErrors scene_errors(const nlohmann::json& doc);
 
+// A run's result.json without what depends on the wall clock, on the run having been resumed or
+// on how its gas got its spin-up (and the pressure matrix's builds: it is factorised again after
+// a restore, not part of the state), for comparing two runs' physics.
+nlohmann::json physics_of(nlohmann::json result);
+
 // Σ m v over the particles.
 Vec3 total_momentum(const ParticleStore& particles);
 
