@@ -10,6 +10,7 @@
 
 #include "core/schedule.h"
 #include "core/vec3.h"
+#include "gas/compressible/ideal_gas.h"
 #include "gas/pressure_solver.h"
 
 namespace millsim {
@@ -46,6 +47,11 @@ struct GasBoundaryPatch {
   // Inlet only: the velocity along the inward normal follows this table instead (and
   // velocity_m_per_s is zero).
   std::optional<InflowSchedule> schedule;
+  // Inlet of the compressible model only: fed from a reservoir at this stagnation pressure and
+  // temperature instead of at a set velocity (the inflow speed follows from the pressure inside,
+  // isentropically, up to Mach 1). Absent: a velocity inlet.
+  std::optional<double> supply_pressure_pa;
+  double supply_temperature_k = 293.15;
 };
 
 // Solid regions voxelised into the gas grid: a cell whose centre is inside is solid.
@@ -115,7 +121,23 @@ enum class AdvectionScheme {
             // numerical viscosity than first-order upwind, e.g. in a jet mill's vortex
 };
 
+// Which equations the gas solves (docs/gas.md).
+enum class GasModel {
+  Incompressible,  // constant density, Chorin projection on the staggered grid (gas_solver.h)
+  Compressible,    // ideal gas with an energy equation, finite volumes with a central-upwind
+                   // flux (gas/compressible/compressible_solver.h)
+};
+
+// The compressible model's thermodynamics and initial state.
+struct CompressibleGasConfig {
+  IdealGas gas;
+  double initial_pressure_pa = 101325.0;
+  double initial_temperature_k = 293.15;
+};
+
 struct GasConfig {
+  GasModel model = GasModel::Incompressible;
+  CompressibleGasConfig compressible;  // read only by the compressible model
   double density_kg_per_m3 = 1.2;
   double viscosity_pa_s = 1.8e-5;
   std::array<int, 3> cells{1, 1, 1};  // grid cells along x, y, z over the domain box
