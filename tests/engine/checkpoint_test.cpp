@@ -5,8 +5,8 @@
 
 #include <cstring>
 #include <fstream>
-#include <vector>
 #include <nlohmann/json.hpp>
+#include <vector>
 
 #include "checkpoint/checkpoint_file.h"
 #include "core/errors.h"

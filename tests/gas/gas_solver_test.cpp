@@ -76,8 +76,9 @@ TEST(GasSolver, SmagorinskyEddyViscosityInCouetteFlow) {
 }
 
 TEST(GasSolver, LidDrivenCavityAtRe100MatchesGhia) {
-  MILLSIM_RELEASE_ONLY("GasSolver.PlanePoiseuilleMatchesTheParabola, ...InCouetteFlow (a moving "
-                       "wall) and ...TaylorGreenVortex (the advection schemes)");
+  MILLSIM_RELEASE_ONLY(
+      "GasSolver.PlanePoiseuilleMatchesTheParabola, ...InCouetteFlow (a moving "
+      "wall) and ...TaylorGreenVortex (the advection schemes)");
   GasConfig config;
   config.density_kg_per_m3 = 1.0;
   config.viscosity_pa_s = 0.01;  // Re = U L / ν = 100
