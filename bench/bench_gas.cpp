@@ -2,6 +2,10 @@
 //   bench_gas grid [steps]          time per CFD step against grid size, multigrid and
 //                                   incomplete-Cholesky preconditioners side by side: a 3-D
 //                                   box with a nozzle inlet and an outlet, from rest
+//   bench_gas compressible [steps]  the compressible model against the incompressible one on
+//                                   the same box, inlet and outlet (a 20 m/s inlet into gas at
+//                                   rest): time per step, per cell-step, the stable step, and
+//                                   so the cost of one simulated millisecond of each
 //   bench_gas cache SOURCE_DIR      drag caching (§3.1, Fig. 5) at thresholds 0, 1, 5, 10 %:
 //                                   salt particles settling in air (terminal velocity against
 //                                   Schiller–Naumann) and the fluidized bed case at 1.5 u_mf
@@ -14,6 +18,7 @@
 #include <numbers>
 #include <string>
 
+#include "gas/compressible/compressible_solver.h"
 #include "gas/gas_solver.h"
 #include "scene/scene_json.h"
 #include "sim/simulation.h"
@@ -27,26 +32,69 @@ double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
+// The box of grid_scan: a circular 20 m/s inlet on x−, an outlet on z+.
+GasConfig inlet_box(int n) {
+  GasConfig config;
+  config.cells = {n, n, n};
+  GasBoundaryPatch inlet;
+  inlet.face = 0;
+  inlet.kind = GasBoundaryKind::Inlet;
+  inlet.shape = PatchShape::Circle;
+  inlet.center_m = {0, 0.05, 0.05};
+  inlet.radius_m = 0.01;
+  inlet.velocity_m_per_s = {20, 0, 0};
+  GasBoundaryPatch outlet;
+  outlet.face = 5;
+  outlet.kind = GasBoundaryKind::Outlet;
+  config.boundaries = {inlet, outlet};
+  return config;
+}
+
+void compressible_scan(int steps) {
+  std::printf(
+      "| cells | model | ms per step | ns per cell-step | stable step, µs | "
+      "s per simulated ms |\n| --- | --- | --- | --- | --- | --- |\n");
+  for (int n : {16, 32, 48, 64}) {
+    const double cells = double(n) * n * n;
+    {
+      GasConfig config = inlet_box(n);
+      GasSolver gas(config, build_gas_grid(config, {0, 0, 0}, {0.1, 0.1, 0.1}, {}), {0, 0, -9.81});
+      for (int k = 0; k < 5; ++k) gas.advance(gas.stable_step_s());
+      const double dt = gas.stable_step_s();
+      const auto t0 = Clock::now();
+      for (int k = 0; k < steps; ++k) gas.advance(gas.stable_step_s());
+      const double s = seconds_since(t0) / steps;
+      std::printf("| %d³ | incompressible | %.3f | %.1f | %.2f | %.3g |\n", n, 1e3 * s,
+                  1e9 * s / cells, 1e6 * dt, s * 1e-3 / dt);
+    }
+    GasConfig config = inlet_box(n);
+    config.model = GasModel::Compressible;
+    config.boundaries[1].pressure_pa = 101325.0;  // the compressible model's p is absolute
+    config.viscosity_pa_s = 1.8e-5;
+    CompressibleSolver gas(config, build_gas_grid(config, {0, 0, 0}, {0.1, 0.1, 0.1}, {}),
+                           {0, 0, -9.81});
+    for (int k = 0; k < 5; ++k) gas.advance(gas.stable_step_s(0.4));
+    const double dt = gas.stable_step_s(0.4);
+    const auto t0 = Clock::now();
+    for (int k = 0; k < steps; ++k)
+      if (auto failure = gas.advance(gas.stable_step_s(0.4))) {
+        std::printf("failed: %s\n", failure->c_str());
+        return;
+      }
+    const double s = seconds_since(t0) / steps;
+    std::printf("| %d³ | compressible | %.3f | %.1f | %.2f | %.3g |\n", n, 1e3 * s, 1e9 * s / cells,
+                1e6 * dt, s * 1e-3 / dt);
+  }
+}
+
 void grid_scan(int steps) {
   std::printf("| cells | preconditioner | ms per CFD step | CG iterations per step |\n");
   std::printf("| --- | --- | --- | --- |\n");
   for (int n : {16, 32, 48, 64}) {
     for (PressurePreconditioner kind :
          {PressurePreconditioner::Multigrid, PressurePreconditioner::IncompleteCholesky}) {
-      GasConfig config;
-      config.cells = {n, n, n};
+      GasConfig config = inlet_box(n);
       config.pressure_preconditioner = kind;
-      GasBoundaryPatch inlet;
-      inlet.face = 0;
-      inlet.kind = GasBoundaryKind::Inlet;
-      inlet.shape = PatchShape::Circle;
-      inlet.center_m = {0, 0.05, 0.05};
-      inlet.radius_m = 0.01;
-      inlet.velocity_m_per_s = {20, 0, 0};
-      GasBoundaryPatch outlet;
-      outlet.face = 5;
-      outlet.kind = GasBoundaryKind::Outlet;
-      config.boundaries = {inlet, outlet};
       GasSolver gas(config, build_gas_grid(config, {0, 0, 0}, {0.1, 0.1, 0.1}, {}), {0, 0, -9.81});
       for (int k = 0; k < 5; ++k) gas.advance(gas.stable_step_s());  // warm up
       const std::uint64_t iterations0 = gas.stats().pressure_iterations;
@@ -149,6 +197,8 @@ int main(int argc, char** argv) {
   const std::string mode = argc > 1 ? argv[1] : "";
   if (mode == "grid") {
     grid_scan(argc > 2 ? std::atoi(argv[2]) : 20);
+  } else if (mode == "compressible") {
+    compressible_scan(argc > 2 ? std::atoi(argv[2]) : 20);
   } else if (mode == "cache" && argc > 2) {
     std::printf(
         "| threshold | cache stores | d | final v / v_t − 1 | peak v / v_t − 1 | "
@@ -160,7 +210,9 @@ int main(int argc, char** argv) {
         "mean 90th-percentile height, mm |\n| --- | --- | --- | --- | --- |\n");
     for (double t : {0.0, 0.01, 0.05, 0.10}) fluidized(argv[2], t);
   } else {
-    std::fprintf(stderr, "usage: bench_gas grid [steps] | bench_gas cache SOURCE_DIR\n");
+    std::fprintf(stderr,
+                 "usage: bench_gas grid [steps] | bench_gas compressible [steps] | "
+                 "bench_gas cache SOURCE_DIR\n");
     return 2;
   }
   return 0;
