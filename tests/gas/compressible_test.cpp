@@ -2,7 +2,8 @@
 // and conservation laws: Sod's shock tube against the exact Riemann solution (Toro, Riemann
 // Solvers and Numerical Methods for Fluid Dynamics, 3rd ed., ch. 4) with the L1 error's order
 // of convergence over three grids; mass, momentum and energy in closed and periodic boxes to
-// round-off; a viscous shear wave's decay against ν k²; and a blow-up stopped with a message.
+// round-off; a viscous shear wave's decay against ν k²; a duct fed from a reservoir against the
+// isentropic mass flux, choked and not; and a blow-up stopped with a message.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -277,6 +278,60 @@ TEST(CompressibleGas, AShearWaveDecaysAtTheViscousRate) {
   // Mach number (the low-Mach correction), not with the sound speed; without the correction
   // this wave loses 40 % in the same time.
   EXPECT_GT(inviscid, 0.99);
+}
+
+// A duct (one-dimensional: periodic across) fed from a reservoir at p0, T0 through its x− end
+// and open to back pressure p_b at its x+ end. Steady flow in a duct of constant area is uniform,
+// so the whole duct is the throat: isentropic theory gives the mass flux at p_b while p_b is
+// above the critical p* = 0.528 p0, and the choked flux, whatever p_b, below it. Returns the
+// mass flux entering (kg/(m² s)) over the last fifth of the run, and what leaves.
+std::pair<double, double> duct_mass_flux(double p0, double t0, double back) {
+  const int cells = 20;
+  const double length = 0.02, h = length / cells;
+  GasConfig config = compressible_config({cells, 1, 1}, 0.0);
+  GasBoundaryPatch inlet, outlet;
+  inlet.face = 0, inlet.kind = GasBoundaryKind::Inlet;
+  inlet.supply_pressure_pa = p0, inlet.supply_temperature_k = t0;
+  outlet.face = 1, outlet.kind = GasBoundaryKind::Outlet, outlet.pressure_pa = back;
+  config.boundaries = {inlet, outlet};
+  config.compressible.initial_pressure_pa = back;
+  config.compressible.initial_temperature_k = t0;
+  CompressibleSolver solver(
+      config, build_gas_grid(config, {0, 0, 0}, {length, h, h}, {false, true, true}), {});
+  const double end_s = 4e-3, area = h * h;  // about 70 passes of the sound through the duct
+  double in = 0, out = 0, averaged_s = 0;
+  while (solver.time_s() < end_s) {
+    const double dt = solver.stable_step_s(0.4);
+    const auto failure = solver.advance(dt);
+    if (failure) {
+      ADD_FAILURE() << *failure;
+      break;
+    }
+    if (solver.time_s() > 0.8 * end_s) {
+      in += solver.patch_inflow_kg_per_s()[0] * dt;
+      out -= solver.patch_inflow_kg_per_s()[1] * dt;
+      averaged_s += dt;
+    }
+  }
+  return {in / averaged_s / area, out / averaged_s / area};
+}
+
+TEST(CompressibleGas, AReservoirFedDuctCarriesTheIsentropicMassFluxChokedOrNot) {
+  const IdealGas air;
+  const double p0 = 3e5, t0 = 293.15;
+  const double choked = choked_mass_flux_kg_per_m2_s(air, p0, t0);
+  for (const double ratio : {0.2, 0.33, 0.47, 0.6, 0.83, 0.95}) {
+    const auto [in, out] = duct_mass_flux(p0, t0, ratio * p0);
+    double expected = choked;
+    if (ratio > critical_pressure_ratio(air)) {
+      const IsentropicState s = isentropic_state(air, p0, t0, isentropic_mach(air, ratio * p0, p0));
+      expected = s.density_kg_per_m3 * s.speed_m_per_s;
+    }
+    std::printf("duct p_b/p0 = %.2f: mass flux in %.2f, out %.2f, isentropic %.2f kg/(m2 s)\n",
+                ratio, in, out, expected);
+    EXPECT_NEAR(in, expected, 0.01 * expected) << ratio;
+    EXPECT_NEAR(out, in, 0.001 * in) << ratio;  // steady
+  }
 }
 
 TEST(CompressibleGas, AStepFarPastTheStableOneStopsWithTheCellAndTime) {
