@@ -243,34 +243,36 @@ void CompressibleSolver::fill_ghosts() {
     });
 }
 
+Vec3 CompressibleSolver::neighbour_velocity(std::size_t c, std::size_t n, int a) const {
+  Vec3 u;
+  for (int b = 0; b < 3; ++b) {
+    const double own = primitive_[std::size_t(1 + b)][c];
+    switch (role_[n]) {
+      case kSolid:
+        u[b] = -own;
+        break;
+      case kWall:
+        u[b] = 2.0 * grid_.ghost[n].velocity_m_per_s[b] - own;
+        break;
+      case kSlipWall:
+        u[b] = b == a ? -own : own;
+        break;
+      default:
+        u[b] = primitive_[std::size_t(1 + b)][n];
+    }
+  }
+  return u;
+}
+
 void CompressibleSolver::compute_velocity_gradients() {
   for (std::size_t c = 0; c < grid_.padded_size; ++c) {
     if (role_[c] != kFluid) continue;
     for (int d = 0; d < 3; ++d) {
       const std::size_t s = grid_.stride[std::size_t(d)];
-      std::array<double, 3> side[2];
-      for (int k = 0; k < 2; ++k) {
-        const std::size_t n = k == 0 ? c - s : c + s;
-        for (std::size_t b = 0; b < 3; ++b) {
-          const double own = primitive_[1 + b][c];
-          switch (role_[n]) {
-            case kSolid:
-              side[k][b] = -own;
-              break;
-            case kWall:
-              side[k][b] = 2.0 * grid_.ghost[n].velocity_m_per_s[int(b)] - own;
-              break;
-            case kSlipWall:
-              side[k][b] = int(b) == d ? -own : own;
-              break;
-            default:
-              side[k][b] = primitive_[1 + b][n];
-          }
-        }
-      }
+      const Vec3 below = neighbour_velocity(c, c - s, d), above = neighbour_velocity(c, c + s, d);
       for (std::size_t b = 0; b < 3; ++b)
         velocity_gradient_[3 * b + std::size_t(d)][c] =
-            (side[1][b] - side[0][b]) / (2.0 * grid_.h_m[d]);
+            (above[int(b)] - below[int(b)]) / (2.0 * grid_.h_m[d]);
     }
   }
 }
@@ -299,21 +301,6 @@ void CompressibleSolver::compute_residual(double stage_weight) {
     }
     return w;
   };
-  // The velocity the viscous stress sees on the far side of a face, from cell c's own velocity.
-  const auto wall_velocity = [&](std::size_t c, std::size_t wall, int a) {
-    Vec3 u;
-    for (int b = 0; b < 3; ++b) {
-      const double own = primitive_[std::size_t(1 + b)][c];
-      if (role_[wall] == kSolid)
-        u[b] = -own;
-      else if (role_[wall] == kWall)
-        u[b] = 2.0 * grid_.ghost[wall].velocity_m_per_s[b] - own;
-      else
-        u[b] = b == a ? -own : own;
-    }
-    return u;
-  };
-
   for (int a = 0; a < 3; ++a) {
     const std::size_t au = std::size_t(a), s = grid_.stride[au];
     const double inverse_h = 1.0 / grid_.h_m[a], area = grid_.face_area_m2(a);
@@ -359,15 +346,12 @@ void CompressibleSolver::compute_residual(double stage_weight) {
           if (viscous) {
             // Velocities and temperatures on both sides, gradients along the face from the
             // fluid cells.
-            Vec3 u_l, u_r;
             double t_l, t_r;
             const std::size_t own = fluid_l ? left : right;
-            for (int b = 0; b < 3; ++b) {
-              u_l[b] = primitive_[std::size_t(1 + b)][left];
-              u_r[b] = primitive_[std::size_t(1 + b)][right];
-            }
-            if (is_wall(role_l)) u_l = wall_velocity(right, left, a);
-            if (is_wall(role_r)) u_r = wall_velocity(left, right, a);
+            const Vec3 u_l =
+                fluid_l ? neighbour_velocity(left, left, a) : neighbour_velocity(right, left, a);
+            const Vec3 u_r =
+                fluid_r ? neighbour_velocity(right, right, a) : neighbour_velocity(left, right, a);
             const double t_own = gas_.temperature_k(primitive_[0][own], primitive_[4][own]);
             t_l = is_wall(role_l) ? t_own
                                   : gas_.temperature_k(primitive_[0][left], primitive_[4][left]);

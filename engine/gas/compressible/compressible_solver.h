@@ -78,6 +78,9 @@ class CompressibleSolver {
 
   void compute_primitives();
   void fill_ghosts();
+  // The velocity the viscous stress sees at padded cell n, a neighbour of fluid cell c along
+  // axis a: n's own, or c's mirrored across a wall (no-slip, moving wall, or slip).
+  Vec3 neighbour_velocity(std::size_t c, std::size_t n, int a) const;
   void compute_velocity_gradients();
   void compute_residual(double stage_weight);
   std::optional<std::string> check_state() const;
