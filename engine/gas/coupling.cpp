@@ -6,6 +6,7 @@
 #include <numbers>
 
 #include "gas/drag.h"
+#include "gas/gas_stencil.h"
 
 namespace millsim {
 namespace {
@@ -29,48 +30,6 @@ std::uint64_t mix(std::uint64_t x) {  // splitmix64 finaliser
   x ^= x >> 27;
   x *= 0x94d049bb133111ebULL;
   return x ^ (x >> 31);
-}
-
-// The eight grid nodes around x with trilinear weights, for a cell-centred field
-// (face_axis = −1) or the faces of component face_axis; periodic nodes are mapped to the
-// node that holds the value. Nodes refused by `accept` lose their weight to the others.
-
-template <class Accept>
-Stencil make_stencil(const GasGrid& g, const Vec3& x, int face_axis, Accept&& accept) {
-  const GridCorner corner = lower_corner(g, x, face_axis);
-  const std::array<int, 3>& i0 = corner.index;
-  const std::array<double, 3>& w = corner.weight;
-  Stencil s;
-  double total = 0.0;
-  for (int corner = 0; corner < 8; ++corner) {
-    std::array<int, 3> ijk{};
-    double weight = 1.0;
-    for (int b = 0; b < 3; ++b) {
-      const std::size_t bu = std::size_t(b);
-      const int d = (corner >> b) & 1;
-      int i = i0[bu] + d;
-      weight *= d ? w[bu] : 1.0 - w[bu];
-      if (g.periodic[bu]) {
-        if (b == face_axis) {
-          if (i == 0) i = g.n[bu];
-        } else if (i == 0) {
-          i = g.n[bu];
-        } else if (i == g.n[bu] + 1) {
-          i = 1;
-        }
-      }
-      ijk[bu] = i;
-    }
-    if (weight <= 0.0) continue;
-    const std::size_t node = g.index(ijk[0], ijk[1], ijk[2]);
-    if (!accept(node)) continue;
-    s.node[s.count] = node;
-    s.weight[s.count] = weight;
-    ++s.count;
-    total += weight;
-  }
-  for (int k = 0; k < s.count; ++k) s.weight[k] /= total;
-  return s;
 }
 
 }  // namespace
@@ -107,7 +66,7 @@ void DemCellFluidTable::grow() {
 // The mean over the DEM cell: the average of the gas fields at s³ points, s chosen so the
 // points are no further apart than half a CFD cell (one point, the centre, when the DEM cell
 // is smaller than the CFD cell: the trilinear field is then averaged exactly to second order).
-FluidCellState DemCellFluidTable::average(long i, long j, long k, const GasSolver& gas,
+FluidCellState DemCellFluidTable::average(long i, long j, long k, const GasView& gas,
                                           bool with_vorticity) const {
   const GasGrid& g = gas.grid();
   const double h_min = std::min({g.h_m.x, g.h_m.y, g.h_m.z});
@@ -116,6 +75,7 @@ FluidCellState DemCellFluidTable::average(long i, long j, long k, const GasSolve
   const Vec3 corner = origin_m_ + Vec3{double(i), double(j), double(k)} * cell_m_;
   const double inv = 1.0 / double(s * s * s);
   st.volume_fraction = 0.0;
+  double pressure = 0.0;
   for (int c = 0; c < s; ++c)
     for (int b = 0; b < s; ++b)
       for (int a = 0; a < s; ++a) {
@@ -124,9 +84,18 @@ FluidCellState DemCellFluidTable::average(long i, long j, long k, const GasSolve
         st.pressure_gradient_pa_per_m += gas.pressure_gradient_at(x) * inv;
         st.volume_fraction += gas.volume_fraction_at(x) * inv;
         if (with_vorticity) st.vorticity_per_s += gas.vorticity_at(x) * inv;
+        if (gas.compressible) {
+          st.density_kg_per_m3 += gas.compressible->density_at(x) * inv;
+          pressure += gas.compressible->pressure_at(x) * inv;
+        }
       }
-  st.density_kg_per_m3 = gas.density_kg_per_m3();
   st.viscosity_pa_s = gas.viscosity_pa_s();
+  if (gas.compressible) {
+    if (st.density_kg_per_m3 > 0.0 && pressure > 0.0)
+      st.mean_free_path_m = mean_free_path_m(st.viscosity_pa_s, pressure, st.density_kg_per_m3);
+  } else {
+    st.density_kg_per_m3 = gas.incompressible->density_kg_per_m3();
+  }
   return st;
 }
 
@@ -138,7 +107,7 @@ std::uint64_t DemCellFluidTable::key_of(const Vec3& x, long& i, long& j, long& k
 }
 
 std::uint32_t DemCellFluidTable::find_or_fill(std::uint64_t key, long i, long j, long k,
-                                              const GasSolver& gas, bool with_vorticity) {
+                                              const GasView& gas, bool with_vorticity) {
   // Particles are kept in space-filling order, so the next one is often in the same cell.
   if (key == last_key_) return last_state_;
   const std::size_t mask = keys_.size() - 1;
@@ -159,15 +128,15 @@ std::uint32_t DemCellFluidTable::find_or_fill(std::uint64_t key, long i, long j,
   return last_state_;
 }
 
-const FluidCellState& DemCellFluidTable::at(const Vec3& x, const GasSolver& gas,
+const FluidCellState& DemCellFluidTable::at(const Vec3& x, const GasView& gas,
                                             bool with_vorticity) {
   long i, j, k;
   const std::uint64_t key = key_of(x, i, j, k);
   return states_[find_or_fill(key, i, j, k, gas, with_vorticity)];
 }
 
-const FluidCellState& DemCellFluidTable::at(const Vec3& x, const GasSolver& gas,
-                                            bool with_vorticity, FluidCellRef& hint) {
+const FluidCellState& DemCellFluidTable::at(const Vec3& x, const GasView& gas, bool with_vorticity,
+                                            FluidCellRef& hint) {
   long i, j, k;
   const std::uint64_t key = key_of(x, i, j, k);
   if (key == hint.key && hint.generation == generation_) return states_[hint.state];
@@ -177,23 +146,26 @@ const FluidCellState& DemCellFluidTable::at(const Vec3& x, const GasSolver& gas,
 
 GasCoupling::GasCoupling(const GasConfig& config, const PeriodicBox& box,
                          const Vec3& gravity_m_per_s2, double dem_cell_m)
-    : config_(config),
-      box_(box),
-      gas_(config, build_gas_grid(config, box.min_m, box.max_m, box.periodic), gravity_m_per_s2),
-      table_(dem_cell_m, box.min_m) {
-  solid_volume_.assign(gas_.grid().padded_size, 0.0);
+    : config_(config), box_(box), table_(dem_cell_m, box.min_m) {
+  GasGrid grid = build_gas_grid(config, box.min_m, box.max_m, box.periodic);
+  if (config.model == GasModel::Compressible)
+    compressible_.emplace(config, std::move(grid), gravity_m_per_s2);
+  else
+    incompressible_.emplace(config, std::move(grid), gravity_m_per_s2);
+  solid_volume_.assign(this->grid().padded_size, 0.0);
 }
 
 const FluidCellState& GasCoupling::fluid_at(const Vec3& x) {
   Vec3 w = x;
   box_.wrap(w);
-  return table_.at(w, gas_, config_.saffman_lift);
+  return table_.at(w, view(), config_.saffman_lift);
 }
 
 void GasCoupling::release(const ParticleStore& p, std::size_t slot) {
   if (!config_.two_way || !p.has_fluid_state) return;
   const Vec3& j = p.fluid_impulse_n_s[slot];
-  if (j.x != 0.0 || j.y != 0.0 || j.z != 0.0) released_.push_back({p.position_m[slot], j});
+  if (j.x != 0.0 || j.y != 0.0 || j.z != 0.0)
+    released_.push_back({p.position_m[slot], j, p.motion[slot].velocity_m_per_s});
 }
 
 // From the gas's CFL limit and drag_courant · ε ρ / B (a margin: the drag itself is implicit,
@@ -202,8 +174,11 @@ void GasCoupling::release(const ParticleStore& p, std::size_t slot) {
 int GasCoupling::choose_steps(double dem_step_s) const {
   if (config_.step_s) return std::max(1, int(std::lround(*config_.step_s / dem_step_s)));
   const double stable =
-      std::min(gas_.stable_step_s(),
-               config_.drag_courant / std::max(1e-300, gas_.max_exchange_rate_per_s()));
+      compressible_
+          ? std::min(gas_stable_step_s(), 0.5 / std::max(1e-300, max_exchange_rate_per_s_))
+          : std::min(gas_stable_step_s(),
+                     config_.drag_courant /
+                         std::max(1e-300, incompressible_->max_exchange_rate_per_s()));
   int steps = int(std::clamp(std::floor(stable / dem_step_s), 1.0, 1e6));
   if (last_steps_ > 0) steps = std::min(steps, 2 * last_steps_);
   return steps;
@@ -217,12 +192,79 @@ static double effective_beta(const ParticleStore& p, std::size_t i, double cfd_s
 
 // Solids volume → ε per cell; implicit drag coefficient B per face; the impulse the particles
 // took since the last CFD step → the gas's momentum source over the next one.
+double GasCoupling::gas_stable_step_s() const {
+  return compressible_ ? compressible_->stable_step_s(config_.courant)
+                       : incompressible_->stable_step_s();
+}
+
+std::optional<std::string> GasCoupling::advance_gas(double dt) {
+  return compressible_ ? compressible_->advance(dt) : incompressible_->advance(dt);
+}
+
+// The compressible model: solids volume → ε per cell (for the drag laws), and the impulse the
+// particles took since the last CFD step → a momentum source per cell, with the work the drag
+// did on them (impulse · velocity) as the gas's energy loss, so the drag's dissipation stays in
+// the gas as heat. B / ρ per cell bounds the next CFD step (the exchange is explicit).
+void GasCoupling::deposit_compressible(const ParticleStore& p, double interval_s) {
+  CompressibleSolver& gas = *compressible_;
+  const GasGrid& g = gas.grid();
+  std::array<std::vector<double>, 3>& source = gas.momentum_source();
+  std::vector<double>& energy = gas.energy_source();
+  std::fill(solid_volume_.begin(), solid_volume_.end(), 0.0);
+  std::vector<double> exchange(g.padded_size, 0.0);
+  for (std::vector<double>& s : source) std::fill(s.begin(), s.end(), 0.0);
+  std::fill(energy.begin(), energy.end(), 0.0);
+  const double volume = g.cell_volume_m3();
+  const auto fluid_cell = [&](std::size_t c) { return g.fluid[c] != 0; };
+  const auto push = [&](const Vec3& x_raw, const Vec3& impulse, const Vec3& velocity,
+                        double solid_m3, double beta) {
+    Vec3 x = x_raw;
+    box_.wrap(x);
+    const Stencil s = make_stencil(g, x, -1, fluid_cell);
+    if (s.count == 0) ++stats_.unplaced_deposits;
+    const double work = dot(impulse, velocity);
+    for (int k = 0; k < s.count; ++k) {
+      const std::size_t c = s.node[k];
+      const double w = s.weight[k];
+      solid_volume_[c] += solid_m3 * w;
+      for (int a = 0; a < 3; ++a)
+        source[std::size_t(a)][c] -= impulse[a] * w / (volume * interval_s);
+      energy[c] -= work * w / (volume * interval_s);
+      exchange[c] += beta * w / volume;
+      stats_.deposited_impulse_n_s -= impulse * w;
+    }
+  };
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const double r = p.radius_m[i];
+    push(p.position_m[i], p.fluid_impulse_n_s[i], p.motion[i].velocity_m_per_s,
+         4.0 / 3.0 * std::numbers::pi * r * r * r, std::max(0.0, p.fluid_coefficient_kg_per_s[i]));
+  }
+  for (const Released& r : released_)
+    push(r.position_m, r.impulse_n_s, r.velocity_m_per_s, 0.0, 0.0);
+  released_.clear();
+  std::vector<double>& fraction = gas.volume_fraction();
+  double min_fraction = 1.0, rate = 0.0;
+  for (std::size_t c = 0; c < g.padded_size; ++c) {
+    if (!g.fluid[c]) continue;
+    double eps = 1.0 - solid_volume_[c] / volume;
+    if (eps < config_.min_volume_fraction)
+      eps = config_.min_volume_fraction, ++stats_.clamped_cells;
+    fraction[c] = eps;
+    min_fraction = std::min(min_fraction, eps);
+    rate = std::max(rate, exchange[c] / gas.density_kg_per_m3(c));
+  }
+  stats_.min_volume_fraction = std::min(stats_.min_volume_fraction, min_fraction);
+  max_exchange_rate_per_s_ = rate;
+}
+
 void GasCoupling::deposit(const ParticleStore& p, double interval_s) {
-  GasGrid const& g = gas_.grid();
-  std::vector<double>& fraction = gas_.volume_fraction();
-  std::array<std::vector<double>, 3>& source = gas_.momentum_source();
-  std::array<std::vector<double>, 3>& exchange = gas_.exchange_coefficient();
-  std::array<std::vector<double>, 3>& seen = gas_.exchange_momentum();
+  if (compressible_) return deposit_compressible(p, interval_s);
+  GasSolver& gas = *incompressible_;
+  GasGrid const& g = gas.grid();
+  std::vector<double>& fraction = gas.volume_fraction();
+  std::array<std::vector<double>, 3>& source = gas.momentum_source();
+  std::array<std::vector<double>, 3>& exchange = gas.exchange_coefficient();
+  std::array<std::vector<double>, 3>& seen = gas.exchange_momentum();
   std::fill(solid_volume_.begin(), solid_volume_.end(), 0.0);
   for (int a = 0; a < 3; ++a) {
     std::fill(source[std::size_t(a)].begin(), source[std::size_t(a)].end(), 0.0);
@@ -270,13 +312,13 @@ void GasCoupling::deposit(const ParticleStore& p, double interval_s) {
     min_fraction = std::min(min_fraction, eps);
   }
   stats_.min_volume_fraction = std::min(stats_.min_volume_fraction, min_fraction);
-  gas_.volume_fraction_changed();
+  gas.volume_fraction_changed();
 }
 
 // The trilinear stencil of component a's solved faces around x (wrapped). A particle whose
 // stencil holds no solved face (inside a wall) exchanges nothing along a.
 Stencil GasCoupling::face_stencil(const Vec3& x, int a) const {
-  const GasGrid& g = gas_.grid();
+  const GasGrid& g = grid();
   const std::size_t au = std::size_t(a);
   return make_stencil(g, x, a, [&](std::size_t f) { return g.face[au][f] == FaceKind::Unknown; });
 }
@@ -284,7 +326,8 @@ Stencil GasCoupling::face_stencil(const Vec3& x, int a) const {
 // Gives each particle its share of the gas's implicit drag response: β_eff Σ w Δ, Δ the
 // summed dt (u_new − u_seen) of the faces it deposited on; the gas took exactly the opposite.
 void GasCoupling::return_drag_response(ParticleStore& p, double cfd_step_s) {
-  const std::array<std::vector<double>, 3>& response = gas_.drag_response_m();
+  if (!incompressible_) return;  // the compressible exchange is explicit
+  const std::array<std::vector<double>, 3>& response = incompressible_->drag_response_m();
   for (std::size_t i = 0; i < p.size(); ++i) {
     const double beta = effective_beta(p, i, cfd_step_s);
     if (beta <= 0.0) continue;
@@ -312,16 +355,19 @@ std::optional<std::string> GasCoupling::advance(ParticleStore& p, double dem_ste
   const bool first = stats_.cfd_steps == 0;
   const double interval_s = double(first ? 1 : step_index - last_cfd_step_) * dem_step_s;
   if (config_.two_way) deposit(p, interval_s);
-  if (first) gas_.accept_volume_fraction();  // no ∂ε/∂t from the start state
+  if (first && incompressible_)
+    incompressible_->accept_volume_fraction();  // no ∂ε/∂t from the start state
   for (Vec3& j : p.fluid_impulse_n_s) j = {};
-  for (std::vector<double>& r : gas_.drag_response_m()) std::fill(r.begin(), r.end(), 0.0);
+  if (incompressible_)
+    for (std::vector<double>& r : incompressible_->drag_response_m())
+      std::fill(r.begin(), r.end(), 0.0);
   const auto t1 = Clock::now();
   // The gas may need a smaller step than the interval (a CFL limit tightened by the interval's
   // particle exchange): sub-cycle it then.
-  const double stable = config_.step_s ? interval_s : gas_.stable_step_s();
+  const double stable = config_.step_s && !compressible_ ? interval_s : gas_stable_step_s();
   const int substeps = std::max(1, int(std::ceil(interval_s / stable - 1e-9)));
   for (int k = 0; k < substeps; ++k)
-    if (auto failure = gas_.advance(interval_s / substeps)) return failure;
+    if (auto failure = advance_gas(interval_s / substeps)) return failure;
   const auto t2 = Clock::now();
   if (config_.two_way) return_drag_response(p, interval_s);
   table_.clear();
@@ -342,8 +388,8 @@ std::optional<std::string> GasCoupling::advance(ParticleStore& p, double dem_ste
 std::optional<std::string> GasCoupling::spin_up(std::uint64_t max_steps) {
   double& done_s = stats_.spin_up_done_s;
   for (std::uint64_t k = 0; k < max_steps && done_s < config_.spin_up_s; ++k) {
-    const double dt = std::min(gas_.stable_step_s(), config_.spin_up_s - done_s);
-    if (auto failure = gas_.advance(dt)) return failure;
+    const double dt = std::min(gas_stable_step_s(), config_.spin_up_s - done_s);
+    if (auto failure = advance_gas(dt)) return failure;
     done_s += dt;
     ++stats_.spin_up_steps;
   }
@@ -360,13 +406,15 @@ void GasCoupling::fluid_pass(ParticleStore& p, std::size_t count, SlotOf&& slot_
   const bool store_force = config_.cache_store == DragCacheStore::Force;
   const double threshold = config_.cache_threshold, threshold2 = threshold * threshold;
   const bool keep = p.has_multi_rate_state;  // the kept force of multi-rate stepping
+  const bool slip_correction = config_.slip_correction;
+  const GasView gas = view();
   std::uint64_t evaluations = 0;
   Vec3 impulse_sum;
   for (std::size_t k = 0; k < count; ++k) {
     const std::size_t i = slot_of(k);
     Vec3 x = p.position_m[i];
     box_.wrap(x);
-    const FluidCellState& st = table_.at(x, gas_, lift, p.fluid_cell[i]);
+    const FluidCellState& st = table_.at(x, gas, lift, p.fluid_cell[i]);
     const Vec3 slip = st.velocity_m_per_s - p.motion[i].velocity_m_per_s;
     const double d = 2.0 * p.radius_m[i];
     bool recompute = p.fluid_coefficient_kg_per_s[i] < 0.0 || threshold <= 0.0;
@@ -384,7 +432,9 @@ void GasCoupling::fluid_pass(ParticleStore& p, std::size_t count, SlotOf&& slot_
     if (recompute) {
       const DragInput in{d, norm(slip), st.volume_fraction, st.density_kg_per_m3,
                          st.viscosity_pa_s};
-      const double beta = drag_coefficient_kg_per_s(config_.drag, in);
+      const double slip_factor =
+          slip_correction ? 1.0 / cunningham_correction(d, st.mean_free_path_m) : 1.0;
+      const double beta = drag_coefficient_kg_per_s(config_.drag, in) * slip_factor;
       // β's slope in the squared slip speed, so the cached β follows the slip to first order
       // between evaluations (a second evaluation at 0.1 % more slip; only when caching).
       double slope = 0.0;
@@ -392,7 +442,7 @@ void GasCoupling::fluid_pass(ParticleStore& p, std::size_t count, SlotOf&& slot_
         DragInput faster = in;
         faster.slip_speed_m_per_s *= 1.001;
         const double ds2 = norm2(slip) * (1.001 * 1.001 - 1.0);
-        slope = (drag_coefficient_kg_per_s(config_.drag, faster) - beta) / ds2;
+        slope = (drag_coefficient_kg_per_s(config_.drag, faster) * slip_factor - beta) / ds2;
       }
       p.fluid_coefficient_slope[i] = slope;
       const Vec3 lift_force = lift ? saffman_lift_n(d, slip, st.vorticity_per_s,

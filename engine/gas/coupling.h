@@ -16,6 +16,11 @@
 //  - Drag caching (Fig. 5): a particle keeps its drag coefficient (or force) and the slip it
 //    was computed at, and recomputes only when the slip has changed by more than the threshold
 //    in some axis (relative to the stored slip speed).
+// The compressible model (gas.model "compressible") takes the particles' momentum and the power of
+// their drag as explicit sources per cell (no implicit response: its acoustic step is far below
+// a mill's particle relaxation times, and the CFD step is held below half the drag relaxation
+// time ρ/B of every cell), and hands the particles its local density and, with
+// gas.slip_correction, the mean free path for Cunningham's correction.
 // The CFD step is a whole number of DEM steps, from the gas solver's stability limit unless the
 // scene fixes it. The gas lags the particles by one CFD step: at the end of an interval it
 // advances over that interval with the impulse the particles took in it, and the particles
@@ -29,8 +34,11 @@
 
 #include "core/vec3.h"
 #include "dem/box.h"
+#include "gas/compressible/compressible_solver.h"
 #include "gas/gas_config.h"
 #include "gas/gas_solver.h"
+#include "gas/gas_stencil.h"
+#include "gas/gas_view.h"
 #include "particles/particle_store.h"
 
 namespace millsim {
@@ -42,6 +50,7 @@ struct FluidCellState {
   double volume_fraction = 1.0;     // ε
   double density_kg_per_m3 = 0.0;
   double viscosity_pa_s = 0.0;
+  double mean_free_path_m = 0.0;  // the compressible model's λ at the cell's mean state (else 0)
 };
 
 // The hashed DEM-cell table: only cells that hold a particle are filled, on first use after
@@ -53,10 +62,10 @@ class DemCellFluidTable {
 
   void clear();
   // The state of the DEM cell that holds x (wrapped into the domain by the caller).
-  const FluidCellState& at(const Vec3& x, const GasSolver& gas, bool with_vorticity);
+  const FluidCellState& at(const Vec3& x, const GasView& gas, bool with_vorticity);
   // The same, with the particle's hint: when x is still in the cell the hint names and the
   // table has not been cleared since, no hash lookup; the hint is updated otherwise.
-  const FluidCellState& at(const Vec3& x, const GasSolver& gas, bool with_vorticity,
+  const FluidCellState& at(const Vec3& x, const GasView& gas, bool with_vorticity,
                            FluidCellRef& hint);
   std::size_t size() const { return states_.size(); }
   std::uint64_t fills() const { return fills_; }
@@ -67,9 +76,9 @@ class DemCellFluidTable {
   }
 
  private:
-  FluidCellState average(long i, long j, long k, const GasSolver& gas, bool with_vorticity) const;
+  FluidCellState average(long i, long j, long k, const GasView& gas, bool with_vorticity) const;
   std::uint64_t key_of(const Vec3& x, long& i, long& j, long& k) const;
-  std::uint32_t find_or_fill(std::uint64_t key, long i, long j, long k, const GasSolver& gas,
+  std::uint32_t find_or_fill(std::uint64_t key, long i, long j, long k, const GasView& gas,
                              bool with_vorticity);
   void grow();
 
@@ -83,13 +92,6 @@ class DemCellFluidTable {
   std::uint64_t last_key_ = 0;  // the last cell looked up (0 = none) and its state
   std::uint32_t last_state_ = 0;
   std::uint32_t generation_ = 1;  // bumped by clear(): particles' hints from before are stale
-};
-
-// The grid nodes (cells or faces) a particle exchanges with, and their trilinear weights.
-struct Stencil {
-  std::size_t node[8];
-  double weight[8];
-  int count = 0;
 };
 
 struct CouplingStats {
@@ -140,8 +142,19 @@ class GasCoupling {
   // A particle leaves the run (outlet, breakage): its pending impulse still goes to the gas.
   void release(const ParticleStore& p, std::size_t slot);
 
-  const GasSolver& gas() const { return gas_; }
-  GasSolver& gas() { return gas_; }
+  // The incompressible solver (only under gas.model "incompressible"), the compressible one (only
+  // under "compressible"), and read access to whichever it is.
+  const GasSolver& gas() const { return *incompressible_; }
+  GasSolver& gas() { return *incompressible_; }
+  const CompressibleSolver* compressible() const {
+    return compressible_ ? &*compressible_ : nullptr;
+  }
+  CompressibleSolver* compressible() { return compressible_ ? &*compressible_ : nullptr; }
+  GasView view() const {
+    return {incompressible_ ? &*incompressible_ : nullptr,
+            compressible_ ? &*compressible_ : nullptr};
+  }
+  const GasGrid& grid() const { return view().grid(); }
   const GasConfig& config() const { return config_; }
   const CouplingStats& stats() const { return stats_; }
   const DemCellFluidTable& table() const { return table_; }
@@ -151,7 +164,10 @@ class GasCoupling {
   // Checkpoints: the gas, the DEM-cell table, the exchange schedule and the counters.
   template <class A>
   void checkpoint_io(A& a) {
-    io_all(a, gas_, table_, next_cfd_step_, released_, last_cfd_step_, last_steps_, stats_);
+    if (incompressible_) io(a, *incompressible_);
+    if (compressible_) io(a, *compressible_);
+    io_all(a, table_, next_cfd_step_, released_, last_cfd_step_, last_steps_, stats_,
+           max_exchange_rate_per_s_);
   }
 
  private:
@@ -159,23 +175,28 @@ class GasCoupling {
   void fluid_pass(ParticleStore& p, std::size_t count, SlotOf&& slot_of, double dt,
                   bool accumulate);
   void deposit(const ParticleStore& p, double interval_s);
+  void deposit_compressible(const ParticleStore& p, double interval_s);
+  std::optional<std::string> advance_gas(double dt);
+  double gas_stable_step_s() const;
   Stencil face_stencil(const Vec3& wrapped_x, int axis) const;
   void return_drag_response(ParticleStore& p, double cfd_step_s);
   int choose_steps(double dem_step_s) const;
 
   GasConfig config_;
   PeriodicBox box_;
-  GasSolver gas_;
+  std::optional<GasSolver> incompressible_;
+  std::optional<CompressibleSolver> compressible_;
   DemCellFluidTable table_;
   std::int64_t next_cfd_step_ = 0;
   struct Released {
-    Vec3 position_m, impulse_n_s;
+    Vec3 position_m, impulse_n_s, velocity_m_per_s;
   };
   std::vector<Released> released_;
   std::vector<double> solid_volume_;  // per padded cell, scratch
   std::int64_t last_cfd_step_ = 0;
   int last_steps_ = 0;
   CouplingStats stats_;
+  double max_exchange_rate_per_s_ = 0.0;  // compressible: max over cells of B / ρ, last deposit
 };
 
 }  // namespace millsim

@@ -88,6 +88,12 @@ double drag_coefficient_kg_per_s(DragLaw law, const DragInput& in) {
   return 0.0;
 }
 
+double cunningham_correction(double diameter_m, double mean_free_path_m) {
+  if (!(mean_free_path_m > 0.0) || !(diameter_m > 0.0)) return 1.0;
+  const double knudsen = 2.0 * mean_free_path_m / diameter_m;
+  return 1.0 + knudsen * (1.257 + 0.400 * std::exp(-1.10 / knudsen));
+}
+
 Vec3 saffman_lift_n(double d, const Vec3& slip, const Vec3& vorticity, double rho, double mu) {
   const double w = norm(vorticity);
   if (w <= 0.0) return {};

@@ -20,6 +20,8 @@
 // Saffman (1965) lift, in the form of Crowe et al.: F = 1.615 d² √(ρ μ / |ω|) (s × ω).
 #pragma once
 
+#include <cmath>
+
 #include "core/vec3.h"
 #include "gas/gas_config.h"
 
@@ -38,6 +40,20 @@ double drag_coefficient_kg_per_s(DragLaw law, const DragInput& in);
 // Particle Reynolds number ρ d |u − v| / μ (without ε).
 inline double particle_reynolds(const DragInput& in) {
   return in.density_kg_per_m3 * in.diameter_m * in.slip_speed_m_per_s / in.viscosity_pa_s;
+}
+
+// Cunningham's slip correction for a sphere of diameter d in a gas of mean free path λ: the drag
+// of the continuum laws is divided by C = 1 + Kn (A1 + A2 exp(−A3 / Kn)), Kn = 2λ/d, with Davies'
+// constants A1 = 1.257, A2 = 0.400, A3 = 1.10 (Proc. Phys. Soc. 57 (1945) 259), fitted to
+// Millikan's oil drops over the whole Knudsen range. 1 µm in air at 1 bar: C = 1.17; 10 µm: 1.017.
+double cunningham_correction(double diameter_m, double mean_free_path_m);
+
+// The mean free path of a gas from its viscosity, pressure and density (the kinetic-theory
+// relation of the hard-sphere gas, λ = (μ / p) √(π p / (2 ρ)) = μ √(π / (2 p ρ))): 66 nm for air
+// at 20 °C and 1 atm (the value Cunningham corrections for air are quoted with is 66–68 nm).
+inline double mean_free_path_m(double viscosity_pa_s, double pressure_pa,
+                               double density_kg_per_m3) {
+  return viscosity_pa_s * std::sqrt(1.5707963267948966 / (pressure_pa * density_kg_per_m3));
 }
 
 // Standard single-sphere drag coefficient of Schiller & Naumann (used by Wen & Yu too).

@@ -85,6 +85,12 @@ struct GasJetConfig {
   double radius_m = 0.0;
   double speed_m_per_s = 0.0;
   std::optional<InflowSchedule> schedule;  // the speed follows this table instead
+  // The compressible model: the stagnation temperature of the gas the jet brings (both kinds of
+  // jet), and, instead of a speed, the nozzle's supply (stagnation) pressure, absolute. A
+  // pressure-set jet delivers the isentropic mass flow of a throat of radius_m (choked when the
+  // chamber is below the critical pressure ratio) as a notional nozzle: gas/compressible/jet.h.
+  std::optional<double> supply_pressure_pa;
+  double supply_temperature_k = 293.15;
   double volume_flow_m3_per_s() const {
     return 3.141592653589793 * radius_m * radius_m * speed_m_per_s;
   }
@@ -166,6 +172,9 @@ struct GasConfig {
   DragCacheStore cache_store = DragCacheStore::Coefficient;
   bool pressure_gradient_force = true;  // −V_p ∇p (gives buoyancy in a hydrostatic gas)
   bool saffman_lift = false;
+  // Cunningham's slip correction of the drag (gas/drag.h) from the local mean free path: the
+  // compressible model only (the incompressible one has no absolute pressure); its default there.
+  bool slip_correction = false;
   double min_volume_fraction = 0.2;  // gas volume fraction floor (a random packing is ≈ 0.36–0.45)
   // pressure solve
   double pressure_tolerance = 1e-6;  // relative residual of the conjugate-gradient solve

@@ -222,12 +222,18 @@ std::vector<ScaledFaceValue> jet_force(const GasGrid& g, std::vector<std::size_t
 void apply_jets(GasGrid& g, const GasConfig& config) {
   for (std::size_t j = 0; j < config.jets.size(); ++j) {
     GasJetConfig jet = config.jets[j];
-    if (jet.schedule) jet.speed_m_per_s = 1.0;
+    if (jet.schedule || jet.supply_pressure_pa) jet.speed_m_per_s = 1.0;
     double flow = 0.0;
     const std::vector<std::pair<int, std::size_t>> faces = jet_faces(g, jet, flow);
     g.jet_faces[j] = faces.size();
     if (faces.empty()) continue;
     const double scale = jet.volume_flow_m3_per_s() / flow;
+    for (const auto& [a, f] : faces) {
+      const bool into_high = jet.direction[a] > 0.0;
+      g.jet_face_list[j].push_back(
+          {a, f, into_high ? f + g.stride[std::size_t(a)] : f,
+           g.face_area_m2(a) * std::abs(jet.direction[a]) * jet.speed_m_per_s / flow});
+    }
     Vec3 entering;                   // momentum flux the faces carry in, per unit density
     std::vector<std::size_t> cells;  // the fluid cells the jet blows into
     ScheduledInflow scheduled;
@@ -305,6 +311,7 @@ GasGrid build_gas_grid(const GasConfig& config, const Vec3& lo, const Vec3& hi,
   g.patch_area_m2.assign(config.boundaries.size(), 0.0);
   g.jet_faces.assign(config.jets.size(), 0);
   g.jet_flow_m3_per_s.assign(config.jets.size(), 0.0);
+  g.jet_face_list.assign(config.jets.size(), {});
   g.jet_momentum_deficit_n.assign(config.jets.size(), Vec3{});
   if (!config.jets.empty())
     for (int a = 0; a < 3; ++a) g.jet_force_n_per_m3[std::size_t(a)].assign(g.padded_size, 0.0);

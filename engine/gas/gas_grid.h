@@ -54,6 +54,14 @@ struct ScheduledInflow {
   Vec3 momentum_deficit_per_unit;      // jets only, N per (m/s)²
 };
 
+// One face a jet blows through: the fluid cell behind it and the share of the jet's flow it
+// carries (the face's area times the jet direction's component along it, over the jet's sum).
+struct JetFace {
+  int axis = 0;
+  std::size_t face = 0, cell = 0;
+  double flow_share = 0.0;
+};
+
 struct GasGrid {
   std::array<int, 3> n{1, 1, 1};
   Vec3 origin_m;  // the domain's min corner
@@ -78,6 +86,7 @@ struct GasGrid {
   // (the jet's set flow, unless it found no face).
   std::vector<std::size_t> jet_faces;
   std::vector<double> jet_flow_m3_per_s;
+  std::vector<std::vector<JetFace>> jet_face_list;  // per jet: its faces (the compressible model)
   // A jet narrower than its faces enters slower than it should (same flow, more area): the
   // momentum flux it lacks, ρ Q (speed · direction) − Σ ρ A u_f u_f e_a, is added as a body
   // force (N/m³) on the faces of the fluid cells it blows into. Empty when there are no jets.

@@ -123,6 +123,8 @@ void add_mill_to_gas(const MillConfig& mill, double shell_half_thickness_m, GasC
     jet.radius_m = 0.5 * n.diameter_m;
     jet.speed_m_per_s = n.speed_m_per_s;
     jet.schedule = n.schedule;
+    jet.supply_pressure_pa = n.supply_pressure_pa;
+    jet.supply_temperature_k = n.supply_temperature_k;
     gas.jets.push_back(jet);
   }
 }

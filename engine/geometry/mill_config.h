@@ -25,6 +25,11 @@ struct NozzleConfig {
   double angle_to_tangent_rad = 0.0;
   double speed_m_per_s = 0.0;              // jet speed at the exit
   std::optional<InflowSchedule> schedule;  // the speed (or mass flow) follows this table instead
+  // The compressible gas model: fed from this supply (stagnation) pressure, absolute, instead of
+  // a set speed (the grinding pressure; a notional nozzle: gas/compressible/notional_nozzle.h),
+  // and the supply's stagnation temperature.
+  std::optional<double> supply_pressure_pa;
+  double supply_temperature_k = 293.15;
 };
 
 struct MillOutletConfig {

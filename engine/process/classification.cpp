@@ -6,7 +6,7 @@
 
 namespace millsim {
 
-VortexSample sample_vortex(const GasSolver& gas, const MillConfig& mill, double radius_m,
+VortexSample sample_vortex(const GasView& gas, const MillConfig& mill, double radius_m,
                            double z_lo_m, double z_hi_m, int azimuths, int heights) {
   VortexSample v;
   v.radius_m = radius_m;
@@ -34,6 +34,24 @@ double force_balance_cut_size_m(double viscosity_pa_s, double particle_density_k
   const double drho = particle_density_kg_per_m3 - gas_density_kg_per_m3;
   if (ut2 <= 0.0 || drho <= 0.0) return 0.0;
   return std::sqrt(18.0 * viscosity_pa_s * std::abs(v.radial_m_per_s) * v.radius_m / (drho * ut2));
+}
+
+VortexExponent vortex_exponent(const std::vector<VortexSample>& samples, std::size_t first,
+                               std::size_t last) {
+  VortexExponent e;
+  double sx = 0.0, sy = 0.0, sxx = 0.0, sxy = 0.0;
+  for (std::size_t k = first; k <= last && k < samples.size(); ++k) {
+    const VortexSample& v = samples[k];
+    if (!(v.tangential_m_per_s > 0.0) || !(v.radius_m > 0.0)) continue;
+    const double x = std::log(v.radius_m), y = std::log(v.tangential_m_per_s);
+    sx += x, sy += y, sxx += x * x, sxy += x * y;
+    if (e.points == 0) e.from_radius_m = v.radius_m;
+    e.to_radius_m = v.radius_m;
+    ++e.points;
+  }
+  const double m = double(e.points), spread = m * sxx - sx * sx;
+  if (e.points >= 2 && spread > 0.0) e.n = -(m * sxy - sx * sy) / spread;
+  return e;
 }
 
 namespace {

@@ -18,7 +18,7 @@
 #include <optional>
 #include <vector>
 
-#include "gas/gas_solver.h"
+#include "gas/gas_view.h"
 #include "geometry/mill_config.h"
 #include "process/psd.h"
 
@@ -33,12 +33,23 @@ struct VortexSample {
 
 // The gas velocity averaged over `azimuths` × `heights` points of the cylinder of radius
 // `radius_m` about the mill's axis, between heights z_lo and z_hi above the floor.
-VortexSample sample_vortex(const GasSolver& gas, const MillConfig& mill, double radius_m,
+VortexSample sample_vortex(const GasView& gas, const MillConfig& mill, double radius_m,
                            double z_lo_m, double z_hi_m, int azimuths = 128, int heights = 16);
 
 // x_c of the force balance above; 0 when there is no tangential flow.
 double force_balance_cut_size_m(double viscosity_pa_s, double particle_density_kg_per_m3,
                                 double gas_density_kg_per_m3, const VortexSample& vortex);
+
+// The vortex's exponent n in u_t r^n = const (n = 1: a free vortex, n = −1: solid-body
+// rotation; a spiral jet mill's is 0.5–0.9 outside its core, MacDonald et al. 2016): the
+// least-squares slope of ln u_t against ln r, negated, over samples[first .. last] with u_t > 0.
+struct VortexExponent {
+  double n = 0.0;
+  double from_radius_m = 0.0, to_radius_m = 0.0;
+  std::size_t points = 0;  // fewer than 2: no fit (n = 0)
+};
+VortexExponent vortex_exponent(const std::vector<VortexSample>& samples, std::size_t first,
+                               std::size_t last);
 
 struct GradeEfficiency {
   std::vector<double> size_m;  // class centres (geometric means of the edges), classes with mass

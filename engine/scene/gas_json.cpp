@@ -43,7 +43,8 @@ std::vector<double> schedule_column(const json* v, const std::string& path, Numb
 }
 
 GasBoundaryPatch parse_patch(const json& v, const std::string& path, const DomainConfig& domain,
-                             InputErrors& errors) {
+                             const GasConfig& g, InputErrors& errors) {
+  const bool compressible = g.model == GasModel::Compressible;
   JsonObjectReader r(v, path, errors);
   GasBoundaryPatch p;
   p.face = face_index(r.required_string("face", kFaceNames));
@@ -77,7 +78,34 @@ GasBoundaryPatch parse_patch(const json& v, const std::string& path, const Domai
                         "along its face's inward normal)"});
     p.schedule = parse_inflow_schedule(*schedule, r.path_of("schedule"), errors);
   }
-  p.pressure_pa = r.number("pressure_pa", 0.0, NumberRange::closed(-1e9, 1e9));
+  if (compressible) {
+    // Absolute pressures: an outlet without one holds the chamber's initial pressure.
+    p.pressure_pa = r.number("pressure_pa", g.compressible.initial_pressure_pa,
+                             NumberRange::open_closed(0.0, 1e9));
+    if (p.schedule)
+      errors.push_back({r.path_of("schedule"), "",
+                        "the compressible model has no scheduled inlets yet: give "
+                        "velocity_m_per_s or supply_pressure_pa"});
+    p.supply_pressure_pa =
+        r.optional_number("supply_pressure_pa", NumberRange::open_closed(0.0, 1e9));
+    p.supply_temperature_k = r.number("supply_temperature_k", g.compressible.initial_temperature_k,
+                                      NumberRange::open_closed(0.0, 1e5));
+    if (p.supply_pressure_pa && p.kind != GasBoundaryKind::Inlet)
+      errors.push_back({r.path_of("supply_pressure_pa"), concat(*p.supply_pressure_pa),
+                        "only an inlet is fed from a supply pressure"});
+    if (p.supply_pressure_pa && r.has("velocity_m_per_s"))
+      errors.push_back(
+          {r.path_of("velocity_m_per_s"), "",
+           "give velocity_m_per_s or supply_pressure_pa, not both (a reservoir inlet's "
+           "speed follows from the pressures)"});
+  } else {
+    p.pressure_pa = r.number("pressure_pa", 0.0, NumberRange::closed(-1e9, 1e9));
+    for (const char* key : {"supply_pressure_pa", "supply_temperature_k"})
+      if (r.has(key))
+        errors.push_back({r.path_of(key), "",
+                          "only the compressible model reads it: set /gas/model to "
+                          "\"compressible\""});
+  }
   if (p.kind == GasBoundaryKind::Wall || p.kind == GasBoundaryKind::Slip) {
     const int axis = p.face / 2;
     if (p.velocity_m_per_s[axis] != 0.0)
@@ -197,7 +225,52 @@ GasConfig parse_gas(const json& v, const DomainConfig& domain, InputErrors& erro
   GasConfig g;
   JsonObjectReader r(v, "/gas", errors);
   if (!r.is_object()) return g;
-  g.density_kg_per_m3 = r.number("density_kg_per_m3", 1.2, NumberRange::open_closed(0.0, 1e5));
+  const bool compressible =
+      r.string("model", "incompressible", {"incompressible", "compressible"}) == "compressible";
+  g.model = compressible ? GasModel::Compressible : GasModel::Incompressible;
+  if (const json* c = r.child("compressible")) {
+    JsonObjectReader rc(*c, "/gas/compressible", errors);
+    CompressibleGasConfig& cg = g.compressible;
+    cg.gas.gamma = rc.number("gamma", 1.4, NumberRange::open_closed(1.0, 5.0 / 3.0));
+    cg.gas.gas_constant_j_per_kg_k =
+        rc.number("gas_constant_j_per_kg_k", 287.05, NumberRange::open_closed(0.0, 1e5));
+    cg.gas.prandtl = rc.number("prandtl", 0.71, NumberRange::open_closed(0.0, 100.0));
+    cg.initial_pressure_pa =
+        rc.number("initial_pressure_pa", 101325.0, NumberRange::open_closed(0.0, 1e9));
+    cg.initial_temperature_k =
+        rc.number("initial_temperature_k", 293.15, NumberRange::open_closed(0.0, 1e5));
+    rc.finish();
+    if (!compressible)
+      errors.push_back({"/gas/compressible", "",
+                        "only the compressible model reads this section: set /gas/model to "
+                        "\"compressible\" or remove it"});
+  }
+  if (compressible) {
+    // What only the incompressible solver reads would be silently ignored: refused instead.
+    for (const char* key :
+         {"density_kg_per_m3", "advection", "smagorinsky_constant", "pressure_tolerance",
+          "max_pressure_iterations", "pressure_preconditioner", "pressure_drops", "drag_courant",
+          "mean_pressure_gradient_pa_per_m"})
+      if (r.has(key))
+        errors.push_back(
+            {r.path_of(key), "",
+             std::string("the compressible model does not read it") +
+                 (std::string(key) == "density_kg_per_m3"
+                      ? ": its density follows from /gas/compressible/initial_pressure_pa and "
+                        "initial_temperature_k (ideal gas)"
+                      : "; remove it")});
+    g.density_kg_per_m3 = g.compressible.gas.density_kg_per_m3(
+        g.compressible.initial_pressure_pa, g.compressible.initial_temperature_k);
+  }
+  const std::string slip =
+      r.string("slip_correction", compressible ? "cunningham" : "none", {"cunningham", "none"});
+  g.slip_correction = slip == "cunningham";
+  if (g.slip_correction && !compressible)
+    errors.push_back({"/gas/slip_correction", slip,
+                      "Cunningham's correction needs the gas's absolute pressure: only with "
+                      "/gas/model \"compressible\""});
+  g.density_kg_per_m3 =
+      r.number("density_kg_per_m3", g.density_kg_per_m3, NumberRange::open_closed(0.0, 1e5));
   g.viscosity_pa_s = r.number("viscosity_pa_s", 1.8e-5, NumberRange::open_closed(0.0, 1e3));
   const Vec3 extent = domain.max_m - domain.min_m;
   if (const json* cells = r.child("cells")) {
@@ -249,7 +322,7 @@ GasConfig parse_gas(const json& v, const DomainConfig& domain, InputErrors& erro
   if (const json* list = r.array("boundaries"))
     for (std::size_t i = 0; i < list->size(); ++i)
       g.boundaries.push_back(
-          parse_patch((*list)[i], json_pointer_join("/gas/boundaries", i), domain, errors));
+          parse_patch((*list)[i], json_pointer_join("/gas/boundaries", i), domain, g, errors));
   if (const json* list = r.array("solids"))
     for (std::size_t i = 0; i < list->size(); ++i)
       g.solids.push_back(parse_solid((*list)[i], json_pointer_join("/gas/solids", i), errors));
@@ -310,6 +383,32 @@ GasConfig parse_gas(const json& v, const DomainConfig& domain, InputErrors& erro
   return g;
 }
 
+// A reservoir inlet or a pressure-set nozzle must be fed from above the chamber's pressure (its
+// initial pressure and every outlet's): otherwise it blows nothing in, or draws gas out.
+void check_supply_pressure(const GasConfig& g, const std::string& path, double supply_pa,
+                           InputErrors& errors) {
+  double chamber_pa = g.compressible.initial_pressure_pa;
+  std::string chamber = "/gas/compressible/initial_pressure_pa";
+  for (const GasBoundaryPatch& b : g.boundaries)
+    if (b.kind == GasBoundaryKind::Outlet && b.pressure_pa > chamber_pa)
+      chamber_pa = b.pressure_pa, chamber = concat("the outlet ", b.name);
+  if (supply_pa <= chamber_pa)
+    errors.push_back({path, concat(supply_pa),
+                      concat("expected a supply pressure above the chamber's (", chamber_pa,
+                             " Pa, ", chamber, "); pressures are absolute")});
+}
+
+namespace {
+
+void check_supply_pressures(const GasConfig& g, InputErrors& errors) {
+  for (std::size_t k = 0; k < g.boundaries.size(); ++k)
+    if (g.boundaries[k].supply_pressure_pa)
+      check_supply_pressure(g, concat("/gas/boundaries/", k, "/supply_pressure_pa"),
+                            *g.boundaries[k].supply_pressure_pa, errors);
+}
+
+}  // namespace
+
 void check_gas_outflow(const GasConfig& g, InputErrors& errors) {
   // Gas blown in must have a way out.
   bool inflow = false, outlet = false;
@@ -320,6 +419,9 @@ void check_gas_outflow(const GasConfig& g, InputErrors& errors) {
          (norm(p.velocity_m_per_s) > 0.0 || (p.schedule && p.schedule->table.max_abs() > 0.0)));
     outlet = outlet || p.kind == GasBoundaryKind::Outlet;
   }
+  for (const GasBoundaryPatch& p : g.boundaries)
+    inflow = inflow || p.supply_pressure_pa.has_value();
+  if (g.model == GasModel::Compressible) check_supply_pressures(g, errors);
   if (inflow && !outlet)
     errors.push_back({"/gas/boundaries", "",
                       "an inlet blows gas in but no boundary is an outlet: "

@@ -20,4 +20,9 @@ GasConfig parse_gas(const nlohmann::json& value, const DomainConfig& domain, Inp
 // vortex finder is an outlet of the gas).
 void check_gas_outflow(const GasConfig& gas, InputErrors& errors);
 
+// The compressible model: a supply pressure (at `path`) must exceed the chamber's, its initial
+// pressure and every outlet's; an error naming both otherwise.
+void check_supply_pressure(const GasConfig& gas, const std::string& path, double supply_pa,
+                           InputErrors& errors);
+
 }  // namespace millsim

@@ -17,7 +17,7 @@ using nlohmann::json;
 constexpr double kDegree = std::numbers::pi / 180.0;
 
 // One entry of /mill/nozzles: `count` nozzles evenly spaced round the mantle from azimuth_deg.
-void parse_nozzles(const json& v, const std::string& path, double height_m,
+void parse_nozzles(const json& v, const std::string& path, double height_m, const GasConfig* gas,
                    std::vector<NozzleConfig>& out, InputErrors& errors) {
   JsonObjectReader r(v, path, errors);
   NozzleConfig n;
@@ -28,8 +28,32 @@ void parse_nozzles(const json& v, const std::string& path, double height_m,
   n.diameter_m = r.required_number("diameter_m", NumberRange::open_closed(0.0, 1.0));
   n.angle_to_tangent_rad =
       r.number("angle_to_tangent_deg", 40.0, NumberRange::closed(0.0, 90.0)) * kDegree;
-  if (const json* schedule = r.child("schedule")) {
+  const bool compressible = gas && gas->model == GasModel::Compressible;
+  if (compressible)
+    n.supply_temperature_k =
+        r.number("supply_temperature_k", gas->compressible.initial_temperature_k,
+                 NumberRange::open_closed(0.0, 1e5));
+  if (r.has("supply_pressure_pa")) {
+    n.supply_pressure_pa =
+        r.required_number("supply_pressure_pa", NumberRange::open_closed(0.0, 1e9));
+    if (!compressible)
+      errors.push_back({r.path_of("supply_pressure_pa"), concat(*n.supply_pressure_pa),
+                        gas ? "a nozzle set by its supply pressure needs /gas/model "
+                              "\"compressible\" (the incompressible gas has no absolute pressure)"
+                            : "a nozzle set by its supply pressure needs a /gas section with "
+                              "model \"compressible\""});
+    else
+      check_supply_pressure(*gas, r.path_of("supply_pressure_pa"), *n.supply_pressure_pa, errors);
+    for (const char* key : {"speed_m_per_s", "schedule"})
+      if (r.has(key))
+        errors.push_back({r.path_of(key), "",
+                          "give speed_m_per_s, a schedule or supply_pressure_pa: one of them"});
+  } else if (const json* schedule = r.child("schedule")) {
     n.schedule = parse_inflow_schedule(*schedule, r.path_of("schedule"), errors);
+    if (compressible)
+      errors.push_back({r.path_of("schedule"), "",
+                        "the compressible model has no scheduled nozzles yet: give "
+                        "supply_pressure_pa or speed_m_per_s"});
     if (r.has("speed_m_per_s"))
       errors.push_back(
           {r.path_of("speed_m_per_s"), "", "give speed_m_per_s or a schedule, not both"});
@@ -69,7 +93,8 @@ bool region_inside_mill(const MillConfig& mill, const Vec3& lo, const Vec3& hi) 
 }  // namespace
 
 MillConfig parse_mill(const json& v, const DomainConfig& domain,
-                      const std::vector<MaterialConfig>& materials, InputErrors& errors) {
+                      const std::vector<MaterialConfig>& materials, const GasConfig* gas,
+                      InputErrors& errors) {
   MillConfig m;
   JsonObjectReader r(v, "/mill", errors);
   if (!r.is_object()) return m;
@@ -94,7 +119,11 @@ MillConfig parse_mill(const json& v, const DomainConfig& domain,
     m.outlet.name = ro.string("name", "outlet");
     m.outlet.radius_m = ro.required_number("radius_m", NumberRange::open_closed(0.0, 100.0));
     m.outlet.depth_m = ro.number("depth_m", 0.0, NumberRange::non_negative());
-    m.outlet.gas_pressure_pa = ro.number("gas_pressure_pa", 0.0, NumberRange::closed(-1e9, 1e9));
+    if (gas && gas->model == GasModel::Compressible)  // absolute: the chamber's pressure if not set
+      m.outlet.gas_pressure_pa = ro.number("gas_pressure_pa", gas->compressible.initial_pressure_pa,
+                                           NumberRange::open_closed(0.0, 1e9));
+    else
+      m.outlet.gas_pressure_pa = ro.number("gas_pressure_pa", 0.0, NumberRange::closed(-1e9, 1e9));
     ro.finish();
   } else {
     errors.push_back(
@@ -102,7 +131,7 @@ MillConfig parse_mill(const json& v, const DomainConfig& domain,
   }
   if (const json* list = r.array("nozzles"))
     for (std::size_t i = 0; i < list->size(); ++i)
-      parse_nozzles((*list)[i], json_pointer_join("/mill/nozzles", i), m.height_m, m.nozzles,
+      parse_nozzles((*list)[i], json_pointer_join("/mill/nozzles", i), m.height_m, gas, m.nozzles,
                     errors);
   r.finish();
 

@@ -10,8 +10,10 @@
 
 namespace millsim {
 
+// `gas`: the scene's gas section when it has one (its model decides what a nozzle may be set by).
 MillConfig parse_mill(const nlohmann::json& value, const DomainConfig& domain,
-                      const std::vector<MaterialConfig>& materials, InputErrors& errors);
+                      const std::vector<MaterialConfig>& materials, const GasConfig* gas,
+                      InputErrors& errors);
 
 // Cross-checks a parsed scene with a mill: no periodic axis, feed and source regions inside the
 // chamber, an outlet wide enough for the gas grid; then adds the mill's outlet to the scene's

@@ -577,7 +577,8 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
   scene.feeds = parse_feeds(top, scene.materials, errors);
   if (const json* v = top.child("gas")) scene.gas = parse_gas(*v, scene.domain, errors);
   if (const json* v = top.child("mill"))
-    scene.mill = parse_mill(*v, scene.domain, scene.materials, errors);
+    scene.mill =
+        parse_mill(*v, scene.domain, scene.materials, scene.gas ? &*scene.gas : nullptr, errors);
   if (const json* v = top.child("output")) {
     JsonObjectReader r(*v, "/output", errors);
     scene.output.snapshot_interval_s =

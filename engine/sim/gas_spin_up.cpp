@@ -141,7 +141,7 @@ std::uint64_t gas_spin_up_key(Simulation& sim, const std::string& scene_text) {
   // The gas grid as built (cells, face kinds, held values, jet forces): a change to the gas from
   // anywhere else in the scene is another key too. Arrays of scalars only: the state's records
   // hold padding bytes, which differ from process to process.
-  const GasGrid& g = sim.gas()->gas().grid();
+  const GasGrid& g = sim.gas()->grid();
   append(g.fluid.data(), g.fluid.size());
   for (int a = 0; a < 3; ++a) {
     const std::size_t au = std::size_t(a);

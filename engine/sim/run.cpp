@@ -74,7 +74,7 @@ struct TimeSeries {
       row.insert(row.end(), {m.fed_kg, m.outlet_kg, m.dust_kg,
                              sim.breakage() ? double(sim.breakage()->stats().events) : 0.0});
     }
-    if (!drops.empty()) row.push_back(sim.gas()->gas().time_s());
+    if (!drops.empty()) row.push_back(sim.gas()->view().time_s());
     for (const PressureDropConfig& d : drops) row.push_back(pressure_drop_pa(sim.gas()->gas(), d));
     for (std::size_t k = 0; k < names.size(); ++k) columns[k].push_back(row[k]);
   }
@@ -142,9 +142,14 @@ void write_psd_h5(const Simulation& sim, H5Writer& h5) {
 // flows (process/classification.h).
 nlohmann::ordered_json mill_gas_json(const GasCoupling& gas, const MillConfig& mill,
                                      double particle_density_kg_per_m3, const GradeEfficiency& g) {
-  const double mu = gas.config().viscosity_pa_s, rho_g = gas.config().density_kg_per_m3;
-  const VortexSample v = sample_vortex(gas.gas(), mill, mill.outlet.radius_m, 0.0,
-                                       mill.height_m - mill.outlet.depth_m);
+  const GasView view = gas.view();
+  const double mu = gas.config().viscosity_pa_s;
+  // The gas density at the outlet radius half-way up (the compressible model's varies).
+  const double rho_g =
+      view.density_at(mill.axis_point_m +
+                      Vec3{mill.outlet.radius_m, 0.0, 0.5 * (mill.height_m - mill.outlet.depth_m)});
+  const VortexSample v =
+      sample_vortex(view, mill, mill.outlet.radius_m, 0.0, mill.height_m - mill.outlet.depth_m);
   const double x_c = force_balance_cut_size_m(mu, particle_density_kg_per_m3, rho_g, v);
   nlohmann::ordered_json m;
   m["force_balance"] = {{"radius_m", v.radius_m},
@@ -155,9 +160,11 @@ nlohmann::ordered_json mill_gas_json(const GasCoupling& gas, const MillConfig& m
   if (g.cut_size_m && x_c > 0.0) m["cut_size_ratio"] = *g.cut_size_m / x_c;
   if (g.reduced_cut_size_m && x_c > 0.0) m["reduced_cut_size_ratio"] = *g.reduced_cut_size_m / x_c;
   nlohmann::ordered_json profile = nlohmann::ordered_json::array();
+  std::vector<VortexSample> samples;
   for (int k = 0; k <= 8; ++k) {
     const double r = mill.outlet.radius_m + (mill.radius_m - mill.outlet.radius_m) * k / 8.5;
-    const VortexSample p = sample_vortex(gas.gas(), mill, r, 0.0, mill.height_m);
+    const VortexSample p = sample_vortex(view, mill, r, 0.0, mill.height_m);
+    samples.push_back(p);
     profile.push_back({{"radius_m", r},
                        {"tangential_gas_m_per_s", p.tangential_m_per_s},
                        {"radial_gas_m_per_s", p.radial_m_per_s},
@@ -165,8 +172,46 @@ nlohmann::ordered_json mill_gas_json(const GasCoupling& gas, const MillConfig& m
                         force_balance_cut_size_m(mu, particle_density_kg_per_m3, rho_g, p)}});
   }
   m["vortex_profile"] = profile;
+  // u_t r^n = const: from the outlet radius to the mantle, and outside the fastest sample (a
+  // free-type vortex's region, past its core).
+  std::size_t peak = 0;
+  for (std::size_t k = 1; k < samples.size(); ++k)
+    if (samples[k].tangential_m_per_s > samples[peak].tangential_m_per_s) peak = k;
+  const auto exponent_json = [](const VortexExponent& e) -> nlohmann::ordered_json {
+    if (e.points < 2) return nullptr;
+    return {{"n", e.n},
+            {"from_radius_m", e.from_radius_m},
+            {"to_radius_m", e.to_radius_m},
+            {"points", e.points}};
+  };
+  m["vortex_exponent"] = {
+      {"outlet_to_mantle", exponent_json(vortex_exponent(samples, 0, samples.size() - 1))},
+      {"outside_peak", exponent_json(vortex_exponent(samples, peak, samples.size() - 1))}};
   nlohmann::ordered_json jets = nlohmann::ordered_json::array();
-  const GasGrid& grid = gas.gas().grid();
+  const GasGrid& grid = gas.grid();
+  if (const CompressibleSolver* c = gas.compressible()) {
+    for (std::size_t k = 0; k < gas.config().jets.size(); ++k) {
+      const GasJetConfig& jet = gas.config().jets[k];
+      const NozzleExit& e = c->jets()[k];
+      nlohmann::ordered_json j = {{"name", jet.name},
+                                  {"faces", grid.jet_faces[k]},
+                                  {"throat_diameter_m", 2.0 * jet.radius_m},
+                                  {"mass_flow_kg_per_s", e.mass_flow_kg_per_s},
+                                  {"speed_m_per_s", e.speed_m_per_s},
+                                  {"mach", e.mach},
+                                  {"temperature_k", e.temperature_k}};
+      if (jet.supply_pressure_pa) {
+        j["supply_pressure_pa"] = *jet.supply_pressure_pa;
+        j["choked"] = e.choked;
+        j["throat_speed_m_per_s"] = e.throat_speed_m_per_s;
+        j["throat_pressure_pa"] = e.throat_pressure_pa;
+        j["notional_diameter_m"] = std::sqrt(4.0 * e.area_m2 / std::numbers::pi);
+      }
+      jets.push_back(j);
+    }
+    m["nozzles"] = jets;
+    return m;
+  }
   for (std::size_t k = 0; k < gas.config().jets.size(); ++k) {
     GasJetConfig jet = gas.config().jets[k];
     jet.speed_m_per_s = gas.gas().jet_speed_m_per_s(k);  // now, if it follows a schedule
@@ -231,7 +276,10 @@ nlohmann::ordered_json pressure_drops_json(const Simulation& sim, const TimeSeri
 
 // The gas solver and the coupling, for result.json: where the coupled run's time went and how
 // often the drag cache saved an evaluation.
+void add_compressible_gas_summary(const Simulation& sim, nlohmann::ordered_json& s);
+
 void add_gas_summary(const Simulation& sim, nlohmann::ordered_json& s) {
+  if (sim.gas()->compressible()) return add_compressible_gas_summary(sim, s);
   const GasCoupling& g = *sim.gas();
   const CouplingStats& c = g.stats();
   const GasStepStats& gs = g.gas().stats();
@@ -283,9 +331,69 @@ void add_gas_summary(const Simulation& sim, nlohmann::ordered_json& s) {
         {"dem", sim.profile().total() - gas_s - fluid_s}}}};
 }
 
+// The compressible model's part of result.json: the coupling's figures as for the incompressible
+// model, and the gas's own (mass, pressure range, fastest Mach number, inflow per patch).
+void add_compressible_gas_summary(const Simulation& sim, nlohmann::ordered_json& s) {
+  const GasCoupling& g = *sim.gas();
+  const CompressibleSolver& gas = *g.compressible();
+  const CouplingStats& c = g.stats();
+  const auto vec = [](const Vec3& v) { return std::vector<double>{v.x, v.y, v.z}; };
+  const std::uint64_t lookups = c.drag_evaluations + c.drag_reuses;
+  const std::array<double, std::size_t(Phase::Count)>& t = sim.profile().seconds;
+  const double gas_s = t[std::size_t(Phase::Gas)], fluid_s = t[std::size_t(Phase::Fluid)];
+  const GasGrid& grid = gas.grid();
+  nlohmann::ordered_json patches = nlohmann::ordered_json::array();
+  for (std::size_t k = 0; k < g.config().boundaries.size(); ++k)
+    patches.push_back({{"name", g.config().boundaries[k].name},
+                       {"faces", grid.patch_faces[k]},
+                       {"area_m2", grid.patch_area_m2[k]},
+                       {"mass_inflow_kg_per_s", gas.patch_inflow_kg_per_s()[k]}});
+  double p_min = 1e300, p_max = 0.0, mach_max = 0.0;
+  for (std::size_t cell = 0; cell < grid.padded_size; ++cell) {
+    if (!grid.fluid[cell]) continue;
+    p_min = std::min(p_min, gas.pressure_pa(cell));
+    p_max = std::max(p_max, gas.pressure_pa(cell));
+    mach_max = std::max(mach_max, gas.mach(cell));
+  }
+  double jets_in = 0.0;
+  for (double m : gas.jet_inflow_kg_per_s()) jets_in += m;
+  s["gas"] = {
+      {"model", "compressible"},
+      {"cells", g.config().cells},
+      {"boundaries", patches},
+      {"jets_mass_inflow_kg_per_s", jets_in},
+      {"fluid_cells", grid.fluid_cells},
+      {"mass_kg", gas.total_mass_kg()},
+      {"min_pressure_pa", p_min},
+      {"max_pressure_pa", p_max},
+      {"max_mach", mach_max},
+      {"gas_steps", gas.steps()},
+      {"cfd_steps", c.cfd_steps},
+      {"gas_substeps", c.gas_substeps},
+      {"spin_up_steps", c.spin_up_steps},
+      {"dem_steps_per_cfd_step",
+       {{"last", c.steps_per_cfd}, {"min", c.min_steps_per_cfd}, {"max", c.max_steps_per_cfd}}},
+      {"min_volume_fraction", c.min_volume_fraction},
+      {"clamped_cell_steps", c.clamped_cells},
+      {"unplaced_deposits", c.unplaced_deposits},
+      {"slip_correction", g.config().slip_correction ? "cunningham" : "none"},
+      {"drag_cache_threshold", g.config().cache_threshold},
+      {"drag_evaluations", c.drag_evaluations},
+      {"drag_reuses", c.drag_reuses},
+      {"drag_evaluation_fraction", lookups ? double(c.drag_evaluations) / double(lookups) : 0.0},
+      {"dem_cell_states_filled", g.table().fills()},
+      {"particle_impulse_n_s", vec(c.particle_impulse_n_s)},
+      {"gas_received_impulse_n_s", vec(gas.received_impulse_n_s())},
+      {"seconds",
+       {{"gas_solve", c.gas_seconds},
+        {"deposit", c.deposit_seconds},
+        {"fluid_forces", fluid_s},
+        {"dem", sim.profile().total() - gas_s - fluid_s}}}};
+}
+
 // The final gas field at the fluid cell centres, as columns under /gas in run.h5.
 void write_gas_h5(const Simulation& sim, H5Writer& h5) {
-  const GasSolver& gas = sim.gas()->gas();
+  const GasView gas = sim.gas()->view();
   const GasGrid& g = gas.grid();
   std::vector<std::vector<double>> cols(8);
   for (int k = 1; k <= g.n[2]; ++k)
@@ -294,7 +402,7 @@ void write_gas_h5(const Simulation& sim, H5Writer& h5) {
         const std::size_t c = g.index(i, j, k);
         if (!g.fluid[c]) continue;
         const Vec3 x = g.cell_center(i, j, k), u = gas.velocity_at(x);
-        const double row[8] = {x.x, x.y, x.z, gas.pressure()[c], gas.volume_fraction()[c],
+        const double row[8] = {x.x, x.y, x.z, gas.cell_pressure_pa(c), gas.cell_volume_fraction(c),
                                u.x, u.y, u.z};
         for (std::size_t col = 0; col < 8; ++col) cols[col].push_back(row[col]);
       }
@@ -305,7 +413,7 @@ void write_gas_h5(const Simulation& sim, H5Writer& h5) {
 }
 
 // The gas field at the cell centres for a snapshot (solid cells: zero velocity, fluid = 0).
-GasFieldSnapshot gas_field(const GasSolver& gas) {
+GasFieldSnapshot gas_field(const GasView& gas) {
   const GasGrid& g = gas.grid();
   GasFieldSnapshot f;
   f.cells = {g.n[0], g.n[1], g.n[2]};
@@ -320,8 +428,8 @@ GasFieldSnapshot gas_field(const GasSolver& gas) {
         const std::size_t c = g.index(i, j, k);
         const bool fluid = g.fluid[c] != 0;
         f.velocity_m_per_s.push_back(fluid ? gas.velocity_at(g.cell_center(i, j, k)) : Vec3{});
-        f.pressure_pa.push_back(fluid ? gas.pressure()[c] : 0.0);
-        f.volume_fraction.push_back(fluid ? gas.volume_fraction()[c] : 0.0);
+        f.pressure_pa.push_back(fluid ? gas.cell_pressure_pa(c) : 0.0);
+        f.volume_fraction.push_back(fluid ? gas.cell_volume_fraction(c) : 0.0);
         f.fluid.push_back(fluid ? 1 : 0);
       }
   return f;
@@ -455,7 +563,7 @@ void write_breakage_events_h5(const Breakage& breakage, H5Writer& h5) {
 // One snapshot: the particles, and the gas field when the scene has gas.
 void write_snapshot(H5Writer& h5, const Simulation& sim) {
   h5.write_snapshot(sim.step_index(), sim.time_s(), sim.particles());
-  if (const GasCoupling* gas = sim.gas()) h5.write_gas_snapshot(gas_field(gas->gas()));
+  if (const GasCoupling* gas = sim.gas()) h5.write_gas_snapshot(gas_field(gas->view()));
 }
 
 // Steps between outputs; an interval longer than any run (1e300 s) means "never" (the first and

@@ -264,7 +264,7 @@ Simulation::Simulation(const SceneConfig& scene, SimulationStart start)
     if (errors.empty()) {
       gas_.emplace(gas, box_, gravity_m_per_s2_,
                    std::max(d_max, scene.search.cell_size_m.value_or(0.0)));
-      const GasGrid& grid = gas_->gas().grid();
+      const GasGrid& grid = gas_->grid();
       for (std::size_t k = 0; k < gas.boundaries.size(); ++k)
         if (grid.patch_faces[k] == 0)
           errors.push_back({concat("/gas/boundaries/", k), gas.boundaries[k].name,

@@ -476,6 +476,35 @@ TEST(Classification, CutSizesFromTheForceBalanceAndFromAGradeCurve) {
   EXPECT_NEAR(*g5.reduced_cut_size_m, 2.8e-6, 1e-9 * 2.8e-6);
 }
 
+TEST(Classification, TheVortexExponentOfAPowerLawVortexIsItsPower) {
+  // u_t = C r^−n sampled at nine radii: the fit returns n for a free-type vortex, −1 for solid-
+  // body rotation, and nothing from one point.
+  for (double n : {0.6, 1.0, -1.0}) {
+    std::vector<VortexSample> samples;
+    for (int k = 0; k <= 8; ++k) {
+      VortexSample v;
+      v.radius_m = 0.005 + 0.0015 * k;
+      v.tangential_m_per_s = 40.0 * std::pow(v.radius_m / 0.005, -n);
+      samples.push_back(v);
+    }
+    const VortexExponent e = vortex_exponent(samples, 0, samples.size() - 1);
+    EXPECT_NEAR(e.n, n, 1e-12);
+    EXPECT_EQ(e.points, 9u);
+    EXPECT_DOUBLE_EQ(e.from_radius_m, 0.005);
+    EXPECT_DOUBLE_EQ(e.to_radius_m, 0.017);
+    EXPECT_EQ(vortex_exponent(samples, 8, 8).points, 1u);
+    EXPECT_EQ(vortex_exponent(samples, 8, 8).n, 0.0);
+  }
+  // A sample with no tangential flow is left out, not taken as log 0.
+  std::vector<VortexSample> samples(3);
+  for (int k = 0; k < 3; ++k) samples[k].radius_m = 0.01 * (k + 1);
+  samples[0].tangential_m_per_s = 0.0;
+  samples[1].tangential_m_per_s = 10.0;
+  samples[2].tangential_m_per_s = 10.0 * std::pow(1.5, -0.5);
+  EXPECT_NEAR(vortex_exponent(samples, 0, 2).n, 0.5, 1e-12);
+  EXPECT_EQ(vortex_exponent(samples, 0, 2).points, 2u);
+}
+
 TEST(MillScene, InconsistentGeometryIsAnInputErrorNamingTheKey) {
   nlohmann::json doc = {
       {"domain", {{"min_m", {0, 0, 0}}, {"max_m", {0.02, 0.02, 0.004}}}},

@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <sstream>
+
+#include "gas/gas_stencil.h"
 
 namespace millsim {
 namespace {
@@ -126,6 +129,15 @@ CompressibleSolver::CompressibleSolver(const GasConfig& config, GasGrid grid,
   if (viscosity_pa_s_ > 0.0)
     for (auto& v : velocity_gradient_) v.assign(size, 0.0);
   patch_inflow_.assign(patches_.size(), 0.0);
+  jet_config_ = config.jets;
+  jet_exit_.assign(jet_config_.size(), NozzleExit{});
+  jet_inflow_.assign(jet_config_.size(), 0.0);
+  fraction_.assign(size, 1.0);
+  energy_source_.assign(size, 0.0);
+  for (int a = 0; a < 3; ++a) {
+    source_[std::size_t(a)].assign(size, 0.0);
+    gradient_[std::size_t(a)].assign(size, 0.0);
+  }
 
   const CompressibleGasConfig& initial = config.compressible;
   const double rho =
@@ -133,6 +145,7 @@ CompressibleSolver::CompressibleSolver(const GasConfig& config, GasGrid grid,
   for (std::size_t c = 0; c < size; ++c)
     if (grid_.fluid[c])
       set_state(c, rho, config.initial_velocity_m_per_s, initial.initial_pressure_pa);
+  update_pressure_gradient();
 }
 
 void CompressibleSolver::set_state(std::size_t c, double density, const Vec3& velocity,
@@ -394,6 +407,117 @@ void CompressibleSolver::compute_residual(double stage_weight) {
         residual_[4][c] += momentum_[a][c] * gravity_m_per_s2_[int(a)];
       }
     }
+  for (std::size_t c = 0; c < grid_.padded_size; ++c) {
+    if (role_[c] != kFluid) continue;
+    for (std::size_t a = 0; a < 3; ++a) residual_[1 + a][c] += source_[a][c];
+    residual_[4][c] += energy_source_[c];
+  }
+  add_jet_sources(stage_weight);
+}
+
+// Each jet's mass flow, momentum and stagnation enthalpy into the fluid cells behind its faces,
+// by each face's share of the jet's flow, at the mean pressure of those cells.
+void CompressibleSolver::add_jet_sources(double stage_weight) {
+  const double inverse_volume = 1.0 / grid_.cell_volume_m3();
+  const double cp = gas_.heat_capacity_p_j_per_kg_k();
+  for (std::size_t j = 0; j < jet_config_.size(); ++j) {
+    const std::vector<JetFace>& faces = grid_.jet_face_list[j];
+    if (faces.empty()) continue;
+    const GasJetConfig& jet = jet_config_[j];
+    double ambient_pa = 0.0;
+    for (const JetFace& f : faces) ambient_pa += f.flow_share * primitive_[4][f.cell];
+    const double area = std::numbers::pi * jet.radius_m * jet.radius_m;
+    NozzleExit e;
+    if (jet.supply_pressure_pa) {
+      e = notional_nozzle(gas_, *jet.supply_pressure_pa, jet.supply_temperature_k, area,
+                          ambient_pa);
+    } else {
+      e.speed_m_per_s = jet.speed_m_per_s;
+      e.temperature_k = jet.supply_temperature_k - 0.5 * e.speed_m_per_s * e.speed_m_per_s / cp;
+      e.density_kg_per_m3 = gas_.density_kg_per_m3(ambient_pa, e.temperature_k);
+      e.area_m2 = area;
+      e.mass_flow_kg_per_s = e.density_kg_per_m3 * e.speed_m_per_s * area;
+      e.mach = e.speed_m_per_s / gas_.sound_speed_m_per_s(e.density_kg_per_m3, ambient_pa);
+      e.stagnation_enthalpy_j_per_kg = cp * jet.supply_temperature_k;
+    }
+    jet_exit_[j] = e;
+    jet_inflow_[j] += stage_weight * e.mass_flow_kg_per_s;
+    for (const JetFace& f : faces) {
+      const double mass = e.mass_flow_kg_per_s * f.flow_share * inverse_volume;
+      residual_[0][f.cell] += mass;
+      for (std::size_t a = 0; a < 3; ++a)
+        residual_[1 + a][f.cell] += mass * e.speed_m_per_s * jet.direction[int(a)];
+      residual_[4][f.cell] += mass * e.stagnation_enthalpy_j_per_kg;
+    }
+  }
+}
+
+// ∂p/∂x_a per fluid cell: central differences between fluid neighbours (periodic images
+// included), one-sided where one side is a wall or an open boundary, 0 where both are.
+void CompressibleSolver::update_pressure_gradient() {
+  for (std::size_t c = 0; c < grid_.padded_size; ++c) {
+    if (role_[c] != kFluid) continue;
+    const double own = pressure_pa(c);
+    for (int a = 0; a < 3; ++a) {
+      const std::size_t s = grid_.stride[std::size_t(a)];
+      double sum = 0.0, span = 0.0;
+      for (int side = -1; side <= 1; side += 2) {
+        std::size_t n = side < 0 ? c - s : c + s;
+        if (role_[n] == kPeriodic) n = grid_.wrap_cell(n, a);
+        if (role_[n] != kFluid) continue;
+        sum += side * (pressure_pa(n) - own);
+        span += grid_.h_m[a];
+      }
+      gradient_[std::size_t(a)][c] = span > 0.0 ? sum / span : 0.0;
+    }
+  }
+}
+
+template <class Field>
+double CompressibleSolver::sample(const Field& value_of, const Vec3& x) const {
+  const Stencil s = make_stencil(grid_, x, -1, [&](std::size_t n) { return role_[n] == kFluid; });
+  double v = 0.0;
+  for (int k = 0; k < s.count; ++k) v += s.weight[k] * value_of(s.node[k]);
+  return v;
+}
+
+Vec3 CompressibleSolver::velocity_at(const Vec3& x) const {
+  const Stencil s = make_stencil(grid_, x, -1, [&](std::size_t n) { return role_[n] == kFluid; });
+  Vec3 u;
+  for (int k = 0; k < s.count; ++k) u += velocity_m_per_s(s.node[k]) * s.weight[k];
+  return u;
+}
+
+double CompressibleSolver::density_at(const Vec3& x) const {
+  return sample([&](std::size_t c) { return density_[c]; }, x);
+}
+
+double CompressibleSolver::pressure_at(const Vec3& x) const {
+  return sample([&](std::size_t c) { return pressure_pa(c); }, x);
+}
+
+Vec3 CompressibleSolver::pressure_gradient_at(const Vec3& x) const {
+  const Stencil s = make_stencil(grid_, x, -1, [&](std::size_t n) { return role_[n] == kFluid; });
+  Vec3 g;
+  for (int k = 0; k < s.count; ++k)
+    for (int a = 0; a < 3; ++a) g[a] += s.weight[k] * gradient_[std::size_t(a)][s.node[k]];
+  return g;
+}
+
+double CompressibleSolver::volume_fraction_at(const Vec3& x) const {
+  return sample([&](std::size_t c) { return fraction_[c]; }, x);
+}
+
+Vec3 CompressibleSolver::vorticity_at(const Vec3& x) const {
+  std::array<Vec3, 3> d{};  // d[b] = ∂u/∂x_b
+  for (int b = 0; b < 3; ++b) {
+    if (grid_.n[std::size_t(b)] == 1 && grid_.periodic[std::size_t(b)]) continue;
+    Vec3 plus = x, minus = x;
+    plus[b] += 0.5 * grid_.h_m[b];
+    minus[b] -= 0.5 * grid_.h_m[b];
+    d[std::size_t(b)] = (velocity_at(plus) - velocity_at(minus)) * (1.0 / grid_.h_m[b]);
+  }
+  return {d[1].z - d[2].y, d[2].x - d[0].z, d[0].y - d[1].x};
 }
 
 std::optional<std::string> CompressibleSolver::check_state() const {
@@ -418,6 +542,11 @@ std::optional<std::string> CompressibleSolver::check_state() const {
 
 std::optional<std::string> CompressibleSolver::advance(double dt) {
   std::fill(patch_inflow_.begin(), patch_inflow_.end(), 0.0);
+  std::fill(jet_inflow_.begin(), jet_inflow_.end(), 0.0);
+  Vec3 source_sum;
+  for (std::size_t c = 0; c < grid_.padded_size; ++c)
+    if (role_[c] == kFluid) source_sum += Vec3{source_[0][c], source_[1][c], source_[2][c]};
+  received_impulse_ += source_sum * (grid_.cell_volume_m3() * dt);
   start_[0] = density_;
   for (std::size_t a = 0; a < 3; ++a) start_[1 + a] = momentum_[a];
   start_[4] = energy_;
@@ -439,6 +568,7 @@ std::optional<std::string> CompressibleSolver::advance(double dt) {
   }
   time_s_ += dt;
   ++steps_;
+  update_pressure_gradient();
   return std::nullopt;
 }
 

@@ -15,6 +15,13 @@
 //   inlets      a set velocity at the configured temperature, or a reservoir at a stagnation
 //               pressure and temperature (isentropic, up to Mach 1 at the inlet face)
 //   outlets     the set static pressure while the outflow is subsonic, extrapolated otherwise
+//   jets        a nozzle in a solid wall (GasJetConfig) puts its mass flow, momentum and
+//               stagnation enthalpy into the fluid cells behind its faces: a pressure-set nozzle
+//               as the notional nozzle of gas/compressible/notional_nozzle.h expanded to the
+//               pressure of those cells, a speed-set one at that speed and pressure
+//   particles   a momentum source per cell and the power of the drag on the particles as an
+//               energy source (gas/coupling.h); the gas volume fraction is kept for the drag
+//               laws but is not in these equations (dilute flow: docs/gas.md)
 // A step that leaves a cell with non-positive or non-finite density or pressure fails with a
 // message naming the cell, its position and the time. The state is stored as structure of
 // arrays over the padded grid (one ghost layer).
@@ -28,6 +35,7 @@
 
 #include "core/vec3.h"
 #include "gas/compressible/ideal_gas.h"
+#include "gas/compressible/notional_nozzle.h"
 #include "gas/gas_config.h"
 #include "gas/gas_grid.h"
 
@@ -54,6 +62,32 @@ class CompressibleSolver {
   // Σ_a (|u_a| + c) / h_a + 2 max(4/3, γ/Pr) (μ/ρ) Σ_a 1/h_a².
   double stable_step_s(double courant) const;
 
+  // Particle coupling inputs (gas/coupling.h fills them before advance()): the gas volume fraction
+  // ε per padded cell (for the drag laws and output only), the momentum the particles give the
+  // gas, N/m³ per cell, and the power they give it, W/m³.
+  std::vector<double>& volume_fraction() { return fraction_; }
+  const std::vector<double>& volume_fraction() const { return fraction_; }
+  std::array<std::vector<double>, 3>& momentum_source() { return source_; }
+  std::vector<double>& energy_source() { return energy_source_; }
+  // Total momentum the gas received from the particles, N·s.
+  const Vec3& received_impulse_n_s() const { return received_impulse_; }
+
+  // Trilinear samples over the fluid cells around a point inside the domain (periodic axes
+  // wrapped by the caller); the pressure gradient is the cells' central difference (one-sided
+  // next to a wall), interpolated the same way.
+  Vec3 velocity_at(const Vec3& x) const;
+  double density_at(const Vec3& x) const;
+  double pressure_at(const Vec3& x) const;
+  Vec3 pressure_gradient_at(const Vec3& x) const;
+  double volume_fraction_at(const Vec3& x) const;
+  Vec3 vorticity_at(const Vec3& x) const;  // ∇×u by central differences of velocity_at
+
+  // Each jet of the config as the last step's second stage left it: what it delivered and the
+  // notional jet it entered as (speed-set jets: their speed, at the pressure they met).
+  const std::vector<NozzleExit>& jets() const { return jet_exit_; }
+  // The mass that entered through each jet during the last step, per second.
+  const std::vector<double>& jet_inflow_kg_per_s() const { return jet_inflow_; }
+
   // Per padded cell (meaningful in fluid cells).
   double density_kg_per_m3(std::size_t c) const { return density_[c]; }
   Vec3 velocity_m_per_s(std::size_t c) const;
@@ -71,6 +105,15 @@ class CompressibleSolver {
   double time_s() const { return time_s_; }
   std::uint64_t steps() const { return steps_; }
 
+  // Checkpoints: the conserved state, the coupling fields and the counters (the primitive
+  // variables, gradients and jets' states follow from them at the next step).
+  template <class A>
+  void checkpoint_io(A& a) {
+    io_all(a, density_, momentum_, energy_, fraction_, source_, energy_source_, received_impulse_,
+           jet_exit_, jet_inflow_, patch_inflow_, time_s_, steps_);
+    if constexpr (A::kLoading) update_pressure_gradient();
+  }
+
  private:
   // Conserved variables: density, momentum (3), total energy per volume.
   static constexpr int kVariables = 5;
@@ -84,6 +127,10 @@ class CompressibleSolver {
   void compute_velocity_gradients();
   void compute_residual(double stage_weight);
   std::optional<std::string> check_state() const;
+  void add_jet_sources(double stage_weight);
+  void update_pressure_gradient();
+  template <class Field>
+  double sample(const Field& value_of, const Vec3& x) const;
 
   GasGrid grid_;
   IdealGas gas_;
@@ -104,6 +151,13 @@ class CompressibleSolver {
   std::array<std::vector<double>, 9> velocity_gradient_;
 
   std::vector<double> patch_inflow_;
+  std::vector<GasJetConfig> jet_config_;
+  std::vector<NozzleExit> jet_exit_;
+  std::vector<double> jet_inflow_;
+
+  std::vector<double> fraction_, energy_source_;
+  std::array<std::vector<double>, 3> source_, gradient_;
+  Vec3 received_impulse_;
   double time_s_ = 0.0;
   std::uint64_t steps_ = 0;
 };
