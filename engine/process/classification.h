@@ -41,7 +41,7 @@ double force_balance_cut_size_m(double viscosity_pa_s, double particle_density_k
                                 double gas_density_kg_per_m3, const VortexSample& vortex);
 
 // The vortex's exponent n in u_t r^n = const (n = 1: a free vortex, n = −1: solid-body
-// rotation; a spiral jet mill's is 0.5–0.9 outside its core, MacDonald et al. 2016): the
+// rotation; a spiral jet mill's vortex is free-type, n > 0, outside its core): the
 // least-squares slope of ln u_t against ln r, negated, over samples[first .. last] with u_t > 0.
 struct VortexExponent {
   double n = 0.0;
