@@ -91,8 +91,11 @@ FluidCellState DemCellFluidTable::average(long i, long j, long k, const GasView&
       }
   st.viscosity_pa_s = gas.viscosity_pa_s();
   if (gas.compressible) {
-    if (st.density_kg_per_m3 > 0.0 && pressure > 0.0)
+    if (st.density_kg_per_m3 > 0.0 && pressure > 0.0) {
       st.mean_free_path_m = mean_free_path_m(st.viscosity_pa_s, pressure, st.density_kg_per_m3);
+      st.sound_speed_m_per_s =
+          gas.compressible->gas().sound_speed_m_per_s(st.density_kg_per_m3, pressure);
+    }
   } else {
     st.density_kg_per_m3 = gas.incompressible->density_kg_per_m3();
   }
@@ -408,7 +411,8 @@ void GasCoupling::fluid_pass(ParticleStore& p, std::size_t count, SlotOf&& slot_
   const bool keep = p.has_multi_rate_state;  // the kept force of multi-rate stepping
   const bool slip_correction = config_.slip_correction;
   const GasView gas = view();
-  std::uint64_t evaluations = 0;
+  std::uint64_t evaluations = 0, past_mach = 0;
+  double max_mach = stats_.max_slip_mach, max_knudsen = stats_.max_knudsen;
   Vec3 impulse_sum;
   for (std::size_t k = 0; k < count; ++k) {
     const std::size_t i = slot_of(k);
@@ -434,6 +438,12 @@ void GasCoupling::fluid_pass(ParticleStore& p, std::size_t count, SlotOf&& slot_
                          st.viscosity_pa_s};
       const double slip_factor =
           slip_correction ? 1.0 / cunningham_correction(d, st.mean_free_path_m) : 1.0;
+      if (st.sound_speed_m_per_s > 0.0) {
+        const double mach = in.slip_speed_m_per_s / st.sound_speed_m_per_s;
+        max_mach = std::max(max_mach, mach);
+        max_knudsen = std::max(max_knudsen, 2.0 * st.mean_free_path_m / d);
+        past_mach += mach > 0.3 ? 1 : 0;
+      }
       const double beta = drag_coefficient_kg_per_s(config_.drag, in) * slip_factor;
       // β's slope in the squared slip speed, so the cached β follows the slip to first order
       // between evaluations (a second evaluation at 0.1 % more slip; only when caching).
@@ -470,6 +480,9 @@ void GasCoupling::fluid_pass(ParticleStore& p, std::size_t count, SlotOf&& slot_
   }
   stats_.drag_evaluations += evaluations;
   stats_.drag_reuses += count - evaluations;
+  stats_.max_slip_mach = max_mach;
+  stats_.max_knudsen = max_knudsen;
+  stats_.drag_evaluations_past_mach_0_3 += past_mach;
   stats_.particle_impulse_n_s += impulse_sum;
 }
 

@@ -51,6 +51,7 @@ struct FluidCellState {
   double density_kg_per_m3 = 0.0;
   double viscosity_pa_s = 0.0;
   double mean_free_path_m = 0.0;  // the compressible model's λ at the cell's mean state (else 0)
+  double sound_speed_m_per_s = 0.0;  // the compressible model's c there (else 0)
 };
 
 // The hashed DEM-cell table: only cells that hold a particle are filled, on first use after
@@ -105,6 +106,11 @@ struct CouplingStats {
   std::uint64_t drag_reuses = 0;        // cached drag used
   std::uint64_t clamped_cells = 0;      // cell-steps whose ε hit the floor
   std::uint64_t unplaced_deposits = 0;  // particles whose whole stencil was outside the fluid
+  // The compressible model, over the drag evaluations: the largest slip Mach number |u − v| / c
+  // and Knudsen number 2λ/d met, and how many evaluations had a slip Mach number above 0.3
+  // (where the incompressible drag laws start to under-predict: docs/gas.md).
+  double max_slip_mach = 0.0, max_knudsen = 0.0;
+  std::uint64_t drag_evaluations_past_mach_0_3 = 0;
   double min_volume_fraction = 1.0;
   Vec3 particle_impulse_n_s;     // Σ (drag + lift) dt over all particles and steps
   Vec3 deposited_impulse_n_s;    // handed to the gas as its momentum source

@@ -134,6 +134,15 @@ double fine_particle_speed_ratio(double d, double t_s, bool slip_correction) {
   scene.gas = gas;
   Simulation sim(scene);
   while (sim.step_index() < sim.total_steps()) EXPECT_FALSE(sim.step());
+  // The run's record of the drag's range: the first evaluation's slip Mach number v0 / c and the
+  // Knudsen number 2λ/d of still air at 1 atm, 20 °C.
+  const IdealGas air;
+  const double rho = 101325.0 / (air.gas_constant_j_per_kg_k * 293.15);
+  const double c = std::sqrt(air.gamma * 101325.0 / rho);
+  const double lambda = gas.viscosity_pa_s * std::sqrt(kPi / (2.0 * 101325.0 * rho));
+  EXPECT_NEAR(sim.gas()->stats().max_slip_mach, v0 / c, 1e-9 * v0 / c);
+  EXPECT_NEAR(sim.gas()->stats().max_knudsen, 2.0 * lambda / d, 1e-9 * lambda / d);
+  EXPECT_EQ(sim.gas()->stats().drag_evaluations_past_mach_0_3, 0u);
   const double v = norm(sim.particles().motion[0].velocity_m_per_s);
   return std::log(v / v0) / sim.time_s();  // −1/τ as measured
 }
