@@ -6,6 +6,13 @@
 //                                   the same box, inlet and outlet (a 20 m/s inlet into gas at
 //                                   rest): time per step, per cell-step, the stable step, and
 //                                   so the cost of one simulated millisecond of each
+//   bench_gas cavity N MACH         the lid-driven cavity at Re = 100 on N × N cells (Ghia, Ghia &
+//                                   Shin 1982, Table I) by both models to t = 20 L/U, the
+//                                   compressible one at lid Mach number MACH: the incompressible
+//                                   limit of the compressible model
+//   bench_gas stokes N              Stokes' first problem (a wall set moving at t = 0, ν = 0.01,
+//                                   N cells over the unit height) by the compressible model at
+//                                   Mach 0.2, against u = U erfc(y / (2√(νt))) at t = 1
 //   bench_gas cache SOURCE_DIR      drag caching (§3.1, Fig. 5) at thresholds 0, 1, 5, 10 %:
 //                                   salt particles settling in air (terminal velocity against
 //                                   Schiller–Naumann) and the fluidized bed case at 1.5 u_mf
@@ -191,6 +198,85 @@ void fluidized(const std::string& source_dir, double threshold) {
               1e3 * top_sum / samples);
 }
 
+// The lid-driven cavity of unit size, lid speed 1, ν = 0.01, N × N cells, periodic in z.
+GasConfig cavity_config(int n) {
+  GasConfig config;
+  config.density_kg_per_m3 = 1.0;
+  config.viscosity_pa_s = 0.01;
+  config.cells = {n, n, 1};
+  GasBoundaryPatch lid;
+  lid.face = 3;  // y+
+  lid.kind = GasBoundaryKind::Wall;
+  lid.velocity_m_per_s = {1.0, 0.0, 0.0};
+  config.boundaries.push_back(lid);
+  return config;
+}
+
+// The compressible model's gas at density 1 with sound speed 1 / mach (the lid's speed is 1).
+GasConfig at_mach(GasConfig config, double mach) {
+  config.model = GasModel::Compressible;
+  const double c = 1.0 / mach, gamma = config.compressible.gas.gamma;
+  config.compressible.initial_pressure_pa = c * c / gamma;
+  config.compressible.initial_temperature_k =
+      config.compressible.initial_pressure_pa / config.compressible.gas.gas_constant_j_per_kg_k;
+  return config;
+}
+
+void cavity(int n, double mach) {
+  const double end_s = 20.0;
+  const Vec3 hi{1.0, 1.0, 1.0 / n};
+  GasConfig config = cavity_config(n);
+  config.courant = 0.9;
+  GasSolver incompressible(config, build_gas_grid(config, {}, hi, {false, false, true}), {});
+  const GasConfig c_config = at_mach(cavity_config(n), mach);
+  CompressibleSolver compressible(c_config, build_gas_grid(c_config, {}, hi, {false, false, true}),
+                                  {});
+  auto t0 = Clock::now();
+  while (incompressible.time_s() < end_s)
+    if (auto f = incompressible.advance(incompressible.stable_step_s()))
+      return (void)std::puts(f->c_str());
+  const double incompressible_s = seconds_since(t0);
+  t0 = Clock::now();
+  while (compressible.time_s() < end_s)
+    if (auto f = compressible.advance(compressible.stable_step_s(0.5)))
+      return (void)std::puts(f->c_str());
+  const double compressible_s = seconds_since(t0);
+  const double y[] = {0.0547, 0.0625, 0.0703, 0.1016, 0.1719, 0.2813, 0.4531, 0.5,
+                      0.6172, 0.7344, 0.8516, 0.9531, 0.9609, 0.9688, 0.9766};
+  const double u_ghia[] = {-0.03717, -0.04192, -0.04775, -0.06434, -0.10150,
+                           -0.15662, -0.21090, -0.20581, -0.13641, 0.00332,
+                           0.23151,  0.68717,  0.73722,  0.78871,  0.84123};
+  double worst_i = 0.0, worst_c = 0.0, worst_d = 0.0;
+  for (int k = 0; k < 15; ++k) {
+    const Vec3 x{0.5, y[k], 0.5 / n};
+    const double ui = incompressible.velocity_at(x).x, uc = compressible.velocity_at(x).x;
+    worst_i = std::max(worst_i, std::abs(ui - u_ghia[k]));
+    worst_c = std::max(worst_c, std::abs(uc - u_ghia[k]));
+    worst_d = std::max(worst_d, std::abs(uc - ui));
+  }
+  std::printf("| %d² | %g | %.4f | %.4f | %.4f | %.1f | %.1f |\n", n, mach, worst_i, worst_c,
+              worst_d, incompressible_s, compressible_s);
+}
+
+void stokes_first_problem(int n) {
+  const double nu = 0.01, end_s = 1.0;
+  GasConfig config = at_mach(cavity_config(n), 0.2);
+  config.cells = {2, n, 1};
+  CompressibleSolver gas(
+      config, build_gas_grid(config, {}, {2.0 / n, 1.0, 1.0 / n}, {true, false, true}), {});
+  while (gas.time_s() < end_s)
+    if (auto f = gas.advance(std::min(gas.stable_step_s(0.5), end_s - gas.time_s())))
+      return (void)std::puts(f->c_str());
+  double worst = 0.0, at = 0.0;
+  for (int j = n; j > 3 * n / 4; --j) {
+    const double distance = 1.0 - (j - 0.5) / n;
+    const double exact = std::erfc(distance / (2.0 * std::sqrt(nu * end_s)));
+    const double error = gas.velocity_m_per_s(gas.grid().index(1, j, 1)).x - exact;
+    if (std::abs(error) > std::abs(worst)) worst = error, at = distance;
+  }
+  std::printf("| %d | %+.5f | %.4f |\n", n, worst, at);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -199,6 +285,15 @@ int main(int argc, char** argv) {
     grid_scan(argc > 2 ? std::atoi(argv[2]) : 20);
   } else if (mode == "compressible") {
     compressible_scan(argc > 2 ? std::atoi(argv[2]) : 20);
+  } else if (mode == "cavity" && argc > 3) {
+    std::printf(
+        "| cells | lid Mach | worst |u − Ghia|, incompressible | compressible | |compressible − "
+        "incompressible| | incompressible s | compressible s |\n| --- | --- | --- | --- | --- "
+        "| --- | --- |\n");
+    cavity(std::atoi(argv[2]), std::atof(argv[3]));
+  } else if (mode == "stokes" && argc > 2) {
+    std::printf("| cells | largest u − erfc near the wall | at distance |\n| --- | --- | --- |\n");
+    stokes_first_problem(std::atoi(argv[2]));
   } else if (mode == "cache" && argc > 2) {
     std::printf(
         "| threshold | cache stores | d | final v / v_t − 1 | peak v / v_t − 1 | "
@@ -212,7 +307,7 @@ int main(int argc, char** argv) {
   } else {
     std::fprintf(stderr,
                  "usage: bench_gas grid [steps] | bench_gas compressible [steps] | "
-                 "bench_gas cache SOURCE_DIR\n");
+                 "bench_gas cavity N MACH | bench_gas stokes N | bench_gas cache SOURCE_DIR\n");
     return 2;
   }
   return 0;

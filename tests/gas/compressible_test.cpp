@@ -13,6 +13,8 @@
 
 #include "gas/compressible/compressible_solver.h"
 #include "gas/gas_grid.h"
+#include "gas/gas_solver.h"
+#include "support/sanitizers.h"
 
 namespace millsim {
 namespace {
@@ -394,6 +396,83 @@ TEST(CompressibleGas, AnUnderExpandedJetsMachDiskStandsWhereCristShermanAndGlass
     const double expected = 0.67 * std::sqrt(ratio);
     EXPECT_NEAR(mach_disk_position(ratio), expected, 0.15 * expected) << "p0/pa = " << ratio;
   }
+}
+
+// Stokes' first problem: a wall set moving at speed 1 at t = 0 under gas at rest (ν = 0.01,
+// 64 cells over a unit height, Mach 0.2): at t = 1, u = erfc(y / (2√(νt))) at distance y.
+TEST(CompressibleGas, AWallSetMovingDragsTheGasAsStokesFirstProblem) {
+  GasConfig config = compressible_config({2, 64, 1}, 0.01);
+  GasBoundaryPatch wall;
+  wall.face = 3;
+  wall.velocity_m_per_s = {1.0, 0.0, 0.0};
+  config.boundaries = {wall};
+  const double c = 5.0;  // density 1, sound speed 5
+  config.compressible.initial_pressure_pa = c * c / config.compressible.gas.gamma;
+  config.compressible.initial_temperature_k =
+      config.compressible.initial_pressure_pa / config.compressible.gas.gas_constant_j_per_kg_k;
+  CompressibleSolver solver(
+      config, build_gas_grid(config, {0, 0, 0}, {2.0 / 64, 1.0, 1.0 / 64}, {true, false, true}),
+      {});
+  run_until(solver, 1.0, 0.5);
+  double worst = 0.0;
+  for (int j = 64; j > 48; --j) {
+    const double distance = 1.0 - (j - 0.5) / 64;
+    const double exact = std::erfc(distance / (2.0 * std::sqrt(0.01)));
+    worst =
+        std::max(worst, std::abs(solver.velocity_m_per_s(solver.grid().index(1, j, 1)).x - exact));
+  }
+  std::printf("Stokes' first problem, 64 cells: largest |u − erfc| %.5f\n", worst);
+  EXPECT_LT(worst, 0.005);  // 0.023 while the wall cells' slopes were clipped to zero
+}
+
+// The lid-driven cavity at Re = 100 (32 × 32 cells, to t = 20 L/U) by the compressible model at
+// a lid Mach number of 0.05 and by the incompressible solver: the same flow within 1 % of the
+// lid speed, and both within 2 % of Ghia, Ghia & Shin (1982), Table I.
+TEST(CompressibleGas, AtMach005TheLidDrivenCavityIsTheIncompressibleOne) {
+  MILLSIM_RELEASE_ONLY(
+      "CompressibleGas.AWallSetMovingDragsTheGasAsStokesFirstProblem (a moving wall's stress) "
+      "and ...AShearWaveDecaysAtTheViscousRate (the low-Mach correction)");
+  const int n = 32;
+  GasConfig config = compressible_config({n, n, 1}, 0.01);
+  config.density_kg_per_m3 = 1.0;
+  GasBoundaryPatch lid;
+  lid.face = 3;  // y+
+  lid.velocity_m_per_s = {1.0, 0.0, 0.0};
+  config.boundaries = {lid};
+  const double c = 1.0 / 0.05;
+  config.compressible.initial_pressure_pa = c * c / config.compressible.gas.gamma;
+  config.compressible.initial_temperature_k =
+      config.compressible.initial_pressure_pa / config.compressible.gas.gas_constant_j_per_kg_k;
+  const Vec3 hi{1.0, 1.0, 1.0 / n};
+  CompressibleSolver compressible(config,
+                                  build_gas_grid(config, {0, 0, 0}, hi, {false, false, true}), {});
+  GasConfig incompressible_config = config;
+  incompressible_config.model = GasModel::Incompressible;
+  incompressible_config.courant = 0.9;
+  GasSolver incompressible(
+      incompressible_config,
+      build_gas_grid(incompressible_config, {0, 0, 0}, hi, {false, false, true}), {});
+  while (incompressible.time_s() < 20.0) {
+    const auto failure = incompressible.advance(incompressible.stable_step_s());
+    ASSERT_FALSE(failure) << *failure;
+  }
+  run_until(compressible, 20.0, 0.5);
+  const double y[] = {0.0547, 0.0625, 0.0703, 0.1016, 0.1719, 0.2813, 0.4531, 0.5,
+                      0.6172, 0.7344, 0.8516, 0.9531, 0.9609, 0.9688, 0.9766};
+  const double u_ghia[] = {-0.03717, -0.04192, -0.04775, -0.06434, -0.10150,
+                           -0.15662, -0.21090, -0.20581, -0.13641, 0.00332,
+                           0.23151,  0.68717,  0.73722,  0.78871,  0.84123};
+  double to_incompressible = 0.0, to_ghia = 0.0;
+  for (int k = 0; k < 15; ++k) {
+    const Vec3 x{0.5, y[k], 0.5 / n};
+    const double u = compressible.velocity_at(x).x;
+    to_incompressible = std::max(to_incompressible, std::abs(u - incompressible.velocity_at(x).x));
+    to_ghia = std::max(to_ghia, std::abs(u - u_ghia[k]));
+  }
+  std::printf("cavity at Mach 0.05, 32 x 32: largest |u_c − u_i| %.4f, |u_c − Ghia| %.4f\n",
+              to_incompressible, to_ghia);
+  EXPECT_LT(to_incompressible, 0.01);
+  EXPECT_LT(to_ghia, 0.02);
 }
 
 TEST(CompressibleGas, AStepFarPastTheStableOneStopsWithTheCellAndTime) {
