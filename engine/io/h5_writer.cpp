@@ -83,9 +83,10 @@ bool ends_with(std::string_view s, std::string_view suffix) {
 // unit suffix of the naming convention (_m, _s, _j, _kg, _pa, _m_per_s); "1" for counts and ratios.
 std::string unit_of(std::string_view name) {
   static constexpr std::pair<std::string_view, std::string_view> kNamed[] = {
-      {"position", "m"},       {"velocity", "m/s"},    {"angular_velocity", "rad/s"},
-      {"speed", "m/s"},        {"diameter", "m"},      {"remaining_capacity", "J/kg"},
-      {"gas_velocity", "m/s"}, {"gas_pressure", "Pa"}, {"points", "m"}};
+      {"position", "m"},        {"velocity", "m/s"},     {"angular_velocity", "rad/s"},
+      {"speed", "m/s"},         {"diameter", "m"},       {"remaining_capacity", "J/kg"},
+      {"gas_velocity", "m/s"},  {"gas_pressure", "Pa"},  {"points", "m"},
+      {"gas_density", "kg/m3"}, {"gas_temperature", "K"}};
   for (const auto& [field, unit] : kNamed)
     if (name == field) return std::string(unit);
   static constexpr std::pair<std::string_view, std::string_view> kSuffixes[] = {
@@ -219,6 +220,14 @@ void H5Writer::write_gas_snapshot(const GasFieldSnapshot& gas) {
                   gas.volume_fraction.data(), path_);
     write_dataset(g, "gas_fluid", H5T_NATIVE_INT32, H5T_STD_I32LE, 3, cells, gas.fluid.data(),
                   path_);
+    if (!gas.mach.empty()) {
+      write_dataset(g, "gas_density", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, 3, cells,
+                    gas.density_kg_per_m3.data(), path_);
+      write_dataset(g, "gas_temperature", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, 3, cells,
+                    gas.temperature_k.data(), path_);
+      write_dataset(g, "gas_mach", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, 3, cells, gas.mach.data(),
+                    path_);
+    }
   } catch (...) {
     H5Gclose(g);
     throw;
@@ -228,6 +237,7 @@ void H5Writer::write_gas_snapshot(const GasFieldSnapshot& gas) {
   extras_.gas_cells = gas.cells;
   extras_.gas_origin_m = gas.origin_m;
   extras_.gas_spacing_m = gas.spacing_m;
+  extras_.gas_compressible = !gas.mach.empty();
 }
 
 void H5Writer::write_geometry(const SurfaceMesh& mesh) {
@@ -506,6 +516,10 @@ void write_gas_xdmf(const std::filesystem::path& xdmf_path, const std::string& h
     attribute_item(out, h5_name, "volume_fraction", false, "Cell", s.group + "/gas_volume_fraction",
                    cells, "Float", 8);
     attribute_item(out, h5_name, "fluid", false, "Cell", s.group + "/gas_fluid", cells, "Int", 4);
+    if (extras.gas_compressible)
+      for (const char* field : {"density", "temperature", "mach"})
+        attribute_item(out, h5_name, field, false, "Cell", s.group + "/gas_" + field, cells,
+                       "Float", 8);
     out << "   </Grid>\n";
   }
   out << "  </Grid>\n";

@@ -42,6 +42,7 @@ struct SnapshotInfo {
 struct XdmfExtras {
   std::array<int, 3> gas_cells{0, 0, 0};  // nx, ny, nz; 0 = no gas
   Vec3 gas_origin_m, gas_spacing_m;
+  bool gas_compressible = false;  // the gas fields include density, temperature and Mach number
   std::size_t geometry_points = 0, geometry_triangles = 0;
 };
 
@@ -52,6 +53,8 @@ struct GasFieldSnapshot {
   std::vector<Vec3> velocity_m_per_s;
   std::vector<double> pressure_pa, volume_fraction;
   std::vector<std::int32_t> fluid;
+  // The compressible model only (empty otherwise): solid cells hold 0.
+  std::vector<double> density_kg_per_m3, temperature_k, mach;
 };
 
 class H5Writer {

@@ -434,6 +434,11 @@ GasFieldSnapshot gas_field(const GasView& gas) {
         f.pressure_pa.push_back(fluid ? gas.cell_pressure_pa(c) : 0.0);
         f.volume_fraction.push_back(fluid ? gas.cell_volume_fraction(c) : 0.0);
         f.fluid.push_back(fluid ? 1 : 0);
+        if (const CompressibleSolver* compressible = gas.compressible) {
+          f.density_kg_per_m3.push_back(fluid ? compressible->density_kg_per_m3(c) : 0.0);
+          f.temperature_k.push_back(fluid ? compressible->temperature_k(c) : 0.0);
+          f.mach.push_back(fluid ? compressible->mach(c) : 0.0);
+        }
       }
   return f;
 }

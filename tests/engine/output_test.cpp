@@ -3,10 +3,13 @@
 #include <gtest/gtest.h>
 #include <hdf5.h>
 
+#include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "gas/compressible/compressible_solver.h"
 #include "io/h5_writer.h"
 #include "sim/run.h"
 #include "support/scenes.h"
@@ -73,6 +76,62 @@ TEST(Output, RunWritesSnapshotsTimeSeriesXdmfAndSummary) {
   EXPECT_EQ(summary["status"], "ok");
   EXPECT_EQ(summary["steps"], sim.step_index());
   EXPECT_FALSE(std::filesystem::exists(dir.path() / "run.h5.partial"));
+}
+
+TEST(Output, ACompressibleGasSnapshotHoldsDensityTemperatureAndMach) {
+  // A reservoir-fed duct (3 bar into 1 bar) with one particle: the last snapshot's gas fields
+  // are the solver's own per cell, Mach = |u| / √(γ p / ρ) and T = p / (ρ R) of the stored
+  // density and pressure, and gas.xdmf names them.
+  test::TempDir dir;
+  SceneConfig s = test::empty_scene({0, 0, 0}, {0.02, 2e-3, 2e-3}, test::table1_material(),
+                                    {false, true, true});
+  test::add_particle(s, {0.01, 1e-3, 1e-3}, {}, 1e-4);
+  s.gravity_m_per_s2 = {};
+  s.time.end_s = 2e-5;
+  s.output.write_h5 = true;
+  GasConfig gas;
+  gas.model = GasModel::Compressible;
+  gas.cells = {10, 1, 1};
+  GasBoundaryPatch inlet, outlet;
+  inlet.face = 0, inlet.kind = GasBoundaryKind::Inlet, inlet.supply_pressure_pa = 3e5;
+  outlet.face = 1, outlet.kind = GasBoundaryKind::Outlet, outlet.pressure_pa = 1e5;
+  gas.boundaries = {inlet, outlet};
+  s.gas = gas;
+  Simulation sim(s);
+  RunOptions options;
+  options.out_dir = dir.path();
+  ASSERT_FALSE(run_simulation(sim, s, options).failure);
+  const CompressibleSolver* solver = sim.gas()->compressible();
+  ASSERT_NE(solver, nullptr);
+  const hid_t file = H5Fopen((dir.path() / "run.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  ASSERT_GE(file, 0);
+  char group[64];
+  std::snprintf(group, sizeof group, "/snapshots/s%09lld/",
+                static_cast<long long>(sim.step_index()));
+  const std::vector<double> density = read_doubles(file, std::string(group) + "gas_density");
+  const std::vector<double> temperature =
+      read_doubles(file, std::string(group) + "gas_temperature");
+  const std::vector<double> mach = read_doubles(file, std::string(group) + "gas_mach");
+  const std::vector<double> pressure = read_doubles(file, std::string(group) + "gas_pressure");
+  H5Fclose(file);
+  ASSERT_EQ(mach.size(), 10u);
+  const IdealGas& air = solver->gas();
+  double fastest = 0.0;
+  for (int i = 1; i <= 10; ++i) {
+    const std::size_t c = solver->grid().index(i, 1, 1), k = std::size_t(i - 1);
+    EXPECT_EQ(density[k], solver->density_kg_per_m3(c));
+    EXPECT_EQ(pressure[k], solver->pressure_pa(c));
+    const double speed = norm(solver->velocity_m_per_s(c));
+    EXPECT_NEAR(mach[k], speed / std::sqrt(air.gamma * pressure[k] / density[k]), 1e-12);
+    EXPECT_NEAR(temperature[k], pressure[k] / (density[k] * air.gas_constant_j_per_kg_k), 1e-9);
+    fastest = std::max(fastest, mach[k]);
+  }
+  EXPECT_GT(fastest, 0.3);  // the duct is flowing
+  std::ifstream xdmf(dir.path() / "gas.xdmf");
+  std::stringstream text;
+  text << xdmf.rdbuf();
+  EXPECT_NE(text.str().find("Name=\"mach\""), std::string::npos);
+  EXPECT_NE(text.str().find("/gas_density"), std::string::npos);
 }
 
 // An empty snapshot (a fed case before its first particle) stays a time step of run.xdmf, and
