@@ -204,6 +204,22 @@ std::optional<std::string> GasCoupling::advance_gas(double dt) {
   return compressible_ ? compressible_->advance(dt) : incompressible_->advance(dt);
 }
 
+// ε = 1 − solids volume / cell volume per fluid cell, floored at min_volume_fraction (each floored
+// cell counted); the run's lowest ε kept.
+void GasCoupling::update_volume_fraction(const GasGrid& g, std::vector<double>& fraction) {
+  const double volume = g.cell_volume_m3();
+  double min_fraction = 1.0;
+  for (std::size_t c = 0; c < g.padded_size; ++c) {
+    if (!g.fluid[c]) continue;
+    double eps = 1.0 - solid_volume_[c] / volume;
+    if (eps < config_.min_volume_fraction)
+      eps = config_.min_volume_fraction, ++stats_.clamped_cells;
+    fraction[c] = eps;
+    min_fraction = std::min(min_fraction, eps);
+  }
+  stats_.min_volume_fraction = std::min(stats_.min_volume_fraction, min_fraction);
+}
+
 // The compressible model: solids volume → ε per cell (for the drag laws), and the impulse the
 // particles took since the last CFD step → a momentum source per cell, with the work the drag
 // did on them (impulse · velocity) as the gas's energy loss, so the drag's dissipation stays in
@@ -245,18 +261,10 @@ void GasCoupling::deposit_compressible(const ParticleStore& p, double interval_s
   for (const Released& r : released_)
     push(r.position_m, r.impulse_n_s, r.velocity_m_per_s, 0.0, 0.0);
   released_.clear();
-  std::vector<double>& fraction = gas.volume_fraction();
-  double min_fraction = 1.0, rate = 0.0;
-  for (std::size_t c = 0; c < g.padded_size; ++c) {
-    if (!g.fluid[c]) continue;
-    double eps = 1.0 - solid_volume_[c] / volume;
-    if (eps < config_.min_volume_fraction)
-      eps = config_.min_volume_fraction, ++stats_.clamped_cells;
-    fraction[c] = eps;
-    min_fraction = std::min(min_fraction, eps);
-    rate = std::max(rate, exchange[c] / gas.density_kg_per_m3(c));
-  }
-  stats_.min_volume_fraction = std::min(stats_.min_volume_fraction, min_fraction);
+  update_volume_fraction(g, gas.volume_fraction());
+  double rate = 0.0;
+  for (std::size_t c = 0; c < g.padded_size; ++c)
+    if (g.fluid[c]) rate = std::max(rate, exchange[c] / gas.density_kg_per_m3(c));
   max_exchange_rate_per_s_ = rate;
 }
 
@@ -305,16 +313,7 @@ void GasCoupling::deposit(const ParticleStore& p, double interval_s) {
   }
   for (const Released& r : released_) push(r.position_m, r.impulse_n_s, 0.0, 0.0, {});
   released_.clear();
-  double min_fraction = 1.0;
-  for (std::size_t c = 0; c < g.padded_size; ++c) {
-    if (!g.fluid[c]) continue;
-    double eps = 1.0 - solid_volume_[c] / volume;
-    if (eps < config_.min_volume_fraction)
-      eps = config_.min_volume_fraction, ++stats_.clamped_cells;
-    fraction[c] = eps;
-    min_fraction = std::min(min_fraction, eps);
-  }
-  stats_.min_volume_fraction = std::min(stats_.min_volume_fraction, min_fraction);
+  update_volume_fraction(g, fraction);
   gas.volume_fraction_changed();
 }
 

@@ -182,6 +182,7 @@ class GasCoupling {
                   bool accumulate);
   void deposit(const ParticleStore& p, double interval_s);
   void deposit_compressible(const ParticleStore& p, double interval_s);
+  void update_volume_fraction(const GasGrid& g, std::vector<double>& fraction);
   std::optional<std::string> advance_gas(double dt);
   double gas_stable_step_s() const;
   Stencil face_stencil(const Vec3& wrapped_x, int axis) const;

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "core/errors.h"
+#include "gas/gas_stencil.h"
 
 namespace millsim {
 
@@ -558,15 +559,8 @@ double GasSolver::volume_fraction_at(const Vec3& x) const {
 }
 
 Vec3 GasSolver::vorticity_at(const Vec3& x) const {
-  std::array<Vec3, 3> d{};  // d[b] = ∂u/∂x_b
-  for (int b = 0; b < 3; ++b) {
-    if (grid_.n[std::size_t(b)] == 1 && grid_.periodic[std::size_t(b)]) continue;
-    Vec3 plus = x, minus = x;
-    plus[b] += 0.5 * grid_.h_m[b];
-    minus[b] -= 0.5 * grid_.h_m[b];
-    d[std::size_t(b)] = (velocity_at(plus) - velocity_at(minus)) * (1.0 / grid_.h_m[b]);
-  }
-  return {d[1].z - d[2].y, d[2].x - d[0].z, d[0].y - d[1].x};
+  return vorticity_by_central_differences(grid_, x,
+                                          [this](const Vec3& y) { return velocity_at(y); });
 }
 
 }  // namespace millsim

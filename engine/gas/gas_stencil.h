@@ -2,7 +2,7 @@
 // point with their trilinear weights, keeping only the nodes a predicate accepts (fluid cells,
 // solved faces) and renormalising the weights over them. Sampling a field at a particle and
 // spreading a particle's volume or impulse onto the grid both use it, so what is read and what
-// is deposited share one set of weights.
+// is deposited share one set of weights. Also the vorticity of a sampled velocity field.
 #pragma once
 
 #include <array>
@@ -59,6 +59,21 @@ Stencil make_stencil(const GasGrid& g, const Vec3& x, int face_axis, Accept&& ac
   }
   for (int k = 0; k < s.count; ++k) s.weight[k] /= total;
   return s;
+}
+
+// ∇×u at x by central differences half a cell either side along each axis of a sampled velocity
+// field (an axis of one periodic cell has no variation).
+template <class VelocityAt>
+Vec3 vorticity_by_central_differences(const GasGrid& g, const Vec3& x, VelocityAt&& velocity_at) {
+  std::array<Vec3, 3> d{};  // d[b] = ∂u/∂x_b
+  for (int b = 0; b < 3; ++b) {
+    if (g.n[std::size_t(b)] == 1 && g.periodic[std::size_t(b)]) continue;
+    Vec3 plus = x, minus = x;
+    plus[b] += 0.5 * g.h_m[b];
+    minus[b] -= 0.5 * g.h_m[b];
+    d[std::size_t(b)] = (velocity_at(plus) - velocity_at(minus)) * (1.0 / g.h_m[b]);
+  }
+  return {d[1].z - d[2].y, d[2].x - d[0].z, d[0].y - d[1].x};
 }
 
 }  // namespace millsim

@@ -274,19 +274,45 @@ nlohmann::ordered_json pressure_drops_json(const Simulation& sim, const TimeSeri
   return out;
 }
 
-// The gas solver and the coupling, for result.json: where the coupled run's time went and how
-// often the drag cache saved an evaluation.
-void add_compressible_gas_summary(const Simulation& sim, nlohmann::ordered_json& s);
-
-void add_gas_summary(const Simulation& sim, nlohmann::ordered_json& s) {
-  if (sim.gas()->compressible()) return add_compressible_gas_summary(sim, s);
+// What the coupling did, for either gas model: the volume fraction's range, the drag cache and the
+// impulse balance, where the time went (gas solve, deposit, fluid forces, the rest of the DEM).
+nlohmann::ordered_json coupling_summary(const Simulation& sim) {
   const GasCoupling& g = *sim.gas();
   const CouplingStats& c = g.stats();
-  const GasStepStats& gs = g.gas().stats();
-  const auto vec = [](const Vec3& v) { return std::vector<double>{v.x, v.y, v.z}; };
   const std::uint64_t lookups = c.drag_evaluations + c.drag_reuses;
   const std::array<double, std::size_t(Phase::Count)>& t = sim.profile().seconds;
   const double gas_s = t[std::size_t(Phase::Gas)], fluid_s = t[std::size_t(Phase::Fluid)];
+  const Vec3& j = c.particle_impulse_n_s;
+  return {
+      {"cfd_steps", c.cfd_steps},
+      {"gas_substeps", c.gas_substeps},
+      {"spin_up_steps", c.spin_up_steps},
+      {"dem_steps_per_cfd_step",
+       {{"last", c.steps_per_cfd}, {"min", c.min_steps_per_cfd}, {"max", c.max_steps_per_cfd}}},
+      {"min_volume_fraction", c.min_volume_fraction},
+      {"clamped_cell_steps", c.clamped_cells},
+      {"unplaced_deposits", c.unplaced_deposits},
+      {"drag_cache_threshold", g.config().cache_threshold},
+      {"drag_evaluations", c.drag_evaluations},
+      {"drag_reuses", c.drag_reuses},
+      {"drag_evaluation_fraction", lookups ? double(c.drag_evaluations) / double(lookups) : 0.0},
+      {"dem_cell_states_filled", g.table().fills()},
+      {"particle_impulse_n_s", std::vector<double>{j.x, j.y, j.z}},
+      {"seconds",
+       {{"gas_solve", c.gas_seconds},
+        {"deposit", c.deposit_seconds},
+        {"fluid_forces", fluid_s},
+        {"dem", sim.profile().total() - gas_s - fluid_s}}}};
+}
+
+std::vector<double> components(const Vec3& v) {
+  return {v.x, v.y, v.z};
+}
+
+// The incompressible model's gas: its patches' inflow, the pressure solve, the continuity error.
+void add_incompressible_gas_summary(const Simulation& sim, nlohmann::ordered_json& s) {
+  const GasCoupling& g = *sim.gas();
+  const GasStepStats& gs = g.gas().stats();
   nlohmann::ordered_json patches = nlohmann::ordered_json::array();
   const GasGrid& grid = g.gas().grid();
   for (std::size_t k = 0; k < g.config().boundaries.size(); ++k) {
@@ -300,47 +326,24 @@ void add_gas_summary(const Simulation& sim, nlohmann::ordered_json& s) {
          {"inflow_m3_per_s",
           b.kind == GasBoundaryKind::Inlet ? normal_speed * grid.patch_area_m2[k] : 0.0}});
   }
-  s["gas"] = {
-      {"cells", g.config().cells},
-      {"boundaries", patches},
-      {"fluid_cells", g.gas().grid().fluid_cells},
-      {"cfd_steps", c.cfd_steps},
-      {"gas_substeps", c.gas_substeps},
-      {"spin_up_steps", c.spin_up_steps},
-      {"dem_steps_per_cfd_step",
-       {{"last", c.steps_per_cfd}, {"min", c.min_steps_per_cfd}, {"max", c.max_steps_per_cfd}}},
-      {"pressure_iterations_mean",
-       gs.steps ? double(gs.pressure_iterations) / double(gs.steps) : 0.0},
-      {"max_pressure_residual", gs.max_pressure_residual},
-      {"max_continuity_error_m3_per_s", g.gas().max_continuity_error_m3_per_s()},
-      {"min_volume_fraction", c.min_volume_fraction},
-      {"clamped_cell_steps", c.clamped_cells},
-      {"unplaced_deposits", c.unplaced_deposits},
-      {"pressure_matrix_builds", gs.matrix_builds},
-      {"drag_cache_threshold", g.config().cache_threshold},
-      {"drag_evaluations", c.drag_evaluations},
-      {"drag_reuses", c.drag_reuses},
-      {"drag_evaluation_fraction", lookups ? double(c.drag_evaluations) / double(lookups) : 0.0},
-      {"dem_cell_states_filled", g.table().fills()},
-      {"particle_impulse_n_s", vec(c.particle_impulse_n_s)},
-      {"gas_received_impulse_n_s", vec(g.gas().received_impulse_n_s())},
-      {"seconds",
-       {{"gas_solve", c.gas_seconds},
-        {"deposit", c.deposit_seconds},
-        {"fluid_forces", fluid_s},
-        {"dem", sim.profile().total() - gas_s - fluid_s}}}};
+  s["gas"] = {{"cells", g.config().cells},
+              {"boundaries", patches},
+              {"fluid_cells", grid.fluid_cells},
+              {"pressure_iterations_mean",
+               gs.steps ? double(gs.pressure_iterations) / double(gs.steps) : 0.0},
+              {"max_pressure_residual", gs.max_pressure_residual},
+              {"max_continuity_error_m3_per_s", g.gas().max_continuity_error_m3_per_s()},
+              {"pressure_matrix_builds", gs.matrix_builds},
+              {"gas_received_impulse_n_s", components(g.gas().received_impulse_n_s())}};
+  s["gas"].update(coupling_summary(sim));
 }
 
-// The compressible model's part of result.json: the coupling's figures as for the incompressible
-// model, and the gas's own (mass, pressure range, fastest Mach number, inflow per patch).
+// The compressible model's gas: its mass, pressure range and fastest Mach number, the mass flow
+// through each patch and the jets, and the range of slip Mach and Knudsen numbers the drag met.
 void add_compressible_gas_summary(const Simulation& sim, nlohmann::ordered_json& s) {
   const GasCoupling& g = *sim.gas();
   const CompressibleSolver& gas = *g.compressible();
   const CouplingStats& c = g.stats();
-  const auto vec = [](const Vec3& v) { return std::vector<double>{v.x, v.y, v.z}; };
-  const std::uint64_t lookups = c.drag_evaluations + c.drag_reuses;
-  const std::array<double, std::size_t(Phase::Count)>& t = sim.profile().seconds;
-  const double gas_s = t[std::size_t(Phase::Gas)], fluid_s = t[std::size_t(Phase::Fluid)];
   const GasGrid& grid = gas.grid();
   nlohmann::ordered_json patches = nlohmann::ordered_json::array();
   for (std::size_t k = 0; k < g.config().boundaries.size(); ++k)
@@ -357,41 +360,30 @@ void add_compressible_gas_summary(const Simulation& sim, nlohmann::ordered_json&
   }
   double jets_in = 0.0;
   for (double m : gas.jet_inflow_kg_per_s()) jets_in += m;
-  s["gas"] = {
-      {"model", "compressible"},
-      {"cells", g.config().cells},
-      {"boundaries", patches},
-      {"jets_mass_inflow_kg_per_s", jets_in},
-      {"fluid_cells", grid.fluid_cells},
-      {"mass_kg", gas.total_mass_kg()},
-      {"min_pressure_pa", p_min},
-      {"max_pressure_pa", p_max},
-      {"max_mach", mach_max},
-      {"gas_steps", gas.steps()},
-      {"cfd_steps", c.cfd_steps},
-      {"gas_substeps", c.gas_substeps},
-      {"spin_up_steps", c.spin_up_steps},
-      {"dem_steps_per_cfd_step",
-       {{"last", c.steps_per_cfd}, {"min", c.min_steps_per_cfd}, {"max", c.max_steps_per_cfd}}},
-      {"min_volume_fraction", c.min_volume_fraction},
-      {"clamped_cell_steps", c.clamped_cells},
-      {"unplaced_deposits", c.unplaced_deposits},
-      {"slip_correction", g.config().slip_correction ? "cunningham" : "none"},
-      {"max_slip_mach", c.max_slip_mach},
-      {"max_knudsen", c.max_knudsen},
-      {"drag_evaluations_past_mach_0_3", c.drag_evaluations_past_mach_0_3},
-      {"drag_cache_threshold", g.config().cache_threshold},
-      {"drag_evaluations", c.drag_evaluations},
-      {"drag_reuses", c.drag_reuses},
-      {"drag_evaluation_fraction", lookups ? double(c.drag_evaluations) / double(lookups) : 0.0},
-      {"dem_cell_states_filled", g.table().fills()},
-      {"particle_impulse_n_s", vec(c.particle_impulse_n_s)},
-      {"gas_received_impulse_n_s", vec(gas.received_impulse_n_s())},
-      {"seconds",
-       {{"gas_solve", c.gas_seconds},
-        {"deposit", c.deposit_seconds},
-        {"fluid_forces", fluid_s},
-        {"dem", sim.profile().total() - gas_s - fluid_s}}}};
+  s["gas"] = {{"model", "compressible"},
+              {"cells", g.config().cells},
+              {"boundaries", patches},
+              {"jets_mass_inflow_kg_per_s", jets_in},
+              {"fluid_cells", grid.fluid_cells},
+              {"mass_kg", gas.total_mass_kg()},
+              {"min_pressure_pa", p_min},
+              {"max_pressure_pa", p_max},
+              {"max_mach", mach_max},
+              {"gas_steps", gas.steps()},
+              {"slip_correction", g.config().slip_correction ? "cunningham" : "none"},
+              {"max_slip_mach", c.max_slip_mach},
+              {"max_knudsen", c.max_knudsen},
+              {"drag_evaluations_past_mach_0_3", c.drag_evaluations_past_mach_0_3},
+              {"gas_received_impulse_n_s", components(gas.received_impulse_n_s())}};
+  s["gas"].update(coupling_summary(sim));
+}
+
+// The gas solver and the coupling, for result.json's `gas` section.
+void add_gas_summary(const Simulation& sim, nlohmann::ordered_json& s) {
+  if (sim.gas()->compressible())
+    add_compressible_gas_summary(sim, s);
+  else
+    add_incompressible_gas_summary(sim, s);
 }
 
 // The final gas field at the fluid cell centres, as columns under /gas in run.h5.

@@ -310,9 +310,9 @@ void CompressibleSolver::compute_residual(double stage_weight) {
     std::array<Vec3, 2> wall_velocity{};
     for (int k = 0; k < 2; ++k)
       if (is_wall(role_[n[std::size_t(k)]])) {
-        wall_velocity[std::size_t(k)] = viscous ? neighbour_velocity(c, n[std::size_t(k)], a)
-                                                : Vec3{primitive_[1][c], primitive_[2][c],
-                                                       primitive_[3][c]};
+        wall_velocity[std::size_t(k)] =
+            viscous ? neighbour_velocity(c, n[std::size_t(k)], a)
+                    : Vec3{primitive_[1][c], primitive_[2][c], primitive_[3][c]};
         if (!viscous) wall_velocity[std::size_t(k)][a] = -wall_velocity[std::size_t(k)][a];
       }
     Primitive w;
@@ -524,15 +524,8 @@ double CompressibleSolver::volume_fraction_at(const Vec3& x) const {
 }
 
 Vec3 CompressibleSolver::vorticity_at(const Vec3& x) const {
-  std::array<Vec3, 3> d{};  // d[b] = ∂u/∂x_b
-  for (int b = 0; b < 3; ++b) {
-    if (grid_.n[std::size_t(b)] == 1 && grid_.periodic[std::size_t(b)]) continue;
-    Vec3 plus = x, minus = x;
-    plus[b] += 0.5 * grid_.h_m[b];
-    minus[b] -= 0.5 * grid_.h_m[b];
-    d[std::size_t(b)] = (velocity_at(plus) - velocity_at(minus)) * (1.0 / grid_.h_m[b]);
-  }
-  return {d[1].z - d[2].y, d[2].x - d[0].z, d[0].y - d[1].x};
+  return vorticity_by_central_differences(grid_, x,
+                                          [this](const Vec3& y) { return velocity_at(y); });
 }
 
 std::optional<std::string> CompressibleSolver::check_state() const {
