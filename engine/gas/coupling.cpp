@@ -156,6 +156,7 @@ GasCoupling::GasCoupling(const GasConfig& config, const PeriodicBox& box,
   else
     incompressible_.emplace(config, std::move(grid), gravity_m_per_s2);
   solid_volume_.assign(this->grid().padded_size, 0.0);
+  if (compressible_) exchange_per_cell_.assign(solid_volume_.size(), 0.0);
 }
 
 const FluidCellState& GasCoupling::fluid_at(const Vec3& x) {
@@ -193,8 +194,6 @@ static double effective_beta(const ParticleStore& p, std::size_t i, double cfd_s
   return std::min(std::max(0.0, p.fluid_coefficient_kg_per_s[i]), p.mass_kg[i] / cfd_step_s);
 }
 
-// Solids volume → ε per cell; implicit drag coefficient B per face; the impulse the particles
-// took since the last CFD step → the gas's momentum source over the next one.
 double GasCoupling::gas_stable_step_s() const {
   return compressible_ ? compressible_->stable_step_s(config_.courant)
                        : incompressible_->stable_step_s();
@@ -229,8 +228,9 @@ void GasCoupling::deposit_compressible(const ParticleStore& p, double interval_s
   const GasGrid& g = gas.grid();
   std::array<std::vector<double>, 3>& source = gas.momentum_source();
   std::vector<double>& energy = gas.energy_source();
+  std::vector<double>& exchange = exchange_per_cell_;
   std::fill(solid_volume_.begin(), solid_volume_.end(), 0.0);
-  std::vector<double> exchange(g.padded_size, 0.0);
+  std::fill(exchange.begin(), exchange.end(), 0.0);
   for (std::vector<double>& s : source) std::fill(s.begin(), s.end(), 0.0);
   std::fill(energy.begin(), energy.end(), 0.0);
   const double volume = g.cell_volume_m3();
@@ -268,6 +268,8 @@ void GasCoupling::deposit_compressible(const ParticleStore& p, double interval_s
   max_exchange_rate_per_s_ = rate;
 }
 
+// Solids volume → ε per cell; implicit drag coefficient B per face; the impulse the particles
+// took since the last CFD step → the gas's momentum source over the next one.
 void GasCoupling::deposit(const ParticleStore& p, double interval_s) {
   if (compressible_) return deposit_compressible(p, interval_s);
   GasSolver& gas = *incompressible_;

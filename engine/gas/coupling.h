@@ -199,7 +199,8 @@ class GasCoupling {
     Vec3 position_m, impulse_n_s, velocity_m_per_s;
   };
   std::vector<Released> released_;
-  std::vector<double> solid_volume_;  // per padded cell, scratch
+  std::vector<double> solid_volume_;       // per padded cell, scratch
+  std::vector<double> exchange_per_cell_;  // compressible: Σ β w / V per padded cell, scratch
   std::int64_t last_cfd_step_ = 0;
   int last_steps_ = 0;
   CouplingStats stats_;

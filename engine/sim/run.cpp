@@ -274,6 +274,10 @@ nlohmann::ordered_json pressure_drops_json(const Simulation& sim, const TimeSeri
   return out;
 }
 
+std::vector<double> components(const Vec3& v) {
+  return {v.x, v.y, v.z};
+}
+
 // What the coupling did, for either gas model: the volume fraction's range, the drag cache and the
 // impulse balance, where the time went (gas solve, deposit, fluid forces, the rest of the DEM).
 nlohmann::ordered_json coupling_summary(const Simulation& sim) {
@@ -282,7 +286,6 @@ nlohmann::ordered_json coupling_summary(const Simulation& sim) {
   const std::uint64_t lookups = c.drag_evaluations + c.drag_reuses;
   const std::array<double, std::size_t(Phase::Count)>& t = sim.profile().seconds;
   const double gas_s = t[std::size_t(Phase::Gas)], fluid_s = t[std::size_t(Phase::Fluid)];
-  const Vec3& j = c.particle_impulse_n_s;
   return {
       {"cfd_steps", c.cfd_steps},
       {"gas_substeps", c.gas_substeps},
@@ -297,16 +300,12 @@ nlohmann::ordered_json coupling_summary(const Simulation& sim) {
       {"drag_reuses", c.drag_reuses},
       {"drag_evaluation_fraction", lookups ? double(c.drag_evaluations) / double(lookups) : 0.0},
       {"dem_cell_states_filled", g.table().fills()},
-      {"particle_impulse_n_s", std::vector<double>{j.x, j.y, j.z}},
+      {"particle_impulse_n_s", components(c.particle_impulse_n_s)},
       {"seconds",
        {{"gas_solve", c.gas_seconds},
         {"deposit", c.deposit_seconds},
         {"fluid_forces", fluid_s},
         {"dem", sim.profile().total() - gas_s - fluid_s}}}};
-}
-
-std::vector<double> components(const Vec3& v) {
-  return {v.x, v.y, v.z};
 }
 
 // The incompressible model's gas: its patches' inflow, the pressure solve, the continuity error.

@@ -488,19 +488,17 @@ void CompressibleSolver::update_pressure_gradient() {
   }
 }
 
+// Σ w value_of(cell) over the fluid cells of x's trilinear stencil (a number or a vector).
 template <class Field>
-double CompressibleSolver::sample(const Field& value_of, const Vec3& x) const {
+auto CompressibleSolver::sample(const Field& value_of, const Vec3& x) const {
   const Stencil s = make_stencil(grid_, x, -1, [&](std::size_t n) { return role_[n] == kFluid; });
-  double v = 0.0;
-  for (int k = 0; k < s.count; ++k) v += s.weight[k] * value_of(s.node[k]);
+  decltype(value_of(std::size_t{})) v{};
+  for (int k = 0; k < s.count; ++k) v += value_of(s.node[k]) * s.weight[k];
   return v;
 }
 
 Vec3 CompressibleSolver::velocity_at(const Vec3& x) const {
-  const Stencil s = make_stencil(grid_, x, -1, [&](std::size_t n) { return role_[n] == kFluid; });
-  Vec3 u;
-  for (int k = 0; k < s.count; ++k) u += velocity_m_per_s(s.node[k]) * s.weight[k];
-  return u;
+  return sample([&](std::size_t c) { return velocity_m_per_s(c); }, x);
 }
 
 double CompressibleSolver::density_at(const Vec3& x) const {
@@ -512,11 +510,11 @@ double CompressibleSolver::pressure_at(const Vec3& x) const {
 }
 
 Vec3 CompressibleSolver::pressure_gradient_at(const Vec3& x) const {
-  const Stencil s = make_stencil(grid_, x, -1, [&](std::size_t n) { return role_[n] == kFluid; });
-  Vec3 g;
-  for (int k = 0; k < s.count; ++k)
-    for (int a = 0; a < 3; ++a) g[a] += s.weight[k] * gradient_[std::size_t(a)][s.node[k]];
-  return g;
+  return sample(
+      [&](std::size_t c) {
+        return Vec3{gradient_[0][c], gradient_[1][c], gradient_[2][c]};
+      },
+      x);
 }
 
 double CompressibleSolver::volume_fraction_at(const Vec3& x) const {

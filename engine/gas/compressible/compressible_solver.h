@@ -130,7 +130,7 @@ class CompressibleSolver {
   void add_jet_sources(double stage_weight);
   void update_pressure_gradient();
   template <class Field>
-  double sample(const Field& value_of, const Vec3& x) const;
+  auto sample(const Field& value_of, const Vec3& x) const;
 
   GasGrid grid_;
   IdealGas gas_;
