@@ -1,46 +1,74 @@
 #include "contact/contact_forces.h"
 
 #include "contact/contact_law.h"
+#include "contact/curved_contact.h"
+#include "geometry/surface.h"
 
 namespace millsim {
 namespace {
 
-// Tangential spring, friction and torques of one contact; returns the tangential force on the
-// first body. `n` points from the second body to the first; v_t is the tangential slip velocity.
-inline Vec3 tangential_force(const PairSprings& s, double sqrt_overlap, double normal_force,
-                             double friction, const Vec3& n, const Vec3& v_t, double dt,
-                             Vec3& history) {
-  // Keep the stored displacement in the current tangent plane, with its length (rotation).
-  const double len2 = norm2(history);
-  if (len2 > 0.0) {
-    history -= n * dot(history, n);
-    const double new_len2 = norm2(history);
-    if (new_len2 > 0.0) history *= std::sqrt(len2 / new_len2);
-  }
-  history += v_t * dt;
-  const double kt = s.tangential_stiffness * sqrt_overlap;
-  const double etat = s.tangential_damping * std::sqrt(sqrt_overlap);
-  const double ft_max = friction * normal_force;
-  const Vec3 spring = -(history * kt);
-  const double spring2 = norm2(spring);
-  if (spring2 > ft_max * ft_max) {
-    // Gross sliding: the spring alone has reached μ F_n. It is held there (the slip it stores
-    // stays what μ F_n stretches it to, opposite the slip) and the force is μ F_n, with no
-    // damping: a sliding contact dissipates through friction alone (LIGGGHTS's history model).
-    // Folding the damper into the stored spring instead, as LAMMPS's rescaling does, leaves the
-    // spring pointing along the slip early in a contact, where damping exceeds μ F_n, and the
-    // sliding force then falls short of μ F_n (a gross-sliding impact's tangential impulse came
-    // out at 0.78–0.88 μ J_n; tests/physics/oblique_impact_test.cpp).
-    const double scale = ft_max / std::sqrt(spring2);
-    history *= scale;
-    return spring * scale;
-  }
-  // Sticking: spring and damper, with the total never beyond Coulomb's limit (early in a contact
-  // the damper can exceed it before the spring has built up); the spring is left as it is.
-  Vec3 ft = spring - v_t * etat;
-  const double ft2 = norm2(ft);
-  if (ft2 > ft_max * ft_max) ft *= ft_max / std::sqrt(ft2);
-  return ft;
+// The overlap that pushes back in a contact born overlapping (kPairGhost): it remembers its
+// birth overlap (`memory`, which follows the overlap down as the partners separate), and only the
+// overlap beyond it counts (neighbor_list.h). ≤ 0 when nothing pushes.
+inline double ghost_overlap_m(double overlap, double& memory) {
+  memory = std::min(memory, overlap);
+  return overlap - memory;
+}
+
+// The wall's springs at the particle's contact point: R_e from the surface's curvature there.
+inline PairSprings wall_springs_at(const ParticleStore& p, std::size_t i, const Wall& wall,
+                                   const PairConstants& pc) {
+  const double r_e = equivalent_contact_radius_m(
+      p.radius_m[i], surface_curvature_per_m(wall.surface, p.position_m[i]));
+  return wall_springs(p, i, pc, r_e);
+}
+
+// The pair loop's memory pipeline, apart from the physics: a lean pass over a chunk of
+// candidates keeps those that touch or touched at the last pass (a few percent). Second partners
+// lie behind in memory, mostly still in cache; the few far ones are fetched some candidates
+// ahead. Then everything the kept contacts read is fetched, and only they are visited.
+template <class Law, bool kPeriodic, class Visit>
+void for_each_contact_candidate(const Law& law, const ParticleStore& p, const NeighborList& nl,
+                                Visit&& visit) {
+  const std::uint32_t* first = nl.pairs.first.data();
+  const std::uint32_t* second = nl.pairs.second.data();
+  const std::uint32_t* history = nl.pair_history.data();
+  const std::uint8_t* touching_flag = nl.pair_touching.data();
+  const Vec3* x = p.position_m.data();
+  const double* r = p.radius_m.data();
+  constexpr std::size_t kChunk = 256, kPrefetchAhead = 64;
+  std::uint32_t kept[kChunk];
+  for (const NeighborList::PairRange& range : nl.active_ranges())
+    for (std::size_t chunk = range.begin; chunk < range.end; chunk += kChunk) {
+      const std::size_t chunk_end = std::min(range.end, chunk + kChunk);
+      std::size_t n = 0;
+      for (std::size_t k = chunk; k < chunk_end; ++k) {
+        if (k + kPrefetchAhead < range.end) {
+          __builtin_prefetch(&x[second[k + kPrefetchAhead]]);
+          __builtin_prefetch(&r[second[k + kPrefetchAhead]]);
+        }
+        const std::uint32_t i = first[k], j = second[k];
+        Vec3 d = x[i] - x[j];
+        if constexpr (kPeriodic) d -= nl.pair_shift(k);
+        const double rsum = r[i] + r[j];
+        kept[n] = std::uint32_t(k - chunk);
+        n += (norm2(d) < rsum * rsum) | (touching_flag[k] != kPairApart);
+      }
+      for (std::size_t h = 0; h < n; ++h) {
+        const std::size_t k = chunk + kept[h];
+        for (const std::uint32_t a : {first[k], second[k]}) {
+          // A 48-byte record may span two cache lines: fetch its first and last byte.
+          const char* m = reinterpret_cast<const char*>(&p.motion[a]);
+          const char* l = reinterpret_cast<const char*>(&p.load[a]);
+          law.prefetch(a);
+          __builtin_prefetch(m), __builtin_prefetch(m + sizeof(Motion) - 1);
+          __builtin_prefetch(l), __builtin_prefetch(l + sizeof(Load) - 1);
+          __builtin_prefetch(&p.material[a]);
+        }
+        if (history[k] != kNoHistory) __builtin_prefetch(&nl.history_pool[history[k]]);
+      }
+      for (std::size_t h = 0; h < n; ++h) visit(chunk + kept[h]);
+    }
 }
 
 template <class Law, bool kPeriodic>
@@ -91,98 +119,44 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
       return;
     }
     const std::uint8_t before = touching_flag[k];
-    const double dist = std::sqrt(dist2);
-    double overlap = rsum - dist;
     const bool ghost = before == kPairGhost;
-    if (ghost) {
-      // Born overlapping: only overlap beyond the remembered birth overlap (history[k][0], which
-      // follows the overlap down as the pair separates) pushes back (neighbor_list.h).
-      double& memory = pool[history[k]][0];
-      memory = std::min(memory, overlap);
-      overlap -= memory;
-      if (overlap <= 0.0) return;
-    } else {
+    const double dist = std::sqrt(dist2);
+    if (!ghost) {
       touching_flag[k] = kPairTouching;
       if (history[k] == kNoHistory) history[k] = pool.take({});
     }
+    double overlap = rsum - dist;
+    if (ghost) overlap = ghost_overlap_m(overlap, pool[history[k]][0]);
+    if (overlap <= 0.0) return;
     ++touching;
     const Vec3 n = d * (1.0 / dist);
-    const double sqrt_overlap = std::sqrt(overlap);
     const PairConstants& pc = materials.pair(mat[i], mat[j]);
-    const PairSprings s = law(i, j, pc);
-
     // Velocity of the contact point of i relative to j; contact point at −r_i n from i, +r_j n
     // from j.
     const Motion &mi = motion[i], &mj = motion[j];
     const Vec3 v_rel =
         mi.velocity_m_per_s - mj.velocity_m_per_s -
         cross(mi.angular_velocity_rad_per_s * r[i] + mj.angular_velocity_rad_per_s * r[j], n);
-    const double vn = dot(v_rel, n);
-    const Vec3 v_t = v_rel - n * vn;
-    if (before == kPairApart && vn < 0.0 && stats.record_impacts)
-      stats.impacts.push_back({i, j, false, -vn, norm(v_t)});
-    const double fn = hertz_normal_force_n(s, overlap, sqrt_overlap, vn);
-    const Vec3 ft =
-        ghost ? Vec3{}
-              : tangential_force(s, sqrt_overlap, fn, pc.friction, n, v_t, dt, pool[history[k]]);
-    const Vec3 force = n * fn + ft;
+    if (before == kPairApart && stats.record_impacts) {
+      const double vn = dot(v_rel, n);
+      if (vn < 0.0) stats.impacts.push_back({i, j, false, -vn, norm(v_rel - n * vn)});
+    }
+    const ContactResponse c =
+        contact_response(law(i, j, pc), pc, overlap, n, v_rel,
+                         mi.angular_velocity_rad_per_s - mj.angular_velocity_rad_per_s,
+                         r[i] * r[j] / rsum, dt, ghost ? nullptr : &pool[history[k]]);
+    const Vec3 force = n * c.normal_force_n + c.tangential_force_n;
     Load &li = load[i], &lj = load[j];
     li.force_n += force;
     lj.force_n -= force;
-    const Vec3 n_cross_ft = cross(n, ft);
-    li.torque_n_m -= n_cross_ft * (r[i] - 0.5 * overlap);
-    lj.torque_n_m -= n_cross_ft * (r[j] - 0.5 * overlap);
-    if (pc.rolling_friction > 0.0) {
-      // Constant directional torque (Zhou et al. 1999): −μ_r R* F_n ω_rel/|ω_rel|.
-      const Vec3 w_rel = mi.angular_velocity_rad_per_s - mj.angular_velocity_rad_per_s;
-      const double w_len = norm(w_rel);
-      if (w_len > 0.0) {
-        const Vec3 t = w_rel * (pc.rolling_friction * (r[i] * r[j] / rsum) * fn / w_len);
-        li.torque_n_m -= t;
-        lj.torque_n_m += t;
-      }
-    }
+    const Vec3 n_cross_ft = cross(n, c.tangential_force_n);
+    li.torque_n_m -= n_cross_ft * (r[i] - 0.5 * overlap) + c.rolling_torque_n_m;
+    lj.torque_n_m -= n_cross_ft * (r[j] - 0.5 * overlap) - c.rolling_torque_n_m;
     const double ratio = overlap / (2.0 * std::min(r[i], r[j]));
     if (ratio > limit) stats.pairs_over_limit.push_back(std::uint32_t(k));
     if (ratio > max_ratio) max_ratio = ratio, max_pair = k;
   };
-  // A lean pass over a chunk of candidates keeps those that touch or touched at the last pass (a
-  // few percent). Second partners lie behind in memory, mostly still in cache; the few far ones
-  // are fetched some candidates ahead. Then everything the kept contacts read is fetched, and
-  // only they go through the contact law.
-  constexpr std::size_t kChunk = 256, kPrefetchAhead = 64;
-  std::uint32_t kept[kChunk];
-  for (const NeighborList::PairRange& range : nl.active_ranges())
-    for (std::size_t chunk = range.begin; chunk < range.end; chunk += kChunk) {
-      const std::size_t chunk_end = std::min(range.end, chunk + kChunk);
-      std::size_t n = 0;
-      for (std::size_t k = chunk; k < chunk_end; ++k) {
-        if (k + kPrefetchAhead < range.end) {
-          __builtin_prefetch(&x[second[k + kPrefetchAhead]]);
-          __builtin_prefetch(&r[second[k + kPrefetchAhead]]);
-        }
-        const std::uint32_t i = first[k], j = second[k];
-        Vec3 d = x[i] - x[j];
-        if constexpr (kPeriodic) d -= nl.pair_shift(k);
-        const double rsum = r[i] + r[j];
-        kept[n] = std::uint32_t(k - chunk);
-        n += (norm2(d) < rsum * rsum) | (touching_flag[k] != kPairApart);
-      }
-      for (std::size_t h = 0; h < n; ++h) {
-        const std::size_t k = chunk + kept[h];
-        for (const std::uint32_t a : {first[k], second[k]}) {
-          // A 48-byte record may span two cache lines: fetch its first and last byte.
-          const char* m = reinterpret_cast<const char*>(&motion[a]);
-          const char* l = reinterpret_cast<const char*>(&load[a]);
-          law.prefetch(a);
-          __builtin_prefetch(m), __builtin_prefetch(m + sizeof(Motion) - 1);
-          __builtin_prefetch(l), __builtin_prefetch(l + sizeof(Load) - 1);
-          __builtin_prefetch(&mat[a]);
-        }
-        if (history[k] != kNoHistory) __builtin_prefetch(&pool[history[k]]);
-      }
-      for (std::size_t h = 0; h < n; ++h) visit(chunk + kept[h]);
-    }
+  for_each_contact_candidate<Law, kPeriodic>(law, p, nl, visit);
   stats.touching_pairs = touching;
   if (max_ratio > stats.max_overlap_ratio) {
     stats.max_overlap_ratio = max_ratio;
@@ -229,13 +203,14 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Wall>
     const double r = p.radius_m[i];
     Vec3 n;
     double overlap = r - wall_gap_m(wall, p.position_m[i], n);
+    const PairConstants& pc = materials.wall_pair(wall.pair_table, p.material[i]);
     if (overlap <= 0.0) {
       // Restitution below 0.05: the particle leaves with that share of its normal speed.
-      const double scale = materials.wall_pair(wall.pair_table, p.material[i]).separation_scale;
       const double vn = dot(p.motion[i].velocity_m_per_s, n);
-      if (nl.wall_touching[k] == kPairTouching && scale < 1.0 && vn > 0.0 &&
+      if (nl.wall_touching[k] == kPairTouching && pc.separation_scale < 1.0 && vn > 0.0 &&
           p.inv_mass_per_kg[i] > 0.0)
-        p.load[i].force_n -= n * separation_force_n(scale, vn, p.inv_mass_per_kg[i], dt);
+        p.load[i].force_n -=
+            n * separation_force_n(pc.separation_scale, vn, p.inv_mass_per_kg[i], dt);
       nl.wall_history_m[k] = {};
       nl.wall_touching[k] = kPairApart;
       continue;
@@ -243,34 +218,24 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Wall>
     const bool onset = nl.wall_touching[k] == kPairApart;
     const bool ghost = nl.wall_touching[k] == kPairGhost;
     if (ghost) {  // born deep in the wall: overlap memory, as for particle pairs
-      double& memory = nl.wall_history_m[k][0];
-      memory = std::min(memory, overlap);
-      overlap -= memory;
+      overlap = ghost_overlap_m(overlap, nl.wall_history_m[k][0]);
       if (overlap <= 0.0) continue;
     } else {
       nl.wall_touching[k] = kPairTouching;
     }
     ++touching;
-    const PairConstants& pc = materials.wall_pair(wall.pair_table, p.material[i]);
-    const PairSprings s = wall_springs(p, i, pc);
-    const double sqrt_overlap = std::sqrt(overlap);
-    const Vec3 v_rel =
-        p.motion[i].velocity_m_per_s - cross(p.motion[i].angular_velocity_rad_per_s * r, n);
-    const double vn = dot(v_rel, n);
-    const Vec3 v_t = v_rel - n * vn;
-    if (onset && vn < 0.0 && stats.record_impacts)
-      stats.impacts.push_back({i, nl.wall_index[k], true, -vn, norm(v_t)});
-    const double fn = hertz_normal_force_n(s, overlap, sqrt_overlap, vn);
-    const Vec3 ft = ghost ? Vec3{}
-                          : tangential_force(s, sqrt_overlap, fn, pc.friction, n, v_t, dt,
-                                             nl.wall_history_m[k]);
-    p.load[i].force_n += n * fn + ft;
-    p.load[i].torque_n_m -= cross(n, ft) * (r - 0.5 * overlap);
-    if (pc.rolling_friction > 0.0) {
-      const Vec3& w = p.motion[i].angular_velocity_rad_per_s;
-      const double w_len = norm(w);
-      if (w_len > 0.0) p.load[i].torque_n_m -= w * (pc.rolling_friction * r * fn / w_len);
+    const Motion& m = p.motion[i];
+    const Vec3 v_rel = m.velocity_m_per_s - cross(m.angular_velocity_rad_per_s * r, n);
+    if (onset && stats.record_impacts) {
+      const double vn = dot(v_rel, n);
+      if (vn < 0.0) stats.impacts.push_back({i, nl.wall_index[k], true, -vn, norm(v_rel - n * vn)});
     }
+    const ContactResponse c = contact_response(wall_springs_at(p, i, wall, pc), pc, overlap, n,
+                                               v_rel, m.angular_velocity_rad_per_s, r, dt,
+                                               ghost ? nullptr : &nl.wall_history_m[k]);
+    p.load[i].force_n += n * c.normal_force_n + c.tangential_force_n;
+    p.load[i].torque_n_m -=
+        cross(n, c.tangential_force_n) * (r - 0.5 * overlap) + c.rolling_torque_n_m;
     const double ratio = overlap / (2.0 * r);
     if (ratio > limit) stats.walls_over_limit.push_back(std::uint32_t(k));
     if (ratio > stats.max_overlap_ratio) {
@@ -294,16 +259,14 @@ double contact_elastic_energy_j(ContactModel model, const MaterialTable& materia
     const std::uint32_t i = nl.pairs.first[k], j = nl.pairs.second[k];
     const double dist = norm(box.minimum_image(p.position_m[i] - p.position_m[j]));
     const bool ghost = nl.pair_touching[k] == kPairGhost;
-    const double overlap =
-        p.radius_m[i] + p.radius_m[j] - dist - (ghost ? nl.pair_history_m(k)[0] : 0.0);
+    const Vec3 history = nl.pair_history_m(k);
+    const double overlap = p.radius_m[i] + p.radius_m[j] - dist - (ghost ? history[0] : 0.0);
     if (overlap <= 0.0) continue;
     const PairConstants& pc = materials.pair(p.material[i], p.material[j]);
     const PairSprings s = model == ContactModel::SeriesSprings  ? series_law(i, j, pc)
                           : model == ContactModel::PaperSprings ? paper_law(i, j, pc)
                                                                 : equivalent_law(i, j, pc);
-    energy += 0.4 * s.normal_stiffness * overlap * overlap * std::sqrt(overlap);
-    if (!ghost)
-      energy += 0.5 * s.tangential_stiffness * std::sqrt(overlap) * norm2(nl.pair_history_m(k));
+    energy += contact_elastic_energy_j(s, overlap, ghost ? nullptr : &history);
   }
   for (std::size_t k = 0; k < nl.wall_particle.size(); ++k) {
     const std::uint32_t i = nl.wall_particle[k];
@@ -312,10 +275,9 @@ double contact_elastic_energy_j(ContactModel model, const MaterialTable& materia
     const double overlap =
         p.radius_m[i] - wall_gap_m(wall, p.position_m[i]) - (ghost ? nl.wall_history_m[k][0] : 0.0);
     if (overlap <= 0.0) continue;
-    const PairSprings s = wall_springs(p, i, materials.wall_pair(wall.pair_table, p.material[i]));
-    energy += 0.4 * s.normal_stiffness * overlap * overlap * std::sqrt(overlap);
-    if (!ghost)
-      energy += 0.5 * s.tangential_stiffness * std::sqrt(overlap) * norm2(nl.wall_history_m[k]);
+    const PairConstants& pc = materials.wall_pair(wall.pair_table, p.material[i]);
+    energy += contact_elastic_energy_j(wall_springs_at(p, i, wall, pc), overlap,
+                                       ghost ? nullptr : &nl.wall_history_m[k]);
   }
   return energy;
 }

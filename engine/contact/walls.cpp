@@ -18,9 +18,12 @@ std::vector<Wall> build_walls(const SceneConfig& scene, MaterialTable& materials
                        materials.add_wall(d.wall_material, d.wall_restitution, d.wall_friction)});
     }
   }
-  for (const PlaneWallConfig& c : scene.walls)
-    walls.push_back({c.name, plane_surface(c.point_m, c.normal),
-                     materials.add_wall(c.material, c.restitution, c.friction)});
+  for (const WallConfig& c : scene.walls) {
+    Surface surface = plane_surface(c.point_m, c.normal);
+    if (c.shape == WallShape::Cylinder)
+      surface.kind = SurfaceKind::CylinderInside, surface.radius_m = c.radius_m;
+    walls.push_back({c.name, surface, materials.add_wall(c.material, c.restitution, c.friction)});
+  }
   if (scene.mill) {
     const MillConfig& m = *scene.mill;
     for (const NamedSurface& s : mill_surfaces(m))

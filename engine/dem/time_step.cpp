@@ -4,6 +4,8 @@
 #include <cmath>
 #include <numbers>
 
+#include "contact/curved_contact.h"
+
 namespace millsim {
 
 double rayleigh_time_s(double r, double E, double nu, double rho) {
@@ -28,6 +30,12 @@ TimeStepBounds time_step_bounds(const ParticleStore& p, const MaterialTable& mat
       stiffest < 0
           ? -1.0
           : materials.wall_pair(walls[std::size_t(stiffest)].pair_table, 0).wall_normal_compliance;
+  // A concave wall holds a sphere in a stiffer elliptic contact (contact/curved_contact.h): the
+  // most concave one, at the stiffest wall's compliance, bounds them all.
+  double most_concave_per_m = 0.0;
+  for (const Wall& w : walls)
+    if (w.surface.kind == SurfaceKind::CylinderInside || w.surface.kind == SurfaceKind::Tube)
+      most_concave_per_m = std::min(most_concave_per_m, -1.0 / w.surface.radius_m);
   for (std::size_t i = 0; i < p.size(); ++i) {
     const MaterialConstants& m = materials.material(p.material[i]);
     const double r = p.radius_m[i];
@@ -43,7 +51,8 @@ TimeStepBounds time_step_bounds(const ParticleStore& p, const MaterialTable& mat
     if (t_pair < b.contact_s)
       b.contact_s = t_pair, b.contact_particle = p.id[i], b.contact_with_wall = false;
     if (wall_compliance >= 0.0) {
-      const double k_wall = 4.0 / 3.0 / (compliance + wall_compliance) * std::sqrt(r);
+      const double k_wall = 4.0 / 3.0 / (compliance + wall_compliance) *
+                            std::sqrt(equivalent_contact_radius_m(r, most_concave_per_m));
       const double t_wall = hertz_contact_time_s(p.mass_kg[i], k_wall, speed);
       if (t_wall < b.contact_s)
         b.contact_s = t_wall, b.contact_particle = p.id[i], b.contact_with_wall = true;

@@ -58,4 +58,13 @@ double surface_gap(const Surface& s, const Vec3& x, Vec3& normal) {
   return 0.0;
 }
 
+double surface_curvature_per_m(const Surface& s, const Vec3& x) {
+  if (s.kind == SurfaceKind::CylinderInside) return -1.0 / s.radius_m;
+  if (s.kind != SurfaceKind::Tube) return 0.0;
+  const Vec3 d = x - s.point_m;
+  const double axial = dot(d, s.normal);
+  if (axial < s.axial_min_m || axial > s.axial_max_m) return 0.0;  // past the rim
+  return norm(d - s.normal * axial) > s.radius_m ? 1.0 / s.radius_m : -1.0 / s.radius_m;
+}
+
 }  // namespace millsim

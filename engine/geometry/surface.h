@@ -47,6 +47,12 @@ inline Surface plane_surface(const Vec3& point_m, const Vec3& unit_normal) {
 // Gap between x and the surface; `normal` receives the unit direction from the surface to x.
 double surface_gap(const Surface& s, const Vec3& x, Vec3& normal);
 
+// Curvature of the surface across its axis at the point nearest x, 1/m: positive where the
+// surface bulges towards x (a tube seen from outside), negative where it curves round it (a
+// cylinder's inside, a tube's); 0 on planes and disc faces. Along the axis the curvature is 0.
+// Rims and edge circles are edges, not smooth surfaces: 0 there too (contact/curved_contact.h).
+double surface_curvature_per_m(const Surface& s, const Vec3& x);
+
 // The gap alone (candidate tests).
 inline double surface_gap(const Surface& s, const Vec3& x) {
   Vec3 n;

@@ -16,15 +16,10 @@ double damping_ratio(DampingModel model, double e) {
   return 2.0 * (-log_e) / std::sqrt(pi * pi + log_e * log_e);
 }
 
-ParticleSprings particle_springs(const MaterialConstants& m, double r, double mass,
-                                 double stiffness_scale) {
+ParticleSprings particle_springs(const MaterialConstants& m, double r, double stiffness_scale) {
   const double E = stiffness_scale * m.youngs_modulus_pa, nu = m.poisson_ratio;
-  ParticleSprings s;
-  s.normal_stiffness = 2.0 * std::sqrt(2.0 * r) * E / (3.0 * (1.0 - nu * nu));
-  s.normal_damping = m.damping_ratio * std::sqrt(s.normal_stiffness * mass);
-  s.tangential_stiffness = std::sqrt(2.0 * r) * E / (2.0 * (2.0 - nu) * (1.0 + nu));
-  s.tangential_damping = 0.5 * m.damping_ratio * std::sqrt(s.tangential_stiffness * mass);
-  return s;
+  return {2.0 * std::sqrt(2.0 * r) * E / (3.0 * (1.0 - nu * nu)),
+          std::sqrt(2.0 * r) * E / (2.0 * (2.0 - nu) * (1.0 + nu))};
 }
 
 PairConstants pair_constants(DampingModel model, double restitution, double friction,

@@ -27,14 +27,13 @@ struct MaterialConstants {
 double damping_ratio(DampingModel model, double restitution);
 
 // Per-particle springs of §3.2 (Eq. 2–3, square roots as in DESIGN.md errata). A particle with
-// reduced stiffness (§4, Eq. 6–7) has E replaced by stiffness_scale × E.
-struct alignas(32) ParticleSprings {  // aligned: one record never straddles two cache lines
+// reduced stiffness (§4, Eq. 6–7) has E replaced by stiffness_scale × E. The dampers are the
+// pair's, formed per contact from its springs and masses (contact/contact_law.h).
+struct alignas(16) ParticleSprings {  // aligned: one record never straddles two cache lines
   double normal_stiffness;            // k_np = 2√(2r)·E / (3(1−ν²))
-  double normal_damping;  // η_np = α √(k_np m): two equal particles in series give α √(k_n m*)
-  double tangential_stiffness;  // k_tp/δ^½ = √(2r)·E / (2(2−ν)(1+ν))
-  double tangential_damping;    // η_tp/δ^¼ = (α/2) √(k_tp m): in parallel, α √(k_t m*)
+  double tangential_stiffness;        // k_tp/δ^½ = √(2r)·E / (2(2−ν)(1+ν))
 };
-ParticleSprings particle_springs(const MaterialConstants& m, double radius_m, double mass_kg,
+ParticleSprings particle_springs(const MaterialConstants& m, double radius_m,
                                  double stiffness_scale = 1.0);
 
 // What a contact between two materials (or a material and a wall) needs beyond the particles.

@@ -50,7 +50,7 @@ std::size_t ParticleStore::add(const MaterialTable& materials, int material_inde
   radius_m.push_back(r);
   inv_mass_per_kg.push_back(m.frozen ? 0.0 : 1.0 / mass);
   inv_inertia_per_kg_m2.push_back(m.frozen ? 0.0 : 1.0 / (0.4 * mass * r * r));
-  springs.push_back(particle_springs(m, r, mass, stiffness_scale));
+  springs.push_back(particle_springs(m, r, stiffness_scale));
   normal_compliance.push_back(m.normal_compliance / stiffness_scale);
   shear_compliance.push_back(m.shear_compliance / stiffness_scale);
   material.push_back(std::uint16_t(material_index));

@@ -75,10 +75,15 @@ struct MaterialConfig {
 };
 
 // An infinite plane; particles live on the side the normal points to.
-struct PlaneWallConfig {
+// An extra wall: an infinite plane (particles on the side its normal points to) or the inside of
+// an infinite circular cylinder (a pipe or a column; particles inside).
+enum class WallShape { Plane, Cylinder };
+struct WallConfig {
   std::string name;
-  Vec3 point_m;
-  Vec3 normal;  // normalised on load
+  WallShape shape = WallShape::Plane;
+  Vec3 point_m;           // plane: a point on it; cylinder: a point on its axis
+  Vec3 normal;            // plane: its normal; cylinder: its axis (normalised on load)
+  double radius_m = 0.0;  // cylinder only
   int material = 0;
   std::optional<double> restitution;  // particle–wall e; default: the particle's material
   std::optional<double> friction;     // particle–wall μ; default: the particle's material
@@ -237,7 +242,7 @@ struct SceneConfig {
   std::string description;
   std::uint64_t seed = 1;
   DomainConfig domain;
-  std::vector<PlaneWallConfig> walls;
+  std::vector<WallConfig> walls;
   std::vector<MaterialConfig> materials;
   std::vector<SourceConfig> sources;
   Vec3 gravity_m_per_s2;

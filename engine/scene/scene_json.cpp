@@ -187,30 +187,34 @@ DomainConfig parse_domain(JsonObjectReader& top, const std::vector<MaterialConfi
   return d;
 }
 
-std::vector<PlaneWallConfig> parse_walls(JsonObjectReader& top,
-                                         const std::vector<MaterialConfig>& materials,
-                                         InputErrors& errors) {
-  std::vector<PlaneWallConfig> out;
+std::vector<WallConfig> parse_walls(JsonObjectReader& top,
+                                    const std::vector<MaterialConfig>& materials,
+                                    InputErrors& errors) {
+  std::vector<WallConfig> out;
   const json* list = top.array("walls");
   if (!list) return out;
   for (std::size_t i = 0; i < list->size(); ++i) {
     JsonObjectReader r((*list)[i], json_pointer_join("/walls", i), errors);
-    PlaneWallConfig w;
+    WallConfig w;
     w.name = r.string("name", concat("wall", i));
-    const std::string type = r.string("type", "plane", {"plane"});
+    const std::string type = r.string("type", "plane", {"plane", "cylinder"});
+    w.shape = type == "cylinder" ? WallShape::Cylinder : WallShape::Plane;
     w.point_m = r.vec3("point_m", {});
     if (!r.has("point_m"))
       errors.push_back({r.path_of("point_m"), "", "missing; expected an array of 3 numbers"});
-    auto n = r.optional_vec3("normal");
-    if (!n && !r.has("normal"))
-      errors.push_back({r.path_of("normal"), "", "missing; expected an array of 3 numbers"});
+    const char* direction_key = w.shape == WallShape::Cylinder ? "axis" : "normal";
+    auto n = r.optional_vec3(direction_key);
+    if (!n && !r.has(direction_key))
+      errors.push_back({r.path_of(direction_key), "", "missing; expected an array of 3 numbers"});
     if (n) {
       const double len = norm(*n);
       if (len < 1e-12)
-        errors.push_back({r.path_of("normal"), "[0,0,0]", "expected a non-zero vector"});
+        errors.push_back({r.path_of(direction_key), "[0,0,0]", "expected a non-zero vector"});
       else
         w.normal = *n * (1.0 / len);
     }
+    if (w.shape == WallShape::Cylinder)
+      w.radius_m = r.required_number("radius_m", NumberRange::open_closed(0.0, 1e3));
     w.material = find_material(materials, r, "material", errors, true);
     w.restitution = r.optional_number("restitution", kRestitution);
     w.friction = r.optional_number("friction", NumberRange::closed(0.0, 10.0));
