@@ -50,6 +50,32 @@ struct GasView {
   double cell_pressure_pa(std::size_t c) const {
     return compressible ? compressible->pressure_pa(c) : incompressible->pressure()[c];
   }
+  // The gas velocity of fluid cell c: the mean of its two faces per axis (incompressible), its
+  // momentum over its density (compressible).
+  Vec3 cell_velocity_m_per_s(std::size_t c) const {
+    if (compressible) return compressible->velocity_m_per_s(c);
+    const GasGrid& g = incompressible->grid();
+    Vec3 u;
+    for (int a = 0; a < 3; ++a) {
+      const std::vector<double>& component = incompressible->velocity()[std::size_t(a)];
+      const std::size_t below = g.canonical_face(c - g.stride[std::size_t(a)], a);
+      u[a] = 0.5 * (component[below] + component[c]);
+    }
+    return u;
+  }
+  // The normal gas velocity on `face` of component `axis`, between cells low and high (either
+  // may be a ghost): the stored face value (incompressible), the mean of the fluid cells'
+  // velocities (compressible).
+  double face_velocity_m_per_s(int axis, std::size_t face, std::size_t low,
+                               std::size_t high) const {
+    if (!compressible) return incompressible->velocity()[std::size_t(axis)][face];
+    const GasGrid& g = compressible->grid();
+    const bool has_low = g.fluid[low] != 0, has_high = g.fluid[high] != 0;
+    if (has_low && has_high)
+      return 0.5 * (compressible->velocity_m_per_s(low)[axis] +
+                    compressible->velocity_m_per_s(high)[axis]);
+    return compressible->velocity_m_per_s(has_low ? low : high)[axis];
+  }
   double cell_volume_fraction(std::size_t c) const {
     return compressible ? compressible->volume_fraction()[c] : incompressible->volume_fraction()[c];
   }

@@ -1,0 +1,190 @@
+#include "dust/dust_ledger.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+namespace millsim {
+
+DustLedger::DustLedger(const GasGrid& grid, std::vector<DustClass> classes,
+                       const Vec3& gravity_m_per_s2)
+    : grid_(&grid), classes_(std::move(classes)), gravity_m_per_s2_(gravity_m_per_s2) {
+  mass_.assign(classes_.size(), std::vector<double>(grid.padded_size, 0.0));
+  outflow_kg_.assign(classes_.size(), 0.0);
+  velocity_.assign(grid.padded_size, Vec3{});
+  previous_velocity_ = acceleration_ = velocity_;
+  stats_.max_slip_ratio.assign(classes_.size(), 0.0);
+  build_faces();
+}
+
+// Every face the dust may cross: between two fluid cells (across a periodic boundary too), or an
+// outflow face with fluid on one side. Walls, inlets and solids are left out: they pass nothing.
+void DustLedger::build_faces() {
+  const GasGrid& g = *grid_;
+  for (int a = 0; a < 3; ++a) {
+    const std::size_t au = std::size_t(a), s = g.stride[au];
+    for (std::size_t f = 0; f + s < g.padded_size; ++f) {
+      const FaceKind kind = g.face[au][f];
+      if (kind == FaceKind::None || kind == FaceKind::Periodic || kind == FaceKind::Solid) continue;
+      const std::size_t low = g.wrap_cell(f, a), high = g.wrap_cell(f + s, a);
+      const bool fluid_low = g.fluid[low] != 0, fluid_high = g.fluid[high] != 0;
+      if (fluid_low && fluid_high) {
+        faces_.push_back({f, low, high, a, false, false});
+      } else if (kind == FaceKind::Outflow && (fluid_low || fluid_high)) {
+        faces_.push_back({f, low, high, a, fluid_low, fluid_high});
+      }
+    }
+  }
+  face_speed_.assign(faces_.size(), 0.0);
+}
+
+std::size_t DustLedger::containing_cell(const Vec3& x) const {
+  const GasGrid& g = *grid_;
+  int idx[3];
+  for (int a = 0; a < 3; ++a)
+    idx[a] = std::clamp(int(std::floor((x[a] - g.origin_m[a]) / g.h_m[a])) + 1, 1, g.n[a]);
+  return g.index(idx[0], idx[1], idx[2]);
+}
+
+// The nearest fluid cell by centre distance: within two cells of x's cell, else anywhere.
+std::size_t DustLedger::nearest_fluid_cell(const Vec3& x) const {
+  const GasGrid& g = *grid_;
+  const std::array<int, 3> home = g.coords(containing_cell(x));
+  std::size_t best = g.padded_size;
+  double best_d2 = std::numeric_limits<double>::infinity();
+  const auto consider = [&](int i, int j, int k) {
+    const std::size_t n = g.index(i, j, k);
+    if (!g.fluid[n]) return;
+    const double d2 = norm2(g.cell_center(i, j, k) - x);
+    if (d2 < best_d2) best_d2 = d2, best = n;
+  };
+  for (int reach : {2, std::max({g.n[0], g.n[1], g.n[2]})}) {
+    for (int k = std::max(1, home[2] - reach); k <= std::min(g.n[2], home[2] + reach); ++k)
+      for (int j = std::max(1, home[1] - reach); j <= std::min(g.n[1], home[1] + reach); ++j)
+        for (int i = std::max(1, home[0] - reach); i <= std::min(g.n[0], home[0] + reach); ++i)
+          consider(i, j, k);
+    if (best != g.padded_size) break;
+  }
+  return best;
+}
+
+void DustLedger::deposit(const Vec3& x, int k, double mass_kg) {
+  std::size_t c = containing_cell(x);
+  ++stats_.deposits;
+  if (!grid_->fluid[c]) {
+    c = nearest_fluid_cell(x);
+    ++stats_.displaced_deposits;
+    if (c == grid_->padded_size) {  // a grid without a fluid cell: nothing can hold it
+      unplaced_kg_ += mass_kg;
+      return;
+    }
+  }
+  mass_[std::size_t(k)][c] += mass_kg;
+}
+
+void DustLedger::update_acceleration(const GasView& gas, double now_s) {
+  const GasGrid& g = *grid_;
+  for (std::size_t c = 0; c < g.padded_size; ++c)
+    if (g.fluid[c]) velocity_[c] = gas.cell_velocity_m_per_s(c);
+  const double dt = now_s - previous_time_s_;
+  const bool unsteady = have_previous_ && dt > 0.0;
+  for (std::size_t c = 0; c < g.padded_size; ++c) {
+    if (!g.fluid[c]) continue;
+    const Vec3& u = velocity_[c];
+    // (u·∇)u by central differences, one-sided next to a wall, 0 across a cell with no fluid
+    // on either side.
+    Vec3 convective;
+    for (int a = 0; a < 3; ++a) {
+      const std::size_t s = g.stride[std::size_t(a)];
+      const std::size_t lo = g.wrap_cell(c - s, a), hi = g.wrap_cell(c + s, a);
+      const bool has_lo = g.fluid[lo] != 0, has_hi = g.fluid[hi] != 0;
+      if (!has_lo && !has_hi) continue;
+      const Vec3& u_lo = has_lo ? velocity_[lo] : u;
+      const Vec3& u_hi = has_hi ? velocity_[hi] : u;
+      const double span = (has_lo && has_hi ? 2.0 : 1.0) * g.h_m[a];
+      convective += (u_hi - u_lo) * (u[a] / span);
+    }
+    Vec3 du_dt = convective;
+    if (unsteady) du_dt += (u - previous_velocity_[c]) * (1.0 / dt);
+    acceleration_[c] = gravity_m_per_s2_ - du_dt;
+  }
+  previous_velocity_ = velocity_;
+  previous_time_s_ = now_s;
+  have_previous_ = true;
+}
+
+void DustLedger::advance(const GasView& gas, double dt_s) {
+  const GasGrid& g = *grid_;
+  ++stats_.advances;
+  update_acceleration(gas, gas.time_s());
+  scratch_.assign(g.padded_size, 0.0);  // per cell: Σ outgoing speed / h, for the step bound
+  for (std::size_t k = 0; k < classes_.size(); ++k) {
+    const double tau = classes_[k].relaxation_time_s;
+    std::fill(scratch_.begin(), scratch_.end(), 0.0);
+    double& max_slip = stats_.max_slip_ratio[k];
+    for (std::size_t f = 0; f < faces_.size(); ++f) {
+      const Face& face = faces_[f];
+      const int a = face.axis;
+      double speed = gas.face_velocity_m_per_s(a, face.face, face.low, face.high);
+      const bool low_fluid = g.fluid[face.low] != 0, high_fluid = g.fluid[face.high] != 0;
+      double accel = 0.0;
+      if (low_fluid && high_fluid)
+        accel = 0.5 * (acceleration_[face.low][a] + acceleration_[face.high][a]);
+      else
+        accel = acceleration_[low_fluid ? face.low : face.high][a];
+      const double slip = tau * accel;
+      if (speed != 0.0) max_slip = std::max(max_slip, std::abs(slip / speed));
+      speed += slip;
+      // An outflow face carries dust out only.
+      if (face.outflow_low && speed < 0.0) speed = 0.0;
+      if (face.outflow_high && speed > 0.0) speed = 0.0;
+      face_speed_[f] = speed;
+      const double rate = std::abs(speed) / g.h_m[a];
+      scratch_[speed > 0.0 ? face.low : face.high] += rate;
+    }
+    double fastest = 0.0;  // 1/s: the largest share of a cell's mass leaving per second
+    for (std::size_t c = 0; c < g.padded_size; ++c)
+      if (g.fluid[c]) fastest = std::max(fastest, scratch_[c]);
+    const int substeps = std::max(1, int(std::ceil(dt_s * fastest / 0.5 - 1e-12)));
+    const double h = dt_s / substeps;
+    stats_.substeps += std::uint64_t(substeps);
+    std::vector<double>& m = mass_[k];
+    for (int step = 0; step < substeps; ++step) {
+      start_ = m;
+      for (std::size_t f = 0; f < faces_.size(); ++f) {
+        const double speed = face_speed_[f];
+        if (speed == 0.0) continue;
+        const Face& face = faces_[f];
+        const std::size_t from = speed > 0.0 ? face.low : face.high;
+        const std::size_t to = speed > 0.0 ? face.high : face.low;
+        const double moved = start_[from] * (std::abs(speed) * h / g.h_m[face.axis]);
+        m[from] -= moved;
+        if (g.fluid[to])
+          m[to] += moved;
+        else
+          outflow_kg_[k] += moved;
+      }
+    }
+  }
+}
+
+double DustLedger::held_kg(int k) const {
+  double sum = 0.0;
+  for (double v : mass_[std::size_t(k)]) sum += v;
+  return sum;
+}
+
+double DustLedger::held_kg() const {
+  double sum = unplaced_kg_;
+  for (int k = 0; k < class_count(); ++k) sum += held_kg(k);
+  return sum;
+}
+
+double DustLedger::outflow_kg() const {
+  double sum = 0.0;
+  for (double v : outflow_kg_) sum += v;
+  return sum;
+}
+
+}  // namespace millsim

@@ -1,0 +1,102 @@
+// DustLedger: the mass below the dust threshold as a dilute phase on the gas grid (issue 31),
+// in place of a global table. Each breakage puts its sub-threshold mass, by size class, into the
+// gas cell where it broke; each class rides the gas with the equilibrium-Eulerian velocity of a
+// small-Stokes-number particle (Ferry & Balachandar, Int. J. Multiphase Flow 27 (2001) 1199):
+//
+//   u_dust = u_gas + τ_k (g − Du_gas/Dt),   τ_k = ρ_p d_k² C(d_k) / (18 μ)
+//
+// (C = 1 unless a Cunningham factor is given per class), so a vortex drives coarse dust outwards
+// at τ_k u_t²/r. Finite volumes, first-order upwind, sub-stepped at a Courant number of 0.5:
+// every flux is taken from one cell and given to its neighbour, so the mass is conserved to
+// rounding. Walls, inlets and solid cells pass no dust; an outflow face passes what the face
+// flux carries out (never in), into the class's outflow tally. One-way coupled: the dust is
+// carried by the gas and never acts on it (docs/dust.md gives the volume fractions that
+// justifies).
+//
+// Valid while τ_k |∇u| is small (the expansion is in the Stokes number): the run records the
+// largest τ_k |Du/Dt| / |u_gas| it met per class so a reader sees where it is stretched.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/vec3.h"
+#include "gas/gas_grid.h"
+#include "gas/gas_view.h"
+
+namespace millsim {
+
+struct DustClass {
+  double diameter_m = 0.0;
+  double relaxation_time_s = 0.0;  // τ_k
+};
+
+struct DustLedgerStats {
+  std::uint64_t advances = 0, substeps = 0;
+  std::uint64_t deposits = 0, displaced_deposits = 0;  // displaced: put in the nearest fluid cell
+  std::vector<double> max_slip_ratio;  // per class: max τ_k |g − Du/Dt| / |u_gas| over the run
+  template <class A>
+  void checkpoint_io(A& a) {
+    io_all(a, advances, substeps, deposits, displaced_deposits, max_slip_ratio);
+  }
+};
+
+class DustLedger {
+ public:
+  DustLedger(const GasGrid& grid, std::vector<DustClass> classes, const Vec3& gravity_m_per_s2);
+
+  int class_count() const { return int(classes_.size()); }
+  const std::vector<DustClass>& classes() const { return classes_; }
+
+  // Adds `mass_kg` of class k to the fluid cell containing x (the nearest fluid cell by centre
+  // distance when x lies in a solid one; a point outside the grid is clamped into it).
+  void deposit(const Vec3& x, int k, double mass_kg);
+
+  // Carries every class over dt_s with the gas as it is now. Du/Dt is the gas velocity's
+  // change since the last call over the time between, plus (u·∇)u by central differences.
+  void advance(const GasView& gas, double dt_s);
+
+  // Mass of class k held in the grid, and what left through outflow faces so far.
+  double held_kg(int k) const;
+  double held_kg() const;
+  double outflow_kg(int k) const { return outflow_kg_[std::size_t(k)]; }
+  double outflow_kg() const;
+  // Class k's mass per padded gas cell (kg).
+  const std::vector<double>& cell_mass_kg(int k) const { return mass_[std::size_t(k)]; }
+  const GasGrid& grid() const { return *grid_; }
+  const DustLedgerStats& stats() const { return stats_; }
+
+  template <class A>
+  void checkpoint_io(A& a) {
+    io_all(a, mass_, outflow_kg_, unplaced_kg_, previous_velocity_, previous_time_s_,
+           have_previous_, stats_);
+  }
+
+ private:
+  struct Face {
+    std::size_t face;       // its index in the grid's component `axis`
+    std::size_t low, high;  // the cells on either side (canonical; ghost when not fluid)
+    int axis;
+    bool outflow_low, outflow_high;  // an outflow face with only that side fluid
+  };
+  void build_faces();
+  std::size_t containing_cell(const Vec3& x) const;  // the interior cell x lies in (clamped)
+  std::size_t nearest_fluid_cell(const Vec3& x) const;
+  // The gas's acceleration term g − Du/Dt per fluid cell (ghosts 0).
+  void update_acceleration(const GasView& gas, double now_s);
+
+  const GasGrid* grid_;
+  std::vector<DustClass> classes_;
+  Vec3 gravity_m_per_s2_;
+  std::vector<Face> faces_;
+  std::vector<std::vector<double>> mass_;  // per class, per padded cell
+  std::vector<double> outflow_kg_;
+  std::vector<Vec3> velocity_, previous_velocity_, acceleration_;  // per padded cell
+  double previous_time_s_ = 0.0;
+  bool have_previous_ = false;
+  double unplaced_kg_ = 0.0;  // deposits on a grid without fluid cells (held, never moved)
+  std::vector<double> face_speed_, scratch_, start_;
+  DustLedgerStats stats_;
+};
+
+}  // namespace millsim
