@@ -145,15 +145,20 @@ void Breakage::complete_impact(const Impact& impact, const std::vector<Wall>& wa
   stats_.completed_impacts += 1;
 }
 
-std::uint64_t Breakage::spread_below_threshold(const FragmentSizeSampler& sampler, double parent_d,
-                                               double density, double mass) {
+void Breakage::add_dust(const Vec3& x, double d, double mass, double number) {
+  dust_.add(d, mass, number);
+  if (record_dust_) fresh_dust_.push_back({x, d, mass});
+}
+
+std::uint64_t Breakage::spread_below_threshold(const FragmentSizeSampler& sampler, const Vec3& x,
+                                               double parent_d, double density, double mass) {
   // By the size classes of the dust table below the threshold, each class's share from B, at the
   // class's geometric centre; the share below the first edge goes to the underflow.
   const double top = dust_threshold_m_ / parent_d;
   const double total = sampler.drawn_cumulative(top);
   if (mass <= 0.0) return 0;
   if (total <= 0.0) {  // rounding left over where B has no mass: at the threshold
-    dust_.add(dust_threshold_m_ * (1.0 - 1e-12), mass, 0.0);
+    add_dust(x, dust_threshold_m_ * (1.0 - 1e-12), mass, 0.0);
     return 0;
   }
   double count = 0.0, lower_ratio = 0.0, lower_b = 0.0;
@@ -162,7 +167,7 @@ std::uint64_t Breakage::spread_below_threshold(const FragmentSizeSampler& sample
     const double share_mass = mass * (upper_b - lower_b) / total;
     if (share_mass > 0.0) {
       const double number = share_mass / sphere_mass_kg(density, representative_d);
-      dust_.add(representative_d, share_mass, number);
+      add_dust(x, representative_d, share_mass, number);
       count += number;
     }
     lower_ratio = upper_ratio;
@@ -221,13 +226,13 @@ void Breakage::break_particle(std::size_t slot, double dt_s, BreakageEvent event
       kept_mass += mass;
       continue;
     }
-    dust_.add(d, mass);
+    add_dust(x, d, mass, 1.0);
     dust_fragment_mass += mass;
     ++stats_.dust_fragments;
   }
   // The spread share is what the fragments leave of the parent: mass conserved to rounding.
   const double spread_mass = std::max(parent_mass - kept_mass - dust_fragment_mass, 0.0);
-  stats_.dust_fragments += spread_below_threshold(m.sampler, parent_d, density, spread_mass);
+  stats_.dust_fragments += spread_below_threshold(m.sampler, x, parent_d, density, spread_mass);
   const double dust_mass = dust_fragment_mass + spread_mass;
   // The dust leaves with the parent's velocity and its share of the force in flight.
   dust_momentum_ += v * dust_mass + force * (0.5 * dt_s * dust_mass / parent_mass);

@@ -101,6 +101,15 @@ class Breakage {
   const BreakageStats& stats() const { return stats_; }
   const std::vector<BreakageEvent>& event_log() const { return event_log_; }
   const PsdTally& dust() const { return dust_; }
+  // Dust made since the caller last emptied the list, where it was made (the parent's centre),
+  // when recording is on (the dust ledger, dust/dust_ledger.h); the table above holds it too.
+  struct DustDeposit {
+    Vec3 position_m;
+    double diameter_m;  // the class's representative size, as in the table
+    double mass_kg;
+  };
+  void record_dust(bool on) { record_dust_ = on; }
+  std::vector<DustDeposit>& fresh_dust() { return fresh_dust_; }
   const Vec3& dust_momentum_kg_m_per_s() const { return dust_momentum_; }
 
   // Checkpoints: the generator, the fragment pools, the dust table and the counters (the rest is
@@ -125,8 +134,10 @@ class Breakage {
                        ParticleStore& p);
   // Adds `mass` below the dust threshold to the dust table, spread over its classes by the
   // breakage function; returns the number of particles that mass stands for.
-  std::uint64_t spread_below_threshold(const FragmentSizeSampler& sampler, double parent_d,
-                                       double density, double mass);
+  std::uint64_t spread_below_threshold(const FragmentSizeSampler& sampler, const Vec3& x,
+                                       double parent_d, double density, double mass);
+  // One entry of dust made at x: into the table, and the fresh list when recording.
+  void add_dust(const Vec3& x, double diameter_m, double mass_kg, double number);
   // `event`: the log's record, filled here with what the breakage made.
   void break_particle(std::size_t slot, double dt_s, BreakageEvent event, ParticleStore& p,
                       ParticleId& next_id, std::vector<Newborn>& newborn,
@@ -142,6 +153,8 @@ class Breakage {
   std::vector<FragmentPool> pools_;  // per material: draws kept for later breakages
   PsdTally dust_;
   Vec3 dust_momentum_;
+  bool record_dust_ = false;
+  std::vector<DustDeposit> fresh_dust_;  // emptied by the caller after each process()
   BreakageStats stats_;
   std::vector<BreakageEvent> event_log_;
 };

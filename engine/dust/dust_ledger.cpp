@@ -5,7 +5,30 @@
 #include <cmath>
 #include <limits>
 
+#include "gas/drag.h"
+
 namespace millsim {
+
+std::vector<DustClass> dust_classes(const std::vector<double>& edges, double threshold,
+                                    double density, double viscosity, double mean_free_path) {
+  const auto with_tau = [&](double d) {
+    const double slip = mean_free_path > 0.0 ? cunningham_correction(d, mean_free_path) : 1.0;
+    return DustClass{d, density * d * d * slip / (18.0 * viscosity)};
+  };
+  std::vector<DustClass> classes;
+  const double first = edges.front();
+  const double width = edges.size() > 1 ? edges[1] / edges[0] : 2.0;
+  classes.push_back(with_tau(std::min(first, threshold) / std::sqrt(width)));
+  for (std::size_t k = 0; k + 1 < edges.size() && edges[k] < threshold; ++k)
+    classes.push_back(with_tau(std::sqrt(edges[k] * std::min(edges[k + 1], threshold))));
+  return classes;
+}
+
+int dust_class_of(const std::vector<double>& edges, int class_count, double d) {
+  if (d < edges.front()) return 0;
+  const int bin = int(std::upper_bound(edges.begin(), edges.end(), d) - edges.begin()) - 1;
+  return std::min(bin + 1, class_count - 1);
+}
 
 DustLedger::DustLedger(const GasGrid& grid, std::vector<DustClass> classes,
                        const Vec3& gravity_m_per_s2)
@@ -14,7 +37,7 @@ DustLedger::DustLedger(const GasGrid& grid, std::vector<DustClass> classes,
   outflow_kg_.assign(classes_.size(), 0.0);
   velocity_.assign(grid.padded_size, Vec3{});
   previous_velocity_ = acceleration_ = velocity_;
-  stats_.max_slip_ratio.assign(classes_.size(), 0.0);
+  stats_.max_slip_m_per_s.assign(classes_.size(), 0.0);
   build_faces();
 }
 
@@ -122,7 +145,7 @@ void DustLedger::advance(const GasView& gas, double dt_s) {
   for (std::size_t k = 0; k < classes_.size(); ++k) {
     const double tau = classes_[k].relaxation_time_s;
     std::fill(scratch_.begin(), scratch_.end(), 0.0);
-    double& max_slip = stats_.max_slip_ratio[k];
+    double& max_slip = stats_.max_slip_m_per_s[k];
     for (std::size_t f = 0; f < faces_.size(); ++f) {
       const Face& face = faces_[f];
       const int a = face.axis;
@@ -134,7 +157,7 @@ void DustLedger::advance(const GasView& gas, double dt_s) {
       else
         accel = acceleration_[low_fluid ? face.low : face.high][a];
       const double slip = tau * accel;
-      if (speed != 0.0) max_slip = std::max(max_slip, std::abs(slip / speed));
+      max_slip = std::max(max_slip, std::abs(slip));
       speed += slip;
       // An outflow face carries dust out only.
       if (face.outflow_low && speed < 0.0) speed = 0.0;

@@ -14,7 +14,7 @@
 // justifies).
 //
 // Valid while τ_k |∇u| is small (the expansion is in the Stokes number): the run records the
-// largest τ_k |Du/Dt| / |u_gas| it met per class so a reader sees where it is stretched.
+// largest slip speed it gave each class, to set against the gas speeds.
 #pragma once
 
 #include <cstdint>
@@ -31,13 +31,24 @@ struct DustClass {
   double relaxation_time_s = 0.0;  // τ_k
 };
 
+// The ledger's classes from the run's PSD edges (those of the dust table): class 0 holds what
+// lies below the first edge (represented one bin width below it), class k ≥ 1 the bin
+// [edges[k−1], edges[k]) up to the one holding the threshold, at its geometric centre (capped at
+// the threshold). τ = ρ_p d² C / (18 μ), C Cunningham's factor at the mean free path given (1
+// when it is 0).
+std::vector<DustClass> dust_classes(const std::vector<double>& edges_m, double threshold_m,
+                                    double particle_density_kg_per_m3, double viscosity_pa_s,
+                                    double mean_free_path_m);
+// The class of a dust diameter (the last class for anything at or above its lower edge).
+int dust_class_of(const std::vector<double>& edges_m, int class_count, double diameter_m);
+
 struct DustLedgerStats {
   std::uint64_t advances = 0, substeps = 0;
   std::uint64_t deposits = 0, displaced_deposits = 0;  // displaced: put in the nearest fluid cell
-  std::vector<double> max_slip_ratio;  // per class: max τ_k |g − Du/Dt| / |u_gas| over the run
+  std::vector<double> max_slip_m_per_s;  // per class: the largest |τ_k (g − Du/Dt)| on a face
   template <class A>
   void checkpoint_io(A& a) {
-    io_all(a, advances, substeps, deposits, displaced_deposits, max_slip_ratio);
+    io_all(a, advances, substeps, deposits, displaced_deposits, max_slip_m_per_s);
   }
 };
 

@@ -75,6 +75,13 @@ std::uint64_t parse_uint64(const std::string& name, const std::string& text) {
   return value;
 }
 
+// "gas_dust_c03_kg_per_m3": class 3's concentration in a snapshot's gas fields.
+std::string dust_dataset_name(int k) {
+  char name[40];
+  std::snprintf(name, sizeof name, "gas_dust_c%02d_kg_per_m3", k);
+  return name;
+}
+
 bool ends_with(std::string_view s, std::string_view suffix) {
   return s.size() >= suffix.size() && s.substr(s.size() - suffix.size()) == suffix;
 }
@@ -90,8 +97,8 @@ std::string unit_of(std::string_view name) {
   for (const auto& [field, unit] : kNamed)
     if (name == field) return std::string(unit);
   static constexpr std::pair<std::string_view, std::string_view> kSuffixes[] = {
-      {"_m_per_s", "m/s"}, {"_j_per_kg", "J/kg"}, {"_m", "m"},  {"_s", "s"},
-      {"_j", "J"},         {"_kg", "kg"},         {"_pa", "Pa"}};
+      {"_m_per_s", "m/s"}, {"_j_per_kg", "J/kg"}, {"_kg_per_m3", "kg/m3"}, {"_m", "m"},
+      {"_s", "s"},         {"_j", "J"},           {"_kg", "kg"},           {"_pa", "Pa"}};
   for (const auto& [suffix, unit] : kSuffixes)
     if (ends_with(name, suffix)) return std::string(unit);
   return "1";
@@ -228,6 +235,9 @@ void H5Writer::write_gas_snapshot(const GasFieldSnapshot& gas) {
       write_dataset(g, "gas_mach", H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, 3, cells, gas.mach.data(),
                     path_);
     }
+    for (std::size_t k = 0; k < gas.dust_kg_per_m3.size(); ++k)
+      write_dataset(g, dust_dataset_name(int(k)).c_str(), H5T_NATIVE_DOUBLE, H5T_IEEE_F64LE, 3,
+                    cells, gas.dust_kg_per_m3[k].data(), path_);
   } catch (...) {
     H5Gclose(g);
     throw;
@@ -238,6 +248,7 @@ void H5Writer::write_gas_snapshot(const GasFieldSnapshot& gas) {
   extras_.gas_origin_m = gas.origin_m;
   extras_.gas_spacing_m = gas.spacing_m;
   extras_.gas_compressible = !gas.mach.empty();
+  extras_.dust_classes = int(gas.dust_kg_per_m3.size());
 }
 
 void H5Writer::write_geometry(const SurfaceMesh& mesh) {
@@ -520,6 +531,9 @@ void write_gas_xdmf(const std::filesystem::path& xdmf_path, const std::string& h
       for (const char* field : {"density", "temperature", "mach"})
         attribute_item(out, h5_name, field, false, "Cell", s.group + "/gas_" + field, cells,
                        "Float", 8);
+    for (int k = 0; k < extras.dust_classes; ++k)
+      attribute_item(out, h5_name, dust_dataset_name(k).substr(4).c_str(), false, "Cell",
+                     s.group + "/" + dust_dataset_name(k), cells, "Float", 8);
     out << "   </Grid>\n";
   }
   out << "  </Grid>\n";

@@ -43,6 +43,7 @@ struct XdmfExtras {
   std::array<int, 3> gas_cells{0, 0, 0};  // nx, ny, nz; 0 = no gas
   Vec3 gas_origin_m, gas_spacing_m;
   bool gas_compressible = false;  // the gas fields include density, temperature and Mach number
+  int dust_classes = 0;           // the gas fields include the dust ledger's concentrations
   std::size_t geometry_points = 0, geometry_triangles = 0;
 };
 
@@ -55,6 +56,8 @@ struct GasFieldSnapshot {
   std::vector<std::int32_t> fluid;
   // The compressible model only (empty otherwise): solid cells hold 0.
   std::vector<double> density_kg_per_m3, temperature_k, mach;
+  // The dust ledger's concentration (kg/m3), per class (empty without a ledger).
+  std::vector<std::vector<double>> dust_kg_per_m3;
 };
 
 class H5Writer {

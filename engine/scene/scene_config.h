@@ -192,9 +192,14 @@ struct BreakageConfig {
   int placement_attempts = 16;  // random positions tried per fragment (least overlap kept)
 };
 
-// Fragments smaller than the threshold are never simulated: they go to the dust table (§5).
+// Fragments smaller than the threshold are never simulated: they go to the dust (§5). The
+// table holds it as one global tally, the product at once (the paper's "dust exits the mill
+// immediately"); the ledger puts it in the gas cell where it was made and carries it with the gas
+// until it leaves through an outlet (dust/dust_ledger.h; needs a gas section).
+enum class DustModel { Table, Ledger };
 struct DustConfig {
   double threshold_diameter_m = 0.0;
+  DustModel model = DustModel::Table;
 };
 
 // Size classes of the outlet PSD: explicit edges, or `bins` log-spaced edges on [min, max].

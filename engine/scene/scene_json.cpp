@@ -572,8 +572,11 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
   }
   if (const json* v = top.child("dust")) {
     JsonObjectReader r(*v, "/dust", errors);
-    scene.dust =
-        DustConfig{r.required_number("threshold_diameter_m", NumberRange::open_closed(0.0, 10.0))};
+    DustConfig d;
+    d.threshold_diameter_m =
+        r.required_number("threshold_diameter_m", NumberRange::open_closed(0.0, 10.0));
+    if (r.string("model", "table", {"table", "ledger"}) == "ledger") d.model = DustModel::Ledger;
+    scene.dust = d;
     r.finish();
   }
   if (const json* v = top.child("psd")) scene.psd = parse_psd(*v, errors);
@@ -607,6 +610,23 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
                       "missing; a breakable material needs the dust threshold (fragments smaller "
                       "than it go to the dust table; it is also the smallest particle the time "
                       "step must resolve)"});
+  if (scene.dust && scene.dust->model == DustModel::Ledger) {
+    if (!scene.gas)
+      errors.push_back({"/dust/model", "\"ledger\"",
+                        "the dust ledger rides the gas: add a gas section, or use \"table\""});
+    // One particle density for the dust's relaxation times.
+    std::optional<double> density;
+    for (const MaterialConfig& m : scene.materials) {
+      if (!m.breakage) continue;
+      if (density && *density != m.density_kg_per_m3) {
+        errors.push_back({"/dust/model", "\"ledger\"",
+                          "the breakable materials differ in density; the ledger holds one dust "
+                          "material: use \"table\""});
+        break;
+      }
+      density = m.density_kg_per_m3;
+    }
+  }
   if (!breakable && top.has("breakage"))
     errors.push_back({"/breakage", "", "no material is breakable: add /materials/N/breakage"});
   for (std::size_t i = 0; i < scene.feeds.size(); ++i) {

@@ -40,11 +40,22 @@ struct TimeSeries {
   std::vector<std::vector<double>> columns;
 
   std::vector<PressureDropConfig> drops;  // one column each, after the product's
+  // With a dust ledger: its first column (held, out, then held and out per class), else 0.
+  std::size_t dust_column = 0;
 
   TimeSeries(bool with_product, const Simulation& sim) : product(with_product) {
     if (product)
       for (const char* name : {"fed_mass_kg", "outlet_mass_kg", "dust_mass_kg", "breakage_events"})
         names.push_back(name);
+    if (const DustLedger* dust = sim.dust_ledger()) {
+      dust_column = names.size();
+      names.push_back("dust_held_kg");
+      names.push_back("dust_outflow_kg");
+      for (int k = 0; k < dust->class_count(); ++k) {
+        names.push_back(concat("dust_held_c", k < 10 ? "0" : "", k, "_kg"));
+        names.push_back(concat("dust_outflow_c", k < 10 ? "0" : "", k, "_kg"));
+      }
+    }
     if (sim.gas()) drops = sim.gas()->config().pressure_drops;
     // The gas is solved every CFD step: a drop is that of the last solve, at gas_time_s.
     if (!drops.empty()) names.push_back("gas_time_s");
@@ -73,6 +84,11 @@ struct TimeSeries {
       const MassBalance m = sim.mass_balance();
       row.insert(row.end(), {m.fed_kg, m.outlet_kg, m.dust_kg,
                              sim.breakage() ? double(sim.breakage()->stats().events) : 0.0});
+    }
+    if (const DustLedger* dust = sim.dust_ledger()) {
+      row.insert(row.end(), {dust->held_kg(), dust->outflow_kg()});
+      for (int k = 0; k < dust->class_count(); ++k)
+        row.insert(row.end(), {dust->held_kg(k), dust->outflow_kg(k)});
     }
     if (!drops.empty()) row.push_back(sim.gas()->view().time_s());
     for (const PressureDropConfig& d : drops) row.push_back(pressure_drop_pa(sim.gas()->gas(), d));
@@ -112,12 +128,37 @@ void add_product_summary(const Simulation& sim, nlohmann::ordered_json& s) {
   s["outlet_particles"] = {{"count", sim.outlet_tally().total_count()},
                            {"mass_kg", sim.outlet_tally().total_mass_kg()},
                            {"mass_by_outlet_kg", sim.outlet_mass_by_outlet_kg()}};
+  if (const DustLedger* dust = sim.dust_ledger()) {
+    nlohmann::ordered_json classes = nlohmann::ordered_json::array();
+    for (int k = 0; k < dust->class_count(); ++k) {
+      const DustClass& c = dust->classes()[std::size_t(k)];
+      classes.push_back({{"diameter_m", c.diameter_m},
+                         {"relaxation_time_s", c.relaxation_time_s},
+                         {"held_kg", dust->held_kg(k)},
+                         {"outflow_kg", dust->outflow_kg(k)},
+                         {"max_slip_m_per_s", dust->stats().max_slip_m_per_s[std::size_t(k)]}});
+    }
+    const double made = sim.breakage()->dust().total_mass_kg();
+    s["dust_ledger"] = {
+        {"made_kg", made},
+        {"held_kg", dust->held_kg()},
+        {"outflow_kg", dust->outflow_kg()},
+        {"relative_error", made > 0.0 ? (dust->held_kg() + dust->outflow_kg() - made) / made : 0.0},
+        {"deposits", dust->stats().deposits},
+        {"displaced_deposits", dust->stats().displaced_deposits},
+        {"advances", dust->stats().advances},
+        {"substeps", dust->stats().substeps},
+        {"classes", classes}};
+  }
   s["outlet_psd"] = psd_json(summarize(sim.product_tally()));
   // Everything made so far: the product plus the hold-up still in the domain. Runs that end
   // before the hold-up has left compare fairly on this one.
   PsdTally all = sim.product_tally();
   const ParticleStore& p = sim.particles();
   for (std::size_t i = 0; i < p.size(); ++i) all.add(2.0 * p.radius_m[i], p.mass_kg[i]);
+  if (const DustLedger* dust = sim.dust_ledger())  // the dust still in the gas
+    for (int k = 0; k < dust->class_count(); ++k)
+      all.add(dust->classes()[std::size_t(k)].diameter_m, dust->held_kg(k), 0.0);
   const PsdSummary total = summarize(all);
   s["total_psd"] = {{"d10_m", psd_size_json(total, total.d10_m)},
                     {"d50_m", psd_size_json(total, total.d50_m)},
@@ -407,7 +448,7 @@ void write_gas_h5(const Simulation& sim, H5Writer& h5) {
 }
 
 // The gas field at the cell centres for a snapshot (solid cells: zero velocity, fluid = 0).
-GasFieldSnapshot gas_field(const GasView& gas) {
+GasFieldSnapshot gas_field(const GasView& gas, const DustLedger* dust) {
   const GasGrid& g = gas.grid();
   GasFieldSnapshot f;
   f.cells = {g.n[0], g.n[1], g.n[2]};
@@ -431,6 +472,17 @@ GasFieldSnapshot gas_field(const GasView& gas) {
           f.mach.push_back(fluid ? compressible->mach(c) : 0.0);
         }
       }
+  if (dust) {
+    f.dust_kg_per_m3.resize(std::size_t(dust->class_count()));
+    for (int m = 0; m < dust->class_count(); ++m) {
+      std::vector<double>& field = f.dust_kg_per_m3[std::size_t(m)];
+      field.reserve(n);
+      for (int k = 1; k <= g.n[2]; ++k)
+        for (int j = 1; j <= g.n[1]; ++j)
+          for (int i = 1; i <= g.n[0]; ++i)
+            field.push_back(dust->cell_mass_kg(m)[g.index(i, j, k)] / g.cell_volume_m3());
+    }
+  }
   return f;
 }
 
@@ -562,7 +614,8 @@ void write_breakage_events_h5(const Breakage& breakage, H5Writer& h5) {
 // One snapshot: the particles, and the gas field when the scene has gas.
 void write_snapshot(H5Writer& h5, const Simulation& sim) {
   h5.write_snapshot(sim.step_index(), sim.time_s(), sim.particles());
-  if (const GasCoupling* gas = sim.gas()) h5.write_gas_snapshot(gas_field(gas->view()));
+  if (const GasCoupling* gas = sim.gas())
+    h5.write_gas_snapshot(gas_field(gas->view(), sim.dust_ledger()));
 }
 
 // Steps between outputs; an interval longer than any run (1e300 s) means "never" (the first and
@@ -986,6 +1039,20 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
                  {"dissipated_j", initial_energy.total_j() - final_energy.total_j()}};
   if (has_product(sim)) add_product_summary(sim, s);
   if (sim.gas()) add_gas_summary(sim, s);
+  if (const DustLedger* dust = sim.dust_ledger()) {
+    // Hold-up and outflow by class over time, at the time series' interval.
+    nlohmann::ordered_json held = nlohmann::ordered_json::array(),
+                           out = nlohmann::ordered_json::array();
+    for (int k = 0; k < dust->class_count(); ++k) {
+      held.push_back(series.columns[series.dust_column + 2 + 2 * std::size_t(k)]);
+      out.push_back(series.columns[series.dust_column + 3 + 2 * std::size_t(k)]);
+    }
+    s["dust_ledger"]["history"] = {{"time_s", series.columns[0]},
+                                   {"held_kg", series.columns[series.dust_column]},
+                                   {"outflow_kg", series.columns[series.dust_column + 1]},
+                                   {"held_by_class_kg", held},
+                                   {"outflow_by_class_kg", out}};
+  }
   if (!series.drops.empty()) s["pressure_drops"] = pressure_drops_json(sim, series);
   if (sim.mill() && has_product(sim)) add_mill_summary(sim, s);
   if (const ImpactSpectrum* spectrum = sim.impact_spectrum())

@@ -1,5 +1,7 @@
 #include "sim/simulation.h"
 
+#include "gas/drag.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -280,6 +282,26 @@ Simulation::Simulation(const SceneConfig& scene, SimulationStart start)
     }
   }
 
+  if (scene.dust && scene.dust->model == DustModel::Ledger && gas_ && breakage_) {
+    const GasConfig& gas = *scene.gas;
+    double density = 0.0;
+    for (const MaterialConfig& m : scene.materials)
+      if (m.breakage) density = m.density_kg_per_m3;
+    // Cunningham's slip at the chamber's initial state (compressible gas with the correction on).
+    const CompressibleGasConfig& state = gas.compressible;
+    const double mean_free_path =
+        gas.model == GasModel::Compressible && gas.slip_correction
+            ? mean_free_path_m(gas.viscosity_pa_s, state.initial_pressure_pa,
+                               state.gas.density_kg_per_m3(state.initial_pressure_pa,
+                                                           state.initial_temperature_k))
+            : 0.0;
+    dust_edges_m_ = breakage_->dust().edges_m;
+    dust_ledger_.emplace(gas_->grid(),
+                         dust_classes(dust_edges_m_, scene.dust->threshold_diameter_m, density,
+                                      gas.viscosity_pa_s, mean_free_path),
+                         gravity_m_per_s2_);
+    breakage_->record_dust(true);
+  }
   // Skin: ¼ √(d_min d_max) re-derived at each rebuild unless set (search/neighbor_list.cpp). The
   // periodic minimum image needs each periodic length to exceed 2 (d_max + skin).
   double max_skin = 1e300;
@@ -690,6 +712,13 @@ std::optional<StepFailure> Simulation::advance_gas() {
                 [&] { message = gas_->advance(particles_, time_.step_s, step_index_); });
   multi_rate_.fluid_refresh_due = true;  // kept fluid forces (multi-rate) are stale now
   if (message) return StepFailure{step_index_, time_s(), 0, "gas_solver", *message};
+  if (dust_ledger_) {
+    // The dust rides the gas just solved over the DEM time since it was last carried.
+    profile_.time(Phase::Gas, [&] {
+      dust_ledger_->advance(gas_->view(), double(step_index_ - dust_advanced_step_) * time_.step_s);
+    });
+    dust_advanced_step_ = step_index_;
+  }
   return std::nullopt;
 }
 
@@ -722,6 +751,7 @@ void Simulation::process_population() {
       for (std::uint32_t k : c.walls_over_limit) crushed.push_back(neighbors_.wall_particle[k]);
       breakage_->process(c.impacts, crushed, time_.step_s, time_s(), walls_, box_, particles_,
                          next_id_, newborn, removed, added);
+      if (dust_ledger_) deposit_fresh_dust();
       contact_stats_.impacts.clear();  // slots are stale now
       contact_stats_.pairs_over_limit.clear();
       contact_stats_.walls_over_limit.clear();
@@ -774,9 +804,31 @@ void Simulation::process_population() {
   });
 }
 
+void Simulation::deposit_fresh_dust() {
+  std::vector<Breakage::DustDeposit>& fresh = breakage_->fresh_dust();
+  for (const Breakage::DustDeposit& d : fresh) {
+    Vec3 x = d.position_m;
+    box_.wrap(x);
+    dust_ledger_->deposit(
+        x, dust_class_of(dust_edges_m_, dust_ledger_->class_count(), d.diameter_m), d.mass_kg);
+  }
+  fresh.clear();
+}
+
 PsdTally Simulation::product_tally() const {
   PsdTally product = outlet_;
-  if (breakage_) product.add(breakage_->dust());
+  if (dust_ledger_) {
+    const std::vector<DustClass>& classes = dust_ledger_->classes();
+    double density = 0.0;
+    for (int m = 0; m < materials_.count(); ++m)
+      if (breakage_->breakable(m)) density = materials_.material(m).density_kg_per_m3;
+    for (int k = 0; k < dust_ledger_->class_count(); ++k) {
+      const double d = classes[std::size_t(k)].diameter_m, mass = dust_ledger_->outflow_kg(k);
+      if (mass > 0.0) product.add(d, mass, mass / sphere_mass_kg(density, d));
+    }
+  } else if (breakage_) {
+    product.add(breakage_->dust());
+  }
   return product;
 }
 

@@ -14,6 +14,7 @@
 #include "core/errors.h"
 #include "dem/box.h"
 #include "dem/time_step.h"
+#include "dust/dust_ledger.h"
 #include "gas/coupling.h"
 #include "particles/materials.h"
 #include "particles/particle_store.h"
@@ -137,12 +138,15 @@ class Simulation {
   const Breakage* breakage() const { return breakage_ ? &*breakage_ : nullptr; }
   // The gas solver and its coupling (absent unless the scene has a gas section).
   const GasCoupling* gas() const { return gas_ ? &*gas_ : nullptr; }
+  // The dust ledger (absent unless the scene's dust model is "ledger").
+  const DustLedger* dust_ledger() const { return dust_ledger_ ? &*dust_ledger_ : nullptr; }
   GasCoupling* gas() { return gas_ ? &*gas_ : nullptr; }
   const std::vector<Feeder>& feeders() const { return feeders_; }
   const std::optional<MillConfig>& mill() const { return mill_; }
   const PsdTally& outlet_tally() const { return outlet_; }  // particles that left by an outlet
   const std::vector<double>& outlet_mass_by_outlet_kg() const { return outlet_mass_kg_; }
-  // Outlet particles + dust table: the run's product.
+  // The run's product: outlet particles + the dust table, or with the dust ledger, outlet
+  // particles + the dust that left through the gas's outlets.
   PsdTally product_tally() const;
   MassBalance mass_balance() const;
   // Momentum that left the run with outlet particles and dust.
@@ -257,6 +261,11 @@ class Simulation {
   MultiRate multi_rate_;
   bool start_pending_ = false;  // AfterSpinUp, until finish_start()
   std::optional<ImpactSpectrum> impact_spectrum_;
+  std::optional<DustLedger> dust_ledger_;
+  std::vector<double> dust_edges_m_;     // the dust table's PSD edges (the ledger's classes)
+  std::int64_t dust_advanced_step_ = 0;  // the step the ledger was last carried to
+  // Moves the dust the breakage made this step into the ledger.
+  void deposit_fresh_dust();
 };
 
 template <class A>
@@ -268,6 +277,7 @@ void Simulation::checkpoint_io(A& a) {
   // The modules the scene has: present in both the saved and the restoring run.
   if (breakage_) io(a, *breakage_);
   if (gas_) io(a, *gas_);
+  if (dust_ledger_) io_all(a, *dust_ledger_, dust_advanced_step_);
   for (Feeder& f : feeders_) io(a, f);
   io_all(a, outlet_, outlet_mass_kg_, outlet_momentum_, initial_mass_kg_, fed_mass_kg_,
          last_population_step_, feed_mass_bound_kg_, feed_kinetic_bound_j_, drag_relaxation_s_,

@@ -12,22 +12,13 @@
 #include "gas/compressible/compressible_solver.h"
 #include "io/h5_writer.h"
 #include "sim/run.h"
+#include "support/h5_read.h"
 #include "support/scenes.h"
 
 namespace millsim {
 namespace {
 
-std::vector<double> read_doubles(hid_t file, const std::string& name) {
-  const hid_t set = H5Dopen2(file, name.c_str(), H5P_DEFAULT);
-  EXPECT_GE(set, 0) << name;
-  const hid_t space = H5Dget_space(set);
-  const hssize_t n = H5Sget_simple_extent_npoints(space);
-  std::vector<double> out(std::size_t(std::max<hssize_t>(n, 0)));
-  H5Dread(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data());
-  H5Sclose(space);
-  H5Dclose(set);
-  return out;
-}
+using test::read_doubles;
 
 TEST(Output, RunWritesSnapshotsTimeSeriesXdmfAndSummary) {
   test::TempDir dir;
