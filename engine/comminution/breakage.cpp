@@ -147,7 +147,7 @@ void Breakage::complete_impact(const Impact& impact, const std::vector<Wall>& wa
 
 void Breakage::add_dust(const Vec3& x, double d, double mass, double number) {
   dust_.add(d, mass, number);
-  if (record_dust_) fresh_dust_.push_back({x, d, mass});
+  if (record_dust_) fresh_dust_.push_back({x, d, mass, number});
 }
 
 std::uint64_t Breakage::spread_below_threshold(const FragmentSizeSampler& sampler, const Vec3& x,

@@ -107,6 +107,7 @@ class Breakage {
     Vec3 position_m;
     double diameter_m;  // the class's representative size, as in the table
     double mass_kg;
+    double number;  // of particles the mass stands for, as in the table
   };
   void record_dust(bool on) { record_dust_ = on; }
   std::vector<DustDeposit>& fresh_dust() { return fresh_dust_; }

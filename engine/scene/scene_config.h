@@ -205,6 +205,9 @@ struct DustConfig {
 // Size classes of the outlet PSD: explicit edges, or `bins` log-spaced edges on [min, max].
 struct PsdConfig {
   std::vector<double> edges_m;  // ascending; empty = automatic from the scene's sizes
+  // The product counts what leaves in [start, end) s of the run: outlet particles, and the dust
+  // that leaves the ledger's gas outlets or (the table) is made then. Absent: the whole run.
+  std::optional<std::array<double, 2>> product_window_s;
 };
 
 enum class OutletKind { Plane, Box, Cylinder };

@@ -492,7 +492,7 @@ PsdConfig parse_psd(const json& v, InputErrors& errors) {
       }
     if (r.has("min_m") || r.has("max_m") || r.has("bins"))
       errors.push_back({"/psd", "", "give either edges_m or min_m/max_m/bins, not both"});
-  } else if (r.is_object()) {
+  } else if (r.has("min_m") || r.has("max_m") || r.has("bins")) {
     const double lo = r.required_number("min_m", NumberRange::open_closed(0.0, 10.0));
     const double hi = r.required_number("max_m", NumberRange::open_closed(0.0, 10.0));
     const long long bins = r.integer("bins", 30, 1, 10000);
@@ -501,6 +501,22 @@ PsdConfig parse_psd(const json& v, InputErrors& errors) {
     else
       for (long long k = 0; k <= bins; ++k)
         p.edges_m.push_back(lo * std::pow(hi / lo, double(k) / double(bins)));
+  }
+  if (const json* window = r.array("product_window_s")) {
+    if (window->size() != 2) {
+      errors.push_back(
+          {"/psd/product_window_s", json_value_text(*window), "expected [start_s, end_s]"});
+    } else {
+      auto start = read_number((*window)[0], "/psd/product_window_s/0",
+                               NumberRange::closed(0.0, 1e6), errors);
+      auto end = read_number((*window)[1], "/psd/product_window_s/1", NumberRange::closed(0.0, 1e6),
+                             errors);
+      if (start && end && !(*end > *start))
+        errors.push_back({"/psd/product_window_s/1", concat(*end),
+                          concat("expected > the window's start, ", *start, " s")});
+      else if (start && end)
+        p.product_window_s = std::array<double, 2>{*start, *end};
+    }
   }
   r.finish();
   return p;
@@ -627,6 +643,10 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
       density = m.density_kg_per_m3;
     }
   }
+  if (scene.psd.product_window_s && (*scene.psd.product_window_s)[1] > scene.time.end_s)
+    errors.push_back({"/psd/product_window_s/1", concat((*scene.psd.product_window_s)[1]),
+                      concat("expected a window inside the run: at most /time/end_s = ",
+                             scene.time.end_s, " s")});
   if (!breakable && top.has("breakage"))
     errors.push_back({"/breakage", "", "no material is breakable: add /materials/N/breakage"});
   for (std::size_t i = 0; i < scene.feeds.size(); ++i) {

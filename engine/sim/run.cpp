@@ -150,6 +150,7 @@ void add_product_summary(const Simulation& sim, nlohmann::ordered_json& s) {
         {"substeps", dust->stats().substeps},
         {"classes", classes}};
   }
+  if (const auto& window = sim.product_window_s()) s["product_window_s"] = *window;
   s["outlet_psd"] = psd_json(summarize(sim.product_tally()));
   // Everything made so far: the product plus the hold-up still in the domain. Runs that end
   // before the hold-up has left compare fairly on this one.

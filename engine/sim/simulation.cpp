@@ -219,6 +219,8 @@ Simulation::Simulation(const SceneConfig& scene, SimulationStart start)
   outlets_ = scene.outlets;
   mill_ = scene.mill;
   outlet_ = PsdTally(psd_edges);
+  product_window_s_ = scene.psd.product_window_s;
+  window_outlet_ = window_dust_table_ = PsdTally(psd_edges);
   outlet_mass_kg_.assign(outlets_.size(), 0.0);
   for (std::size_t f = 0; f < scene.feeds.size(); ++f)
     feeders_.emplace_back(scene.feeds[f],
@@ -301,7 +303,10 @@ Simulation::Simulation(const SceneConfig& scene, SimulationStart start)
                                       gas.viscosity_pa_s, mean_free_path),
                          gravity_m_per_s2_);
     breakage_->record_dust(true);
+    window_dust_out_kg_.assign(std::size_t(dust_ledger_->class_count()), 0.0);
+    dust_out_seen_kg_ = window_dust_out_kg_;
   }
+  if (breakage_ && product_window_s_) breakage_->record_dust(true);  // the table's, in the window
   // Skin: ¼ √(d_min d_max) re-derived at each rebuild unless set (search/neighbor_list.cpp). The
   // periodic minimum image needs each periodic length to exceed 2 (d_max + skin).
   double max_skin = 1e300;
@@ -718,6 +723,12 @@ std::optional<StepFailure> Simulation::advance_gas() {
       dust_ledger_->advance(gas_->view(), double(step_index_ - dust_advanced_step_) * time_.step_s);
     });
     dust_advanced_step_ = step_index_;
+    const bool counted = in_product_window();
+    for (int k = 0; k < dust_ledger_->class_count(); ++k) {
+      const double out = dust_ledger_->outflow_kg(k);
+      if (counted) window_dust_out_kg_[std::size_t(k)] += out - dust_out_seen_kg_[std::size_t(k)];
+      dust_out_seen_kg_[std::size_t(k)] = out;
+    }
   }
   return std::nullopt;
 }
@@ -751,7 +762,10 @@ void Simulation::process_population() {
       for (std::uint32_t k : c.walls_over_limit) crushed.push_back(neighbors_.wall_particle[k]);
       breakage_->process(c.impacts, crushed, time_.step_s, time_s(), walls_, box_, particles_,
                          next_id_, newborn, removed, added);
-      if (dust_ledger_) deposit_fresh_dust();
+      if (dust_ledger_)
+        deposit_fresh_dust();
+      else if (product_window_s_)
+        tally_windowed_table_dust();
       contact_stats_.impacts.clear();  // slots are stale now
       contact_stats_.pairs_over_limit.clear();
       contact_stats_.walls_over_limit.clear();
@@ -773,6 +787,7 @@ void Simulation::process_population() {
         if (outlet < 0) continue;
         const double m = particles_.mass_kg[i];
         outlet_.add(2.0 * particles_.radius_m[i], m);
+        if (in_product_window()) window_outlet_.add(2.0 * particles_.radius_m[i], m);
         outlet_mass_kg_[std::size_t(outlet)] += m;
         // With its force in flight (the next half-kick), as the breakage module does for dust.
         outlet_momentum_ += particles_.motion[i].velocity_m_per_s * m +
@@ -815,19 +830,29 @@ void Simulation::deposit_fresh_dust() {
   fresh.clear();
 }
 
+void Simulation::tally_windowed_table_dust() {
+  std::vector<Breakage::DustDeposit>& fresh = breakage_->fresh_dust();
+  if (in_product_window())
+    for (const Breakage::DustDeposit& d : fresh)
+      window_dust_table_.add(d.diameter_m, d.mass_kg, d.number);
+  fresh.clear();
+}
+
 PsdTally Simulation::product_tally() const {
-  PsdTally product = outlet_;
+  PsdTally product = product_window_s_ ? window_outlet_ : outlet_;
   if (dust_ledger_) {
     const std::vector<DustClass>& classes = dust_ledger_->classes();
     double density = 0.0;
     for (int m = 0; m < materials_.count(); ++m)
       if (breakage_->breakable(m)) density = materials_.material(m).density_kg_per_m3;
     for (int k = 0; k < dust_ledger_->class_count(); ++k) {
-      const double d = classes[std::size_t(k)].diameter_m, mass = dust_ledger_->outflow_kg(k);
+      const double d = classes[std::size_t(k)].diameter_m;
+      const double mass =
+          product_window_s_ ? window_dust_out_kg_[std::size_t(k)] : dust_ledger_->outflow_kg(k);
       if (mass > 0.0) product.add(d, mass, mass / sphere_mass_kg(density, d));
     }
   } else if (breakage_) {
-    product.add(breakage_->dust());
+    product.add(product_window_s_ ? window_dust_table_ : breakage_->dust());
   }
   return product;
 }

@@ -148,6 +148,7 @@ class Simulation {
   // The run's product: outlet particles + the dust table, or with the dust ledger, outlet
   // particles + the dust that left through the gas's outlets.
   PsdTally product_tally() const;
+  const std::optional<std::array<double, 2>>& product_window_s() const { return product_window_s_; }
   MassBalance mass_balance() const;
   // Momentum that left the run with outlet particles and dust.
   Vec3 removed_momentum_kg_m_per_s() const;
@@ -264,8 +265,19 @@ class Simulation {
   std::optional<DustLedger> dust_ledger_;
   std::vector<double> dust_edges_m_;     // the dust table's PSD edges (the ledger's classes)
   std::int64_t dust_advanced_step_ = 0;  // the step the ledger was last carried to
+  // The product's window (psd.product_window_s; absent: the whole run) and what left in it:
+  // outlet particles, the ledger's dust out per class, or the table's dust made.
+  std::optional<std::array<double, 2>> product_window_s_;
+  PsdTally window_outlet_, window_dust_table_;
+  std::vector<double> window_dust_out_kg_, dust_out_seen_kg_;
+  bool in_product_window() const {
+    return !product_window_s_ ||
+           (time_s() >= (*product_window_s_)[0] && time_s() < (*product_window_s_)[1]);
+  }
   // Moves the dust the breakage made this step into the ledger.
   void deposit_fresh_dust();
+  // The table's dust made this step, into the product when inside its window.
+  void tally_windowed_table_dust();
 };
 
 template <class A>
@@ -278,6 +290,7 @@ void Simulation::checkpoint_io(A& a) {
   if (breakage_) io(a, *breakage_);
   if (gas_) io(a, *gas_);
   if (dust_ledger_) io_all(a, *dust_ledger_, dust_advanced_step_);
+  io_all(a, window_outlet_, window_dust_table_, window_dust_out_kg_, dust_out_seen_kg_);
   for (Feeder& f : feeders_) io(a, f);
   io_all(a, outlet_, outlet_mass_kg_, outlet_momentum_, initial_mass_kg_, fed_mass_kg_,
          last_population_step_, feed_mass_bound_kg_, feed_kinetic_bound_j_, drag_relaxation_s_,

@@ -117,6 +117,62 @@ TEST(DustLedgerRun, SnapshotsHoldTheDustConcentrationAndResultJsonItsHistory) {
   EXPECT_EQ(history["held_by_class_kg"].size(), std::size_t(dust->class_count()));
 }
 
+// With psd.product_window_s = [t0, end], the product must be the outlet particles and the dust
+// that left (the ledger's outflow, or the table's dust made) from the step reaching t0 on: the
+// same run without a window, read just before that step and at the end, gives it by difference.
+// `dust_out` reads the dust that counts as product so far.
+template <class DustOut>
+void expect_window_by_difference(nlohmann::json doc, double t0, DustOut dust_out) {
+  InputErrors errors;
+  const SceneConfig whole_scene = parse_scene(doc, ".", errors);
+  doc["psd"]["product_window_s"] = {t0, doc["time"]["end_s"]};
+  const SceneConfig window_scene = parse_scene(doc, ".", errors);
+  ASSERT_TRUE(errors.empty());
+  Simulation whole(whole_scene), windowed(window_scene);
+  double outlet_before = 0.0, dust_before = 0.0;
+  bool reached = false;
+  while (whole.step_index() < whole.total_steps()) {
+    const double outlet = whole.outlet_tally().total_mass_kg(), dust = dust_out(whole);
+    ASSERT_FALSE(whole.step());
+    if (!reached && whole.time_s() >= t0)
+      reached = true, outlet_before = outlet, dust_before = dust;
+  }
+  while (windowed.step_index() < windowed.total_steps()) ASSERT_FALSE(windowed.step());
+  const double outlet_in = whole.outlet_tally().total_mass_kg() - outlet_before;
+  const double dust_in = dust_out(whole) - dust_before;
+  ASSERT_GT(outlet_in, 0.0);
+  ASSERT_GT(dust_in, 0.0);
+  ASSERT_GT(dust_before, 0.0) << "the window leaves some dust out";
+  const double product = windowed.product_tally().total_mass_kg();
+  EXPECT_NEAR(product, outlet_in + dust_in, 1e-12 * product);
+  EXPECT_LT(product, whole.product_tally().total_mass_kg());
+}
+
+TEST(DustLedgerRun, TheProductWindowCountsWhatLeavesInsideIt) {
+  expect_window_by_difference(ledger_scene(), 0.0006,
+                              [](const Simulation& s) { return s.dust_ledger()->outflow_kg(); });
+}
+
+TEST(DustLedgerRun, WithTheTableTheWindowCountsTheDustMadeInsideIt) {
+  nlohmann::json doc = ledger_scene();
+  doc.erase("gas");
+  doc["dust"].erase("model");
+  expect_window_by_difference(
+      doc, 0.0006, [](const Simulation& s) { return s.breakage()->dust().total_mass_kg(); });
+}
+
+TEST(DustLedgerRun, AProductWindowOutsideTheRunIsRefused) {
+  nlohmann::json doc = ledger_scene();
+  doc["psd"]["product_window_s"] = {0.001, 0.002};  // the run ends at 1.2 ms
+  bool named = false;
+  for (const InputError& e : test::scene_errors(doc)) named |= e.path == "/psd/product_window_s/1";
+  EXPECT_TRUE(named);
+  doc["psd"]["product_window_s"] = {0.001, 0.0005};
+  named = false;
+  for (const InputError& e : test::scene_errors(doc)) named |= e.path == "/psd/product_window_s/1";
+  EXPECT_TRUE(named) << "an end before the start";
+}
+
 TEST(DustLedgerRun, ALedgerNeedsAGas) {
   nlohmann::json doc = ledger_scene();
   doc.erase("gas");
