@@ -36,7 +36,8 @@ DustLedger::DustLedger(const GasGrid& grid, std::vector<DustClass> classes,
   mass_.assign(classes_.size(), std::vector<double>(grid.padded_size, 0.0));
   outflow_kg_.assign(classes_.size(), 0.0);
   velocity_.assign(grid.padded_size, Vec3{});
-  previous_velocity_ = acceleration_ = velocity_;
+  previous_velocity_ = acceleration_ = slip_ = velocity_;
+  gradient_.assign(grid.padded_size, {});
   stats_.max_slip_m_per_s.assign(classes_.size(), 0.0);
   build_faces();
 }
@@ -118,15 +119,18 @@ void DustLedger::update_acceleration(const GasView& gas, double now_s) {
     // (u·∇)u by central differences, one-sided next to a wall, 0 across a cell with no fluid
     // on either side.
     Vec3 convective;
+    std::array<Vec3, 3>& gradient = gradient_[c];  // column a: ∂u/∂x_a
     for (int a = 0; a < 3; ++a) {
       const std::size_t s = g.stride[std::size_t(a)];
       const std::size_t lo = g.wrap_cell(c - s, a), hi = g.wrap_cell(c + s, a);
       const bool has_lo = g.fluid[lo] != 0, has_hi = g.fluid[hi] != 0;
+      gradient[std::size_t(a)] = {};
       if (!has_lo && !has_hi) continue;
       const Vec3& u_lo = has_lo ? velocity_[lo] : u;
       const Vec3& u_hi = has_hi ? velocity_[hi] : u;
       const double span = (has_lo && has_hi ? 2.0 : 1.0) * g.h_m[a];
-      convective += (u_hi - u_lo) * (u[a] / span);
+      gradient[std::size_t(a)] = (u_hi - u_lo) * (1.0 / span);
+      convective += gradient[std::size_t(a)] * u[a];
     }
     Vec3 du_dt = convective;
     if (unsteady) du_dt += (u - previous_velocity_[c]) * (1.0 / dt);
@@ -135,6 +139,37 @@ void DustLedger::update_acceleration(const GasView& gas, double now_s) {
   previous_velocity_ = velocity_;
   previous_time_s_ = now_s;
   have_previous_ = true;
+}
+
+// The slip w of class τ in cell c: (I + τ ∇u) w = τ (g − Du/Dt), the locally implicit
+// equilibrium velocity (Ferry, Rani & Balachandar 2003). Where I + τ ∇u is near singular (a
+// strong compression at large τ), w = τ a / (1 + τ |∇u|), bounded the same way.
+Vec3 DustLedger::slip_m_per_s(std::size_t c, double tau) const {
+  const Vec3 rhs = acceleration_[c] * tau;
+  const std::array<Vec3, 3>& grad = gradient_[c];
+  // M = I + τ G, with G's column a = ∂u/∂x_a; M's rows by component.
+  double m[3][3];
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) m[i][j] = (i == j ? 1.0 : 0.0) + tau * grad[std::size_t(j)][i];
+  const double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+                     m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                     m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+  if (!(det > 0.1)) {
+    double norm_g = 0.0;
+    for (const Vec3& column : grad) norm_g += norm2(column);
+    return rhs * (1.0 / (1.0 + tau * std::sqrt(norm_g)));
+  }
+  Vec3 w;
+  for (int i = 0; i < 3; ++i) {  // Cramer: replace column i by the right-hand side
+    double n[3][3];
+    for (int r = 0; r < 3; ++r)
+      for (int k = 0; k < 3; ++k) n[r][k] = k == i ? rhs[r] : m[r][k];
+    w[i] = (n[0][0] * (n[1][1] * n[2][2] - n[1][2] * n[2][1]) -
+            n[0][1] * (n[1][0] * n[2][2] - n[1][2] * n[2][0]) +
+            n[0][2] * (n[1][0] * n[2][1] - n[1][1] * n[2][0])) /
+           det;
+  }
+  return w;
 }
 
 void DustLedger::advance(const GasView& gas, double dt_s) {
@@ -146,19 +181,20 @@ void DustLedger::advance(const GasView& gas, double dt_s) {
     const double tau = classes_[k].relaxation_time_s;
     std::fill(scratch_.begin(), scratch_.end(), 0.0);
     double& max_slip = stats_.max_slip_m_per_s[k];
+    for (std::size_t c = 0; c < g.padded_size; ++c)
+      if (g.fluid[c]) {
+        slip_[c] = tau > 0.0 ? slip_m_per_s(c, tau) : Vec3{};
+        max_slip = std::max(max_slip, norm(slip_[c]));
+      }
     for (std::size_t f = 0; f < faces_.size(); ++f) {
       const Face& face = faces_[f];
       const int a = face.axis;
       double speed = gas.face_velocity_m_per_s(a, face.face, face.low, face.high);
       const bool low_fluid = g.fluid[face.low] != 0, high_fluid = g.fluid[face.high] != 0;
-      double accel = 0.0;
       if (low_fluid && high_fluid)
-        accel = 0.5 * (acceleration_[face.low][a] + acceleration_[face.high][a]);
+        speed += 0.5 * (slip_[face.low][a] + slip_[face.high][a]);
       else
-        accel = acceleration_[low_fluid ? face.low : face.high][a];
-      const double slip = tau * accel;
-      max_slip = std::max(max_slip, std::abs(slip));
-      speed += slip;
+        speed += slip_[low_fluid ? face.low : face.high][a];
       // An outflow face carries dust out only.
       if (face.outflow_low && speed < 0.0) speed = 0.0;
       if (face.outflow_high && speed > 0.0) speed = 0.0;

@@ -1,22 +1,25 @@
 // DustLedger: the mass below the dust threshold as a dilute phase on the gas grid (issue 31),
 // in place of a global table. Each breakage puts its sub-threshold mass, by size class, into the
 // gas cell where it broke; each class rides the gas with the equilibrium-Eulerian velocity of a
-// small-Stokes-number particle (Ferry & Balachandar, Int. J. Multiphase Flow 27 (2001) 1199):
+// small-Stokes-number particle (Ferry & Balachandar, Int. J. Multiphase Flow 27 (2001) 1199), in
+// its locally implicit form (Ferry, Rani & Balachandar, Int. J. Multiphase Flow 29 (2003) 869):
 //
-//   u_dust = u_gas + τ_k (g − Du_gas/Dt),   τ_k = ρ_p d_k² C(d_k) / (18 μ)
+//   u_dust = u_gas + w,   (I + τ_k ∇u_gas) w = τ_k (g − Du_gas/Dt),   τ_k = ρ_p d_k² C / (18 μ)
 //
-// (C = 1 unless a Cunningham factor is given per class), so a vortex drives coarse dust outwards
-// at τ_k u_t²/r. Finite volumes, first-order upwind, sub-stepped at a Courant number of 0.5:
-// every flux is taken from one cell and given to its neighbour, so the mass is conserved to
-// rounding. Walls, inlets and solid cells pass no dust; an outflow face passes what the face
-// flux carries out (never in), into the class's outflow tally. One-way coupled: the dust is
-// carried by the gas and never acts on it (docs/dust.md gives the volume fractions that
-// justifies).
+// (C: Cunningham's factor, 1 unless given), so a vortex drives dust outwards at τ_k u_t²/r
+// while τ_k Ω ≪ 1, and the slip stays bounded (about the gas speed) where it is not: the plain
+// form τ_k (g − Du/Dt) grows without bound with τ_k. Finite volumes, first-order upwind,
+// sub-stepped at a Courant number of 0.5: every flux is taken from one cell and given to its
+// neighbour, so the mass is conserved to rounding. Walls, inlets and solid cells pass no dust; an
+// outflow face passes what the face flux carries out (never in), into the class's outflow tally.
+// One-way coupled: the dust is carried by the gas and never acts on it (docs/dust.md gives the
+// volume fractions that justifies).
 //
 // Valid while τ_k |∇u| is small (the expansion is in the Stokes number): the run records the
 // largest slip speed it gave each class, to set against the gas speeds.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -76,6 +79,9 @@ class DustLedger {
   const std::vector<double>& cell_mass_kg(int k) const { return mass_[std::size_t(k)]; }
   const GasGrid& grid() const { return *grid_; }
   const DustLedgerStats& stats() const { return stats_; }
+  // The slip w of a class of relaxation time τ in fluid cell c, from the gas as of the last
+  // advance.
+  Vec3 slip_m_per_s(std::size_t c, double tau) const;
 
   template <class A>
   void checkpoint_io(A& a) {
@@ -93,7 +99,7 @@ class DustLedger {
   void build_faces();
   std::size_t containing_cell(const Vec3& x) const;  // the interior cell x lies in (clamped)
   std::size_t nearest_fluid_cell(const Vec3& x) const;
-  // The gas's acceleration term g − Du/Dt per fluid cell (ghosts 0).
+  // The gas's acceleration term g − Du/Dt and velocity gradient per fluid cell (ghosts 0).
   void update_acceleration(const GasView& gas, double now_s);
 
   const GasGrid* grid_;
@@ -102,7 +108,8 @@ class DustLedger {
   std::vector<Face> faces_;
   std::vector<std::vector<double>> mass_;  // per class, per padded cell
   std::vector<double> outflow_kg_;
-  std::vector<Vec3> velocity_, previous_velocity_, acceleration_;  // per padded cell
+  std::vector<Vec3> velocity_, previous_velocity_, acceleration_, slip_;  // per padded cell
+  std::vector<std::array<Vec3, 3>> gradient_;  // per padded cell: ∂u/∂x_a for a = x, y, z
   double previous_time_s_ = 0.0;
   bool have_previous_ = false;
   double unplaced_kg_ = 0.0;  // deposits on a grid without fluid cells (held, never moved)

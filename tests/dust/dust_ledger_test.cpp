@@ -77,19 +77,29 @@ TEST(DustLedger, InStillGasEachClassSettlesAtItsTerminalSpeed) {
   }
 }
 
-TEST(DustLedger, ASolidBodyVortexDrivesEachClassOutwardsAtTheEquilibriumSlip) {
-  const int n = 48;
-  const double L = 0.096, omega = 100.0, c0 = 0.5 * L;
+// A square box of n² cells of side L (walls) turning as a solid body at Ω about its centre:
+// faces of x at (i·h, (j−½)h) hold u_x = −Ω (y − c), faces of y u_y = Ω (x − c); walls hold 0.
+constexpr int kVortexCells = 48;
+constexpr double kVortexSide = 0.096, kOmega = 100.0;
+GasSolver solid_body_vortex() {
+  const int n = kVortexCells;
+  const double L = kVortexSide, c0 = 0.5 * L, h = L / n;
   const GasConfig config = still_config({n, n, 1});
-  GasSolver gas(config, build_gas_grid(config, {0, 0, 0}, {L, L, L / n}, {false, false, true}), {});
+  GasSolver gas(config, build_gas_grid(config, {0, 0, 0}, {L, L, h}, {false, false, true}), {});
   const GasGrid& grid = gas.grid();
-  // Faces of x at (i·h, (j−½)h): u_x = −Ω (y − c); faces of y: u_y = Ω (x − c). Walls hold 0.
   for (int j = 1; j <= n; ++j)
-    for (int i = 0; i <= n; ++i) {
-      const double h = L / n;
-      if (i >= 1 && i < n) gas.velocity()[0][grid.index(i, j, 1)] = -omega * ((j - 0.5) * h - c0);
-      if (i >= 1 && i < n) gas.velocity()[1][grid.index(j, i, 1)] = omega * ((j - 0.5) * h - c0);
+    for (int i = 1; i < n; ++i) {
+      gas.velocity()[0][grid.index(i, j, 1)] = -kOmega * ((j - 0.5) * h - c0);
+      gas.velocity()[1][grid.index(j, i, 1)] = kOmega * ((j - 0.5) * h - c0);
     }
+  return gas;
+}
+
+TEST(DustLedger, ASolidBodyVortexDrivesEachClassOutwardsAtTheEquilibriumSlip) {
+  const int n = kVortexCells;
+  const double omega = kOmega, c0 = 0.5 * kVortexSide;
+  const GasSolver gas = solid_body_vortex();
+  const GasGrid& grid = gas.grid();
   const std::vector<DustClass> classes = {{1e-6, 0.0}, {5e-6, 2e-4}, {10e-6, 8e-4}};
   DustLedger dust(gas.grid(), classes, {});
   // A Gaussian blob of width 8 mm about the axis, the same for every class.
@@ -110,11 +120,38 @@ TEST(DustLedger, ASolidBodyVortexDrivesEachClassOutwardsAtTheEquilibriumSlip) {
   const double tracer_change = r2_of(0) - before[0];  // the scheme's own spreading
   for (int k = 1; k < 3; ++k) {
     const double drift = r2_of(k) - before[k] - tracer_change;
+    // The locally implicit slip: (I + τ Ω J) w = τ Ω² r, radial part τ Ω² r / (1 + τ² Ω²).
+    const double tau = classes[std::size_t(k)].relaxation_time_s;
     const double expected =
-        2.0 * classes[std::size_t(k)].relaxation_time_s * omega * omega * before[k] * dt;
+        2.0 * tau * omega * omega * before[k] * dt / (1.0 + tau * tau * omega * omega);
     EXPECT_NEAR(drift, expected, 0.05 * expected) << "class " << k;
     EXPECT_NEAR(dust.held_kg(k), total[k], 1e-12 * total[k]) << "walls pass nothing";
   }
+}
+
+TEST(DustLedger, TheSlipOfHeavyDustStaysBoundedByTheGasSpeed) {
+  // Expectation: in solid-body rotation (I + τ Ω J) w = τ Ω² r gives, in complex form,
+  // w = τ Ω² r (1 − i τ Ω) / (1 + τ² Ω²): radially τ Ω² r / (1 + τ² Ω²), and against the
+  // rotation τ² Ω³ r / (1 + τ² Ω²). At τ Ω = 10 the plain slip τ Ω² r would be 10× the gas speed
+  // Ω r; this one is 0.995 Ω r, a particle that hardly turns. Checked in every cell two or more
+  // cells from the walls (the wall cells' velocities are half their faces').
+  const GasSolver gas = solid_body_vortex();
+  const GasGrid& grid = gas.grid();
+  const double tau = 10.0 / kOmega, c0 = 0.5 * kVortexSide, k = tau * kOmega;
+  DustLedger dust(grid, {{50e-6, tau}}, {});
+  dust.advance(gas, 1e-5);
+  for (int j = 3; j <= kVortexCells - 2; ++j)
+    for (int i = 3; i <= kVortexCells - 2; ++i) {
+      const Vec3 x = grid.cell_center(i, j, 1);
+      const Vec3 r{x.x - c0, x.y - c0, 0.0};
+      const double radius = norm(r);
+      if (radius == 0.0) continue;
+      const Vec3 radial = r * (1.0 / radius), along{-radial.y, radial.x, 0.0};
+      const Vec3 w = dust.slip_m_per_s(grid.index(i, j, 1), tau);
+      const double speed = kOmega * radius;
+      EXPECT_NEAR(dot(w, radial), speed * k / (1.0 + k * k), 1e-9 * speed) << i << ", " << j;
+      EXPECT_NEAR(dot(w, along), -speed * k * k / (1.0 + k * k), 1e-9 * speed) << i << ", " << j;
+    }
 }
 
 TEST(DustLedger, ABoxDrainsAtTheOutletsFaceFlux) {
