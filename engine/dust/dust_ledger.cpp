@@ -143,7 +143,9 @@ void DustLedger::update_acceleration(const GasView& gas, double now_s) {
 
 // The slip w of class τ in cell c: (I + τ ∇u) w = τ (g − Du/Dt), the locally implicit
 // equilibrium velocity (Ferry, Rani & Balachandar 2003). Where I + τ ∇u is near singular (a
-// strong compression at large τ), w = τ a / (1 + τ |∇u|), bounded the same way.
+// strong compression at large τ), w = τ a / (1 + τ |∇u|). Never longer than the explicit slip
+// τ |a|: near that singularity the implicit form amplifies it (2.3 km/s for the mill's 8.9 µm
+// dust before this bound).
 Vec3 DustLedger::slip_m_per_s(std::size_t c, double tau) const {
   const Vec3 rhs = acceleration_[c] * tau;
   const std::array<Vec3, 3>& grad = gradient_[c];
@@ -169,6 +171,8 @@ Vec3 DustLedger::slip_m_per_s(std::size_t c, double tau) const {
             n[0][2] * (n[1][0] * n[2][1] - n[1][1] * n[2][0])) /
            det;
   }
+  const double explicit2 = norm2(rhs), implicit2 = norm2(w);
+  if (implicit2 > explicit2) w *= std::sqrt(explicit2 / implicit2);
   return w;
 }
 
