@@ -141,6 +141,16 @@ void DustLedger::update_acceleration(const GasView& gas, double now_s) {
   have_previous_ = true;
 }
 
+namespace {
+
+double determinant(const double m[3][3]) {
+  return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+         m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+         m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+}
+
+}  // namespace
+
 // The slip w of class τ in cell c: (I + τ ∇u) w = τ (g − Du/Dt), the locally implicit
 // equilibrium velocity (Ferry, Rani & Balachandar 2003). Where I + τ ∇u is near singular (a
 // strong compression at large τ), w = τ a / (1 + τ |∇u|). Never longer than the explicit slip
@@ -153,9 +163,7 @@ Vec3 DustLedger::slip_m_per_s(std::size_t c, double tau) const {
   double m[3][3];
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) m[i][j] = (i == j ? 1.0 : 0.0) + tau * grad[std::size_t(j)][i];
-  const double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
-                     m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
-                     m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+  const double det = determinant(m);
   if (!(det > 0.1)) {
     double norm_g = 0.0;
     for (const Vec3& column : grad) norm_g += norm2(column);
@@ -166,10 +174,7 @@ Vec3 DustLedger::slip_m_per_s(std::size_t c, double tau) const {
     double n[3][3];
     for (int r = 0; r < 3; ++r)
       for (int k = 0; k < 3; ++k) n[r][k] = k == i ? rhs[r] : m[r][k];
-    w[i] = (n[0][0] * (n[1][1] * n[2][2] - n[1][2] * n[2][1]) -
-            n[0][1] * (n[1][0] * n[2][2] - n[1][2] * n[2][0]) +
-            n[0][2] * (n[1][0] * n[2][1] - n[1][1] * n[2][0])) /
-           det;
+    w[i] = determinant(n) / det;
   }
   const double explicit2 = norm2(rhs), implicit2 = norm2(w);
   if (implicit2 > explicit2) w *= std::sqrt(explicit2 / implicit2);
@@ -180,7 +185,7 @@ void DustLedger::advance(const GasView& gas, double dt_s) {
   const GasGrid& g = *grid_;
   ++stats_.advances;
   update_acceleration(gas, gas.time_s());
-  scratch_.assign(g.padded_size, 0.0);  // per cell: Σ outgoing speed / h, for the step bound
+  scratch_.resize(g.padded_size);  // per cell: Σ outgoing speed / h, for the step bound
   for (std::size_t k = 0; k < classes_.size(); ++k) {
     const double tau = classes_[k].relaxation_time_s;
     std::fill(scratch_.begin(), scratch_.end(), 0.0);

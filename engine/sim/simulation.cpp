@@ -286,9 +286,8 @@ Simulation::Simulation(const SceneConfig& scene, SimulationStart start)
 
   if (scene.dust && scene.dust->model == DustModel::Ledger && gas_ && breakage_) {
     const GasConfig& gas = *scene.gas;
-    double density = 0.0;
     for (const MaterialConfig& m : scene.materials)
-      if (m.breakage) density = m.density_kg_per_m3;
+      if (m.breakage) dust_density_kg_per_m3_ = m.density_kg_per_m3;
     // Cunningham's slip at the chamber's initial state (compressible gas with the correction on).
     const CompressibleGasConfig& state = gas.compressible;
     const double mean_free_path =
@@ -299,8 +298,8 @@ Simulation::Simulation(const SceneConfig& scene, SimulationStart start)
             : 0.0;
     dust_edges_m_ = breakage_->dust().edges_m;
     dust_ledger_.emplace(gas_->grid(),
-                         dust_classes(dust_edges_m_, scene.dust->threshold_diameter_m, density,
-                                      gas.viscosity_pa_s, mean_free_path),
+                         dust_classes(dust_edges_m_, scene.dust->threshold_diameter_m,
+                                      dust_density_kg_per_m3_, gas.viscosity_pa_s, mean_free_path),
                          gravity_m_per_s2_);
     breakage_->record_dust(true);
     window_dust_out_kg_.assign(std::size_t(dust_ledger_->class_count()), 0.0);
@@ -842,14 +841,11 @@ PsdTally Simulation::product_tally() const {
   PsdTally product = product_window_s_ ? window_outlet_ : outlet_;
   if (dust_ledger_) {
     const std::vector<DustClass>& classes = dust_ledger_->classes();
-    double density = 0.0;
-    for (int m = 0; m < materials_.count(); ++m)
-      if (breakage_->breakable(m)) density = materials_.material(m).density_kg_per_m3;
     for (int k = 0; k < dust_ledger_->class_count(); ++k) {
       const double d = classes[std::size_t(k)].diameter_m;
       const double mass =
           product_window_s_ ? window_dust_out_kg_[std::size_t(k)] : dust_ledger_->outflow_kg(k);
-      if (mass > 0.0) product.add(d, mass, mass / sphere_mass_kg(density, d));
+      if (mass > 0.0) product.add(d, mass, mass / sphere_mass_kg(dust_density_kg_per_m3_, d));
     }
   } else if (breakage_) {
     product.add(product_window_s_ ? window_dust_table_ : breakage_->dust());

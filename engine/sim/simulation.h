@@ -264,6 +264,7 @@ class Simulation {
   std::optional<ImpactSpectrum> impact_spectrum_;
   std::optional<DustLedger> dust_ledger_;
   std::vector<double> dust_edges_m_;     // the dust table's PSD edges (the ledger's classes)
+  double dust_density_kg_per_m3_ = 0.0;  // the breakable material's: the ledger's dust
   std::int64_t dust_advanced_step_ = 0;  // the step the ledger was last carried to
   // The product's window (psd.product_window_s; absent: the whole run) and what left in it:
   // outlet particles, the ledger's dust out per class, or the table's dust made.
