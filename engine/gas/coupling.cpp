@@ -34,8 +34,10 @@ std::uint64_t mix(std::uint64_t x) {  // splitmix64 finaliser
 
 }  // namespace
 
-DemCellFluidTable::DemCellFluidTable(double cell_m, const Vec3& origin_m)
-    : cell_m_(cell_m), origin_m_(origin_m), inverse_cell_(1.0 / cell_m) {
+DemCellFluidTable::DemCellFluidTable(const Vec3& cell_m, const Vec3& origin_m)
+    : cell_m_(cell_m),
+      origin_m_(origin_m),
+      inverse_cell_{1.0 / cell_m.x, 1.0 / cell_m.y, 1.0 / cell_m.z} {
   keys_.assign(1024, 0);
   slot_state_.assign(1024, 0);
 }
@@ -63,32 +65,105 @@ void DemCellFluidTable::grow() {
   }
 }
 
-// The mean over the DEM cell: the average of the gas fields at s³ points, s chosen so the
-// points are no further apart than half a CFD cell (one point, the centre, when the DEM cell
-// is smaller than the CFD cell: the trilinear field is then averaged exactly to second order).
+namespace {
+
+// ε over the box [low, low + edge]: the fluid cells' ε weighted by the volume each shares with
+// the box (the cells' ε is a cell mean, so this is the box's own void fraction to the grid's
+// resolution); −1 when the box overlaps no fluid cell.
+double box_volume_fraction(const GasView& gas, const Vec3& low, const Vec3& edge_m) {
+  const GasGrid& g = gas.grid();
+  std::array<std::array<int, 2>, 3> first_last{};  // per axis: first cell, last cell
+  for (int b = 0; b < 3; ++b) {
+    const std::size_t bu = std::size_t(b);
+    first_last[bu][0] = int(floor_to_long((low[b] - g.origin_m[b]) / g.h_m[b])) + 1;
+    first_last[bu][1] = int(floor_to_long((low[b] + edge_m[b] - g.origin_m[b]) / g.h_m[b])) + 1;
+  }
+  const auto overlap = [&](int b, int i) {  // of cell i (unwrapped) with the box along b
+    const double lo = g.origin_m[b] + double(i - 1) * g.h_m[b];
+    return std::max(0.0, std::min(lo + g.h_m[b], low[b] + edge_m[b]) - std::max(lo, low[b]));
+  };
+  const auto wrap = [&](int b, int i) {  // −1: off a non-periodic end
+    const int n = g.n[std::size_t(b)];
+    if (g.periodic[std::size_t(b)]) return ((i - 1) % n + n) % n + 1;
+    return i < 1 || i > n ? -1 : i;
+  };
+  double open = 0.0, voids = 0.0;
+  for (int k = first_last[2][0]; k <= first_last[2][1]; ++k) {
+    const int kw = wrap(2, k);
+    const double lz = overlap(2, k);
+    if (kw < 0 || lz <= 0.0) continue;
+    for (int j = first_last[1][0]; j <= first_last[1][1]; ++j) {
+      const int jw = wrap(1, j);
+      const double ly = overlap(1, j);
+      if (jw < 0 || ly <= 0.0) continue;
+      for (int i = first_last[0][0]; i <= first_last[0][1]; ++i) {
+        const int iw = wrap(0, i);
+        const double lx = overlap(0, i);
+        if (iw < 0 || lx <= 0.0) continue;
+        const std::size_t c = g.index(iw, jw, kw);
+        if (!g.fluid[c]) continue;
+        const double w = lx * ly * lz;
+        open += w;
+        voids += w * gas.cell_volume_fraction(c);
+      }
+    }
+  }
+  return open > 0.0 ? voids / open : -1.0;
+}
+
+}  // namespace
+
+// The mean over the DEM cell. ε is the cell's own: the fluid cells' ε weighted by the volume
+// they share with it (box_volume_fraction; the coupling's DEM cells lie inside one gas cell, so
+// that is the gas cell's). The incompressible gas's velocity is its superficial velocity ε u
+// (continuous across a bed's end) at the DEM cell's centre over that ε, so a particle at a bed's
+// end sees the bed's interstitial speed; the other fields are the trilinear samples there. A
+// DEM cell larger than a gas cell along some axis (tests may build one) averages the samples at
+// s³ points no further apart than half a gas cell. A DEM cell that overlaps no fluid cell (in a
+// solid) takes the trilinear ε and velocity instead.
 FluidCellState DemCellFluidTable::average(long i, long j, long k, const GasView& gas,
                                           bool with_vorticity) const {
   const GasGrid& g = gas.grid();
-  const double h_min = std::min({g.h_m.x, g.h_m.y, g.h_m.z});
-  const int s = std::max(1, int(std::ceil(2.0 * cell_m_ / h_min - 1e-9)) / 2);
+  int s = 1;
+  for (int b = 0; b < 3; ++b)
+    s = std::max(s, int(std::ceil(2.0 * cell_m_[b] / g.h_m[b] - 1e-9)) / 2);
   FluidCellState st;
-  const Vec3 corner = origin_m_ + Vec3{double(i), double(j), double(k)} * cell_m_;
+  const Vec3 corner =
+      origin_m_ + Vec3{double(i) * cell_m_.x, double(j) * cell_m_.y, double(k) * cell_m_.z};
+  double fraction = box_volume_fraction(gas, corner, cell_m_);
+  if (fraction <= 0.0) {  // a DEM cell in a solid cell: the fluid cells around its centre
+    const Vec3 centre = corner + cell_m_ * 0.5;
+    const Stencil around =
+        make_stencil(g, centre, -1, [&](std::size_t c) { return g.fluid[c] != 0; });
+    if (around.count > 0) {
+      fraction = 0.0;
+      for (int n = 0; n < around.count; ++n)
+        fraction += around.weight[n] * gas.cell_volume_fraction(around.node[n]);
+    }
+  }
+  const bool superficial = fraction > 0.0 && gas.incompressible;
   const double inv = 1.0 / double(s * s * s);
   st.volume_fraction = 0.0;
   double pressure = 0.0;
   for (int c = 0; c < s; ++c)
     for (int b = 0; b < s; ++b)
       for (int a = 0; a < s; ++a) {
-        const Vec3 x = corner + Vec3{a + 0.5, b + 0.5, c + 0.5} * (cell_m_ / s);
-        st.velocity_m_per_s += gas.velocity_at(x) * inv;
+        const Vec3 x =
+            corner +
+            Vec3{(a + 0.5) * cell_m_.x, (b + 0.5) * cell_m_.y, (c + 0.5) * cell_m_.z} * (1.0 / s);
+        st.velocity_m_per_s +=
+            (superficial ? gas.incompressible->superficial_velocity_at(x) : gas.velocity_at(x)) *
+            inv;
         st.pressure_gradient_pa_per_m += gas.pressure_gradient_at(x) * inv;
-        st.volume_fraction += gas.volume_fraction_at(x) * inv;
+        if (fraction <= 0.0) st.volume_fraction += gas.volume_fraction_at(x) * inv;
         if (with_vorticity) st.vorticity_per_s += gas.vorticity_at(x) * inv;
         if (gas.compressible) {
           st.density_kg_per_m3 += gas.compressible->density_at(x) * inv;
           pressure += gas.compressible->pressure_at(x) * inv;
         }
       }
+  if (fraction > 0.0) st.volume_fraction = fraction;
+  if (superficial) st.velocity_m_per_s = st.velocity_m_per_s * (1.0 / fraction);
   st.viscosity_pa_s = gas.viscosity_pa_s();
   if (gas.compressible) {
     if (st.density_kg_per_m3 > 0.0 && pressure > 0.0) {
@@ -103,9 +178,9 @@ FluidCellState DemCellFluidTable::average(long i, long j, long k, const GasView&
 }
 
 std::uint64_t DemCellFluidTable::key_of(const Vec3& x, long& i, long& j, long& k) const {
-  i = floor_to_long((x.x - origin_m_.x) * inverse_cell_);
-  j = floor_to_long((x.y - origin_m_.y) * inverse_cell_);
-  k = floor_to_long((x.z - origin_m_.z) * inverse_cell_);
+  i = floor_to_long((x.x - origin_m_.x) * inverse_cell_.x);
+  j = floor_to_long((x.y - origin_m_.y) * inverse_cell_.y);
+  k = floor_to_long((x.z - origin_m_.z) * inverse_cell_.z);
   return pack_cell(i, j, k) + 1;
 }
 
@@ -149,8 +224,12 @@ const FluidCellState& DemCellFluidTable::at(const Vec3& x, const GasView& gas, b
 
 GasCoupling::GasCoupling(const GasConfig& config, const PeriodicBox& box,
                          const Vec3& gravity_m_per_s2, double dem_cell_m)
-    : config_(config), box_(box), table_(dem_cell_m, box.min_m) {
+    : config_(config), box_(box) {
   GasGrid grid = build_gas_grid(config, box.min_m, box.max_m, box.periodic);
+  Vec3 cell_m;
+  for (int a = 0; a < 3; ++a)
+    cell_m[a] = grid.h_m[a] / std::max(1.0, std::floor(grid.h_m[a] / dem_cell_m * (1 + 1e-12)));
+  table_ = DemCellFluidTable(cell_m, box.min_m);
   if (config.model == GasModel::Compressible)
     compressible_.emplace(config, std::move(grid), gravity_m_per_s2);
   else
@@ -203,8 +282,19 @@ std::optional<std::string> GasCoupling::advance_gas(double dt) {
   return compressible_ ? compressible_->advance(dt) : incompressible_->advance(dt);
 }
 
+// A particle's volume onto the fluid cells it overlaps (sphere_overlap_stencil); a particle that
+// overlaps none (wholly inside solid cells) is counted.
+void GasCoupling::deposit_solid_volume(const GasGrid& g, const Vec3& wrapped_x, double radius_m) {
+  const Stencil s = sphere_overlap_stencil(g, wrapped_x, radius_m,
+                                           [&](std::size_t c) { return g.fluid[c] != 0; });
+  if (s.count == 0) ++stats_.unplaced_deposits;
+  const double volume_m3 = 4.0 / 3.0 * std::numbers::pi * radius_m * radius_m * radius_m;
+  for (int k = 0; k < s.count; ++k) solid_volume_[s.node[k]] += volume_m3 * s.weight[k];
+}
+
 // ε = 1 − solids volume / cell volume per fluid cell, floored at min_volume_fraction (each floored
-// cell counted); the run's lowest ε kept.
+// cell counted); the run's lowest ε kept. A fluid cell a wall cuts keeps its whole volume: the
+// gas flows through all of it (the grid is a staircase), so the part beyond the wall is open gas.
 void GasCoupling::update_volume_fraction(const GasGrid& g, std::vector<double>& fraction) {
   const double volume = g.cell_volume_m3();
   double min_fraction = 1.0;
@@ -236,16 +326,15 @@ void GasCoupling::deposit_compressible(const ParticleStore& p, double interval_s
   const double volume = g.cell_volume_m3();
   const auto fluid_cell = [&](std::size_t c) { return g.fluid[c] != 0; };
   const auto push = [&](const Vec3& x_raw, const Vec3& impulse, const Vec3& velocity,
-                        double solid_m3, double beta) {
+                        double radius_m, double beta) {
     Vec3 x = x_raw;
     box_.wrap(x);
+    if (radius_m > 0.0) deposit_solid_volume(g, x, radius_m);
     const Stencil s = make_stencil(g, x, -1, fluid_cell);
-    if (s.count == 0) ++stats_.unplaced_deposits;
     const double work = dot(impulse, velocity);
     for (int k = 0; k < s.count; ++k) {
       const std::size_t c = s.node[k];
       const double w = s.weight[k];
-      solid_volume_[c] += solid_m3 * w;
       for (int a = 0; a < 3; ++a)
         source[std::size_t(a)][c] -= impulse[a] * w / (volume * interval_s);
       energy[c] -= work * w / (volume * interval_s);
@@ -253,11 +342,9 @@ void GasCoupling::deposit_compressible(const ParticleStore& p, double interval_s
       stats_.deposited_impulse_n_s -= impulse * w;
     }
   };
-  for (std::size_t i = 0; i < p.size(); ++i) {
-    const double r = p.radius_m[i];
-    push(p.position_m[i], p.fluid_impulse_n_s[i], p.motion[i].velocity_m_per_s,
-         4.0 / 3.0 * std::numbers::pi * r * r * r, std::max(0.0, p.fluid_coefficient_kg_per_s[i]));
-  }
+  for (std::size_t i = 0; i < p.size(); ++i)
+    push(p.position_m[i], p.fluid_impulse_n_s[i], p.motion[i].velocity_m_per_s, p.radius_m[i],
+         std::max(0.0, p.fluid_coefficient_kg_per_s[i]));
   for (const Released& r : released_)
     push(r.position_m, r.impulse_n_s, r.velocity_m_per_s, 0.0, 0.0);
   released_.clear();
@@ -268,55 +355,78 @@ void GasCoupling::deposit_compressible(const ParticleStore& p, double interval_s
   max_exchange_rate_per_s_ = rate;
 }
 
-// Solids volume → ε per cell; implicit drag coefficient B per face; the impulse the particles
-// took since the last CFD step → the gas's momentum source over the next one.
+// Solids volume → ε per cell; the impulse the particles took since the last CFD step → the
+// gas's momentum source over the next one; the implicit drag coefficient B per face and the
+// face velocity it acts from (the gas's velocity now, so the response is zero in a steady state
+// and each particle's drag is the one it computed from its own reading of the gas).
 void GasCoupling::deposit(const ParticleStore& p, double interval_s) {
   if (compressible_) return deposit_compressible(p, interval_s);
   GasSolver& gas = *incompressible_;
   GasGrid const& g = gas.grid();
-  std::vector<double>& fraction = gas.volume_fraction();
   std::array<std::vector<double>, 3>& source = gas.momentum_source();
   std::array<std::vector<double>, 3>& exchange = gas.exchange_coefficient();
   std::array<std::vector<double>, 3>& seen = gas.exchange_momentum();
+  const std::array<std::vector<double>, 3>& velocity = gas.velocity();
   std::fill(solid_volume_.begin(), solid_volume_.end(), 0.0);
   for (int a = 0; a < 3; ++a) {
     std::fill(source[std::size_t(a)].begin(), source[std::size_t(a)].end(), 0.0);
     std::fill(exchange[std::size_t(a)].begin(), exchange[std::size_t(a)].end(), 0.0);
     std::fill(seen[std::size_t(a)].begin(), seen[std::size_t(a)].end(), 0.0);
+    drag_fraction_[std::size_t(a)].assign(g.padded_size, 0.0);
   }
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    Vec3 x = p.position_m[i];
+    box_.wrap(x);
+    deposit_solid_volume(g, x, p.radius_m[i]);
+  }
+  update_volume_fraction(g, gas.volume_fraction());
+  gas.volume_fraction_changed();
   const double volume = g.cell_volume_m3();
-  const auto fluid_cell = [&](std::size_t c) { return g.fluid[c] != 0; };
-  const auto push = [&](const Vec3& x_raw, const Vec3& impulse, double solid_m3, double beta,
-                        const Vec3& gas_seen) {
+  const auto push = [&](const Vec3& x_raw, const Vec3& impulse, double beta, double read_fraction) {
     Vec3 x = x_raw;
     box_.wrap(x);
-    if (solid_m3 > 0.0) {
-      const Stencil s = make_stencil(g, x, -1, fluid_cell);
-      if (s.count == 0) ++stats_.unplaced_deposits;
-      for (int k = 0; k < s.count; ++k) solid_volume_[s.node[k]] += solid_m3 * s.weight[k];
-    }
     for (int a = 0; a < 3; ++a) {
       const Stencil s = face_stencil(x, a);
       const std::size_t au = std::size_t(a);
       for (int k = 0; k < s.count; ++k) {
-        source[au][s.node[k]] -= impulse[a] * s.weight[k] / (volume * interval_s);
+        const std::size_t f = s.node[k];
+        source[au][f] -= impulse[a] * s.weight[k] / (volume * interval_s);
         stats_.deposited_impulse_n_s[a] -= impulse[a] * s.weight[k];
-        exchange[au][s.node[k]] += beta * s.weight[k] / volume;
-        seen[au][s.node[k]] += beta * s.weight[k] * gas_seen[a] / volume;
+        if (beta <= 0.0) continue;
+        const double b = beta * s.weight[k] * response_gain(a, f, read_fraction) / volume;
+        exchange[au][f] += b;
+        seen[au][f] += b * velocity[au][f];
+        drag_fraction_[au][f] += b * read_fraction;
       }
     }
   };
   for (std::size_t i = 0; i < p.size(); ++i) {
-    const double r = p.radius_m[i];
     const double beta = effective_beta(p, i, interval_s);
-    const Vec3 gas_seen = beta > 0.0 ? fluid_at(p.position_m[i]).velocity_m_per_s : Vec3{};
-    push(p.position_m[i], p.fluid_impulse_n_s[i], 4.0 / 3.0 * std::numbers::pi * r * r * r, beta,
-         gas_seen);
+    push(p.position_m[i], p.fluid_impulse_n_s[i], beta,
+         beta > 0.0 ? fluid_at(p.position_m[i]).volume_fraction : 1.0);
   }
-  for (const Released& r : released_) push(r.position_m, r.impulse_n_s, 0.0, 0.0, {});
+  for (const Released& r : released_) push(r.position_m, r.impulse_n_s, 0.0, 1.0);
   released_.clear();
-  update_volume_fraction(g, fraction);
-  gas.volume_fraction_changed();
+  // A solved face the particles drag on takes the ε they computed their drag at (weighted as B
+  // is): the gas's pressure then falls by the drag over that ε, as in the bed itself. The mean of
+  // the two cells would be a bed's end face's 0.71 where its particles sit at 0.42, and the drop
+  // over that face would lose 40 % of its drag's share (docs/gas.md).
+  for (int a = 0; a < 3; ++a) {
+    const std::size_t au = std::size_t(a);
+    for (std::size_t f = 0; f < g.padded_size; ++f)
+      if (exchange[au][f] > 0.0 && g.face[au][f] == FaceKind::Unknown)
+        gas.set_face_fraction(a, f, drag_fraction_[au][f] / exchange[au][f]);
+  }
+}
+
+// How strongly a particle's drag follows face f: its reading of the gas is the superficial
+// velocity over its own ε, so a change δu on a face of fraction ε_f moves it by w ε_f/ε δu. The
+// implicit response uses max(1, ε_f/ε): never weaker than that (so the exchange stays stable at
+// any CFD step where ε jumps, a bed's end), and exactly 1 where the face and the particle share
+// their ε. Both sides of the exchange use the same gain, so it conserves momentum whatever it is.
+double GasCoupling::response_gain(int a, std::size_t f, double read_fraction) const {
+  const double face = incompressible_->mean_face_fraction(a, f);
+  return std::max(1.0, face / std::max(read_fraction, 1e-300));
 }
 
 // The trilinear stencil of component a's solved faces around x (wrapped). A particle whose
@@ -327,8 +437,9 @@ Stencil GasCoupling::face_stencil(const Vec3& x, int a) const {
   return make_stencil(g, x, a, [&](std::size_t f) { return g.face[au][f] == FaceKind::Unknown; });
 }
 
-// Gives each particle its share of the gas's implicit drag response: β_eff Σ w Δ, Δ the
-// summed dt (u_new − u_seen) of the faces it deposited on; the gas took exactly the opposite.
+// Gives each particle its share of the gas's implicit drag response: β_eff Σ w g Δ, g the
+// response gain and Δ the summed dt (u_new − u_old) of the faces it deposited on; the gas took
+// exactly the opposite.
 void GasCoupling::return_drag_response(ParticleStore& p, double cfd_step_s) {
   if (!incompressible_) return;  // the compressible exchange is explicit
   const std::array<std::vector<double>, 3>& response = incompressible_->drag_response_m();
@@ -337,11 +448,13 @@ void GasCoupling::return_drag_response(ParticleStore& p, double cfd_step_s) {
     if (beta <= 0.0) continue;
     Vec3 x = p.position_m[i];
     box_.wrap(x);
+    const double read_fraction = fluid_at(p.position_m[i]).volume_fraction;
     Vec3 impulse;
     for (int a = 0; a < 3; ++a) {
       const Stencil s = face_stencil(x, a);
       for (int k = 0; k < s.count; ++k)
-        impulse[a] += beta * s.weight[k] * response[std::size_t(a)][s.node[k]];
+        impulse[a] += beta * s.weight[k] * response_gain(a, s.node[k], read_fraction) *
+                      response[std::size_t(a)][s.node[k]];
     }
     p.motion[i].velocity_m_per_s += impulse * p.inv_mass_per_kg[i];
     stats_.particle_impulse_n_s += impulse;

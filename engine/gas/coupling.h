@@ -1,18 +1,22 @@
 // GasCoupling: everything between the particles and the gas solver (§3.1).
-//  - Particle → gas, once per CFD step: the solids volume of each particle and the impulse it
-//    took from the gas since the last CFD step are spread over the eight nearest cells (or
-//    faces) with trilinear weights, renormalised over the cells that are fluid, so a particle
-//    near a face is shared and nothing is deposited into walls: the gas receives exactly
-//    minus what the particles received (Newton's third law, to rounding).
+//  - Particle → gas, once per CFD step: each particle's solids volume goes to the fluid cells it
+//    overlaps, in the share of its volume each holds (gas/gas_stencil.h), so a bed's end is as
+//    sharp as the grid. The impulse each particle took from the gas since the last CFD step is
+//    spread over the eight nearest faces with trilinear weights, renormalised over the solved
+//    faces: the gas receives exactly minus what the particles received (Newton's third law, to
+//    rounding).
 //  - Gas → particle: each occupied DEM cell holds the mean fluid state (velocity, volume
 //    fraction, density, viscosity, pressure gradient, vorticity) in a hashed table refreshed
 //    once per CFD step; a particle reads its DEM cell's state, never the CFD grid, and keeps
 //    that cell as a hint (particles/particle_store.h, FluidCellRef) to skip the lookup while it
-//    stays there.
+//    stays there. The DEM cell's ε is its own volume mean of the cells' ε, and its gas velocity
+//    the superficial velocity over that ε (DemCellFluidTable::average).
 //  - The drag the particles exert on the gas is split: the impulse they took over the last
 //    interval (explicit), plus an implicit response B (u_n − u*) to the gas's own change in
-//    the predictor, which the particles get back as β_eff Σ w (u* − u_n) dt right after the
-//    gas step. The gas stays stable in dense beds at any CFD step, and the balance stays exact.
+//    the predictor, which the particles get back as β_eff Σ w g (u* − u_n) dt right after the
+//    gas step (g ≥ 1, response_gain). The gas stays stable in dense beds at any CFD step, the
+//    balance stays exact, and in a steady state the response vanishes: each particle's drag is
+//    the one it computed from its own reading of the gas.
 //  - Drag caching (Fig. 5): a particle keeps its drag coefficient (or force) and the slip it
 //    was computed at, and recomputes only when the slip has changed by more than the threshold
 //    in some axis (relative to the stored slip speed).
@@ -59,7 +63,10 @@ struct FluidCellState {
 class DemCellFluidTable {
  public:
   DemCellFluidTable() = default;
-  DemCellFluidTable(double cell_m, const Vec3& origin_m);
+  // Cells of edge cell_m along each axis from origin_m.
+  DemCellFluidTable(const Vec3& cell_m, const Vec3& origin_m);
+  DemCellFluidTable(double cell_m, const Vec3& origin_m)
+      : DemCellFluidTable(Vec3{cell_m, cell_m, cell_m}, origin_m) {}
 
   void clear();
   // The state of the DEM cell that holds x (wrapped into the domain by the caller).
@@ -70,7 +77,7 @@ class DemCellFluidTable {
                            FluidCellRef& hint);
   std::size_t size() const { return states_.size(); }
   std::uint64_t fills() const { return fills_; }
-  double cell_m() const { return cell_m_; }
+  const Vec3& cell_m() const { return cell_m_; }
   template <class A>
   void checkpoint_io(A& a) {
     io_all(a, keys_, slot_state_, states_, fills_, last_key_, last_state_, generation_);
@@ -83,13 +90,13 @@ class DemCellFluidTable {
                              bool with_vorticity);
   void grow();
 
-  double cell_m_ = 1.0;
+  Vec3 cell_m_{1.0, 1.0, 1.0};
   Vec3 origin_m_;
   std::vector<std::uint64_t> keys_;  // 0 = empty slot, else packed cell + 1
   std::vector<std::uint32_t> slot_state_;
   std::vector<FluidCellState> states_;
   std::uint64_t fills_ = 0;
-  double inverse_cell_ = 1.0;
+  Vec3 inverse_cell_{1.0, 1.0, 1.0};
   std::uint64_t last_key_ = 0;  // the last cell looked up (0 = none) and its state
   std::uint32_t last_state_ = 0;
   std::uint32_t generation_ = 1;  // bumped by clear(): particles' hints from before are stale
@@ -120,7 +127,9 @@ struct CouplingStats {
 
 class GasCoupling {
  public:
-  // `dem_cell_m`: the DEM-cell edge of the fluid table (no smaller than the largest particle).
+  // `dem_cell_m`: the smallest DEM-cell edge of the fluid table (no smaller than the largest
+  // particle). Along each axis the table's cells are the gas cells divided into as many equal
+  // parts no smaller than that as fit (at least one), so every DEM cell lies in one gas cell.
   GasCoupling(const GasConfig& config, const PeriodicBox& box, const Vec3& gravity_m_per_s2,
               double dem_cell_m);
 
@@ -182,6 +191,8 @@ class GasCoupling {
                   bool accumulate);
   void deposit(const ParticleStore& p, double interval_s);
   void deposit_compressible(const ParticleStore& p, double interval_s);
+  void deposit_solid_volume(const GasGrid& g, const Vec3& wrapped_x, double radius_m);
+  double response_gain(int a, std::size_t f, double read_fraction) const;
   void update_volume_fraction(const GasGrid& g, std::vector<double>& fraction);
   std::optional<std::string> advance_gas(double dt);
   double gas_stable_step_s() const;
@@ -195,6 +206,7 @@ class GasCoupling {
   std::optional<CompressibleSolver> compressible_;
   DemCellFluidTable table_;
   std::int64_t next_cfd_step_ = 0;
+  std::array<std::vector<double>, 3> drag_fraction_;  // Σ B ε_read per face (scratch of deposit)
   struct Released {
     Vec3 position_m, impulse_n_s, velocity_m_per_s;
   };

@@ -70,9 +70,7 @@ GasSolver::GasSolver(const GasConfig& config, GasGrid grid, const Vec3& gravity_
   volume_fraction_changed();
 }
 
-// ε at face f of component a: the mean of the two cells; 1 on fixed boundary faces (an inlet
-// prescribes the superficial velocity); the inner cell's on an outflow face.
-double GasSolver::face_fraction(int a, std::size_t f) const {
+double GasSolver::mean_face_fraction(int a, std::size_t f) const {
   const std::size_t au = std::size_t(a);
   switch (grid_.face[au][f]) {
     case FaceKind::Unknown:
@@ -91,7 +89,7 @@ void GasSolver::volume_fraction_changed() {
   fill_copy_ghosts(fraction_);
   for (int a = 0; a < 3; ++a)
     for (std::size_t f = 0; f < grid_.padded_size; ++f)
-      face_fraction_[std::size_t(a)][f] = face_fraction(a, f);
+      face_fraction_[std::size_t(a)][f] = mean_face_fraction(a, f);
   matrix_stale_ = true;
 }
 
@@ -546,6 +544,20 @@ double GasSolver::interpolate(const std::vector<double>& field, const Vec3& x,
 Vec3 GasSolver::velocity_at(const Vec3& x) const {
   return {interpolate(velocity_[0], x, 0), interpolate(velocity_[1], x, 1),
           interpolate(velocity_[2], x, 2)};
+}
+
+Vec3 GasSolver::superficial_velocity_at(const Vec3& x) const {
+  Vec3 u;
+  for (int a = 0; a < 3; ++a) {
+    const std::size_t au = std::size_t(a);
+    const std::vector<FaceKind>& kind = grid_.face[au];
+    const Stencil s = make_stencil(grid_, x, a, [&](std::size_t f) {
+      return kind[f] != FaceKind::Solid && kind[f] != FaceKind::None;
+    });
+    for (int k = 0; k < s.count; ++k)
+      u[a] += s.weight[k] * face_fraction_[au][s.node[k]] * velocity_[au][s.node[k]];
+  }
+  return u;
 }
 
 Vec3 GasSolver::pressure_gradient_at(const Vec3& x) const {

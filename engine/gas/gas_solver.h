@@ -55,15 +55,27 @@ class GasSolver {
   std::vector<double>& volume_fraction() { return fraction_; }  // ε per padded cell
   const std::vector<double>& volume_fraction() const { return fraction_; }
   std::array<std::vector<double>, 3>& momentum_source() { return source_; }  // N/m³ per face
-  // B = Σ β_eff w / V per face, kg/(m³ s): the implicit part of the drag on the gas, and
-  // Σ β_eff w u_seen / V, the same sum weighted by the gas velocity each particle was dragged
-  // by. The gas gets B (u_seen − u_new) on top of the explicit source: implicit in its own
-  // velocity (stable at any step), and exactly what the particles are given back.
+  // B = Σ β_eff w g / V per face, kg/(m³ s): the implicit part of the drag on the gas, and
+  // B u_seen, the same sum times the face velocity it acts from (the coupling passes the face's
+  // velocity at the start of the CFD step). The gas gets B (u_seen − u_new) on top of the
+  // explicit source: implicit in its own velocity (stable at any step), and exactly what the
+  // particles are given back.
   std::array<std::vector<double>, 3>& exchange_coefficient() { return exchange_; }
   std::array<std::vector<double>, 3>& exchange_momentum() { return seen_; }
   // Σ dt (u_new − u_seen) per face where B > 0, summed over the steps since the coupling zeroed it:
   // the particles get the matching impulse β_eff Σ w (this) back (gas/coupling.cpp).
   std::array<std::vector<double>, 3>& drag_response_m() { return drag_response_; }
+  // ε per face, as the momentum and continuity equations use it.
+  const std::array<std::vector<double>, 3>& face_fractions() const { return face_fraction_; }
+  // ε at face f of component a from its cells: the mean of the two; 1 on held faces (an inlet
+  // prescribes the superficial velocity); the inner cell's on an outflow face.
+  double mean_face_fraction(int axis, std::size_t f) const;
+  // Sets the ε of a solved face where particles drag on the gas to the ε their drag was computed
+  // at (gas/coupling.cpp), after volume_fraction_changed() set the means.
+  void set_face_fraction(int axis, std::size_t f, double fraction) {
+    face_fraction_[std::size_t(axis)][f] = fraction;
+    matrix_stale_ = true;
+  }
   // Call after editing volume_fraction(): refreshes face fractions and marks the matrix stale.
   void volume_fraction_changed();
   // Makes the current ε the previous one too (no ∂ε/∂t at the start of a run).
@@ -81,6 +93,12 @@ class GasSolver {
   Vec3 pressure_gradient_at(const Vec3& x) const;
   double volume_fraction_at(const Vec3& x) const;
   Vec3 vorticity_at(const Vec3& x) const;  // ∇×u by central differences of velocity_at
+  // The superficial velocity ε u at x, trilinear over the faces that bound fluid (walls' and
+  // inlets' faces included, the faces inside solids and the ghost band left out, their weight
+  // given to the others): what the DEM-cell table divides by its own ε (gas/coupling.h). The
+  // flux is continuous where ε jumps (a bed's end), and near a wall the tangential flow is read
+  // from the first fluid faces instead of falling towards zero inside the solid.
+  Vec3 superficial_velocity_at(const Vec3& x) const;
 
   // The largest divergence residual |∇·(ε u) + ∂ε/∂t| · V over fluid cells after the last
   // step, m³/s (tests).
@@ -88,6 +106,8 @@ class GasSolver {
   // Total momentum the gas received from the particles (explicit source + implicit drag), N·s.
   const Vec3& received_impulse_n_s() const { return received_impulse_; }
   const GasStepStats& stats() const { return stats_; }
+  // The gas's body force per unit mass (gravity along non-periodic axes).
+  const Vec3& body_force_m_per_s2() const { return gravity_m_per_s2_; }
   double time_s() const { return time_s_; }
 
   // The Smagorinsky eddy viscosity ν_t at each padded cell, m²/s, from the last step's
@@ -130,7 +150,6 @@ class GasSolver {
   void assemble_pressure_matrix();
   bool solve_pressure(double dt);
   void correct(double dt);
-  double face_fraction(int axis, std::size_t f) const;
   void fill_copy_ghosts(std::vector<double>& cell_field) const;
   void fill_gradient_ghosts();
   double interpolate(const std::vector<double>& field, const Vec3& x, int face_axis) const;

@@ -11,7 +11,6 @@ double patch_pressure_pa(const GasSolver& gas, int patch) {
   const GasGrid& g = gas.grid();
   const GasBoundaryPatch& p = gas.config().boundaries[std::size_t(patch)];
   const int a = p.face / 2;
-  const std::size_t au = std::size_t(a);
   const bool high = p.face % 2 == 1;
   const std::vector<double>& pressure = gas.pressure();
   double sum = 0.0;
@@ -21,9 +20,10 @@ double patch_pressure_pa(const GasSolver& gas, int patch) {
     double value = pressure[inner];
     if (p.kind == GasBoundaryKind::Outlet) {
       value = p.pressure_pa;
-    } else if (g.n[au] >= 2) {
-      const std::size_t next = high ? inner - g.stride[au] : inner + g.stride[au];
-      if (g.fluid[next]) value += 0.5 * (pressure[inner] - pressure[next]);
+    } else {
+      // The weight of the half cell between the face and the first centre (∇p = ρ g there).
+      value += gas.config().density_kg_per_m3 * gas.body_force_m_per_s2()[a] * (high ? 0.5 : -0.5) *
+               g.h_m[a];
     }
     sum += value;
     ++faces;

@@ -5,11 +5,11 @@
 // A patch's pressure is the mean over its faces that open onto fluid. The pressure lives at cell
 // centres; at a face it is:
 //   - on an outlet, the imposed pressure, which the projection holds exactly at the face;
-//   - elsewhere (an inlet, a wall), the first cell's pressure plus the half cell of the pressure
-//     gradient on the first solved face behind it, p₁ + (p₁ − p₂)/2. The projection's own
-//     zero-gradient condition at a fixed face would report p₁ and miss that half cell (in a bed,
-//     half a cell of its drag and weight). The value is exact for a linear pressure (a
-//     hydrostatic column, a uniform bed).
+//   - elsewhere (an inlet, a wall), the first cell's pressure plus the weight of the gas in the
+//     half cell between them, p₁ + ρ g·(x_face − x₁). The drag of the particles in that half
+//     cell is already in p₁: the face behind it is held, so their impulse goes to the first
+//     solved face (gas/coupling.h), whose balance sets p₁ − p₂. Extrapolating the gradient
+//     instead, p₁ + (p₁ − p₂)/2, counted that half cell's drag twice (4 % of a 14-cell bed).
 // A plane's pressure is the mean over the columns of fluid cells it crosses, interpolated
 // linearly between the two cell centres either side of it.
 #pragma once

@@ -133,7 +133,7 @@ std::uint64_t gas_spin_up_key(Simulation& sim, const std::string& scene_text) {
   auto append = [&text](const void* data, std::size_t bytes) {
     if (bytes > 0) text.append(static_cast<const char*>(data), bytes);  // data may be null at 0
   };
-  const double cell_m = sim.gas()->table().cell_m();
+  const Vec3 cell_m = sim.gas()->table().cell_m();
   const std::uint64_t layout = checkpoint_layout();
   append(&cell_m, sizeof cell_m);
   append(&layout, sizeof layout);

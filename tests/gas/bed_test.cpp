@@ -74,14 +74,14 @@ Bed run_bed(double superficial_m_per_s, double end_s, std::optional<DragLaw> dra
   }
   std::sort(tops.begin(), tops.end());
   bed.top_m = tops[std::size_t(0.98 * double(tops.size()))];
-  // Inside the bed, away from its surface: the top gas cell holds the surface, where the
-  // volume deposit spreads the solids over the cell above too (docs/gas.md).
+  // Inside the bed, away from its surface.
   bed.voidage = 1.0 - solid / (area * 0.002);
   bed.gradient_pa_per_m = (layer_pressure(gas, 0.003) - layer_pressure(gas, 0.005)) / 0.002;
-  // The distributor pressure: the first cell centre (1 mm) extrapolated down half a cell.
-  const double p1 = layer_pressure(gas, 0.001), p3 = layer_pressure(gas, 0.003);
-  bed.drop_pa = p1 + 0.5 * (p1 - p3) - layer_pressure(gas, 0.021) -
-                bed.gas_density * kG * 0.021;  // the gas's own weight is not the bed's
+  // The distributor pressure: the first cell centre's (1 mm) plus the gas's weight over the
+  // half cell below it; the drag of the particles there is already in it (gas/pressure_probe.h).
+  // The gas's own weight is not the bed's: the drop leaves out ρ g over the 21 mm.
+  bed.drop_pa =
+      layer_pressure(gas, 0.001) - layer_pressure(gas, 0.021) - bed.gas_density * kG * 0.020;
   bed.weight_pa = mass * kG * (1.0 - bed.gas_density / bed.density_kg_per_m3) / area;
   return bed;
 }
