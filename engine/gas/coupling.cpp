@@ -282,11 +282,13 @@ std::optional<std::string> GasCoupling::advance_gas(double dt) {
   return compressible_ ? compressible_->advance(dt) : incompressible_->advance(dt);
 }
 
-// A particle's volume onto the fluid cells it overlaps (sphere_overlap_stencil); a particle that
-// overlaps none (wholly inside solid cells) is counted.
+// A particle's volume onto the fluid cells it overlaps (sphere_overlap_stencil). One wholly inside
+// cells the staircase counts as solid (next to a curved wall) goes to the fluid cells among the
+// eight around its centre, trilinear; one with none there either is counted and left out.
 void GasCoupling::deposit_solid_volume(const GasGrid& g, const Vec3& wrapped_x, double radius_m) {
-  const Stencil s = sphere_overlap_stencil(g, wrapped_x, radius_m,
-                                           [&](std::size_t c) { return g.fluid[c] != 0; });
+  const auto fluid_cell = [&](std::size_t c) { return g.fluid[c] != 0; };
+  Stencil s = sphere_overlap_stencil(g, wrapped_x, radius_m, fluid_cell);
+  if (s.count == 0) s = make_stencil(g, wrapped_x, -1, fluid_cell);
   if (s.count == 0) ++stats_.unplaced_deposits;
   const double volume_m3 = 4.0 / 3.0 * std::numbers::pi * radius_m * radius_m * radius_m;
   for (int k = 0; k < s.count; ++k) solid_volume_[s.node[k]] += volume_m3 * s.weight[k];

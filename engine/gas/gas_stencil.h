@@ -21,6 +21,23 @@ struct Stencil {
   int count = 0;
 };
 
+// Adds a node with its weight when `accept` takes it.
+template <class Accept>
+void keep_if_accepted(Stencil& s, std::size_t node, double weight, Accept& accept) {
+  if (!accept(node)) return;
+  s.node[s.count] = node;
+  s.weight[s.count] = weight;
+  ++s.count;
+}
+
+// The weights scaled to sum to 1 (the refused nodes' share given to the kept ones).
+inline Stencil renormalised(Stencil s) {
+  double total = 0.0;
+  for (int k = 0; k < s.count; ++k) total += s.weight[k];
+  for (int k = 0; k < s.count; ++k) s.weight[k] /= total;
+  return s;
+}
+
 // The eight grid nodes around x with trilinear weights, for a cell-centred field
 // (face_axis = −1) or the faces of component face_axis; periodic nodes are mapped to the
 // node that holds the value. Nodes refused by `accept` lose their weight to the others.
@@ -31,7 +48,6 @@ Stencil make_stencil(const GasGrid& g, const Vec3& x, int face_axis, Accept&& ac
   const std::array<int, 3>& i0 = corner.index;
   const std::array<double, 3>& w = corner.weight;
   Stencil s;
-  double total = 0.0;
   for (int corner = 0; corner < 8; ++corner) {
     std::array<int, 3> ijk{};
     double weight = 1.0;
@@ -51,16 +67,9 @@ Stencil make_stencil(const GasGrid& g, const Vec3& x, int face_axis, Accept&& ac
       }
       ijk[bu] = i;
     }
-    if (weight <= 0.0) continue;
-    const std::size_t node = g.index(ijk[0], ijk[1], ijk[2]);
-    if (!accept(node)) continue;
-    s.node[s.count] = node;
-    s.weight[s.count] = weight;
-    ++s.count;
-    total += weight;
+    if (weight > 0.0) keep_if_accepted(s, g.index(ijk[0], ijk[1], ijk[2]), weight, accept);
   }
-  for (int k = 0; k < s.count; ++k) s.weight[k] /= total;
-  return s;
+  return renormalised(s);
 }
 
 // The share of a sphere's volume below a plane at signed distance s = t r above its centre: the
@@ -103,22 +112,16 @@ Stencil sphere_overlap_stencil(const GasGrid& g, const Vec3& x, double radius_m,
     share[bu] = {below, 1.0 - below};
   }
   Stencil s;
-  double total = 0.0;
   for (int corner = 0; corner < 8; ++corner) {
     const int di = corner & 1, dj = (corner >> 1) & 1, dk = (corner >> 2) & 1;
     const double weight =
         share[0][std::size_t(di)] * share[1][std::size_t(dj)] * share[2][std::size_t(dk)];
-    if (weight <= 0.0) continue;
-    const std::size_t node =
-        g.index(cell[0][std::size_t(di)], cell[1][std::size_t(dj)], cell[2][std::size_t(dk)]);
-    if (!accept(node)) continue;
-    s.node[s.count] = node;
-    s.weight[s.count] = weight;
-    ++s.count;
-    total += weight;
+    if (weight > 0.0)
+      keep_if_accepted(
+          s, g.index(cell[0][std::size_t(di)], cell[1][std::size_t(dj)], cell[2][std::size_t(dk)]),
+          weight, accept);
   }
-  for (int k = 0; k < s.count; ++k) s.weight[k] /= total;
-  return s;
+  return renormalised(s);
 }
 
 // ∇×u at x by central differences half a cell either side along each axis of a sampled velocity

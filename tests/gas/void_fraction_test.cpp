@@ -35,6 +35,17 @@ double slab_volume(double zc, double r, double z0, double z1) {
   return F(b) - F(a);
 }
 
+// The beds' material: frozen glass beads (their stiffness sets only the DEM step).
+nlohmann::json frozen_glass() {
+  return {{{"name", "glass"},
+           {"youngs_modulus_pa", 1e6},
+           {"poisson_ratio", 0.3},
+           {"density_kg_per_m3", 2500},
+           {"restitution", 0.5},
+           {"friction", 0.3},
+           {"frozen", true}}};
+}
+
 GasGrid unit_grid(int n, bool periodic) {
   GasConfig config;
   config.cells = {n, n, n};
@@ -172,14 +183,7 @@ TEST(FrozenBed, InACylinderFollowsKochHillAtTheLocalPorosityOfEachColumn) {
       {"seed", 1},
       {"domain",
        {{"min_m", {0, 0, 0}}, {"max_m", {2 * c, 2 * c, height}}, {"wall_material", "glass"}}},
-      {"materials",
-       {{{"name", "glass"},
-         {"youngs_modulus_pa", 1e6},
-         {"poisson_ratio", 0.3},
-         {"density_kg_per_m3", 2500},
-         {"restitution", 0.5},
-         {"friction", 0.3},
-         {"frozen", true}}}},
+      {"materials", frozen_glass()},
       {"walls",
        {{{"type", "cylinder"},
          {"point_m", {c, c, 0}},
@@ -206,20 +210,13 @@ TEST(FrozenBed, InACylinderFollowsKochHillAtTheLocalPorosityOfEachColumn) {
            {"to", {{"axis", "z"}, {"at_m", 0.009}}}}}}}},
       {"time", {{"end_s", 0.01}}},
       {"output", {{"timeseries_interval_s", 0.005}, {"h5", false}}}};
-  InputErrors errors;
-  const SceneConfig scene = parse_scene(doc, ".", errors);
-  ASSERT_TRUE(errors.empty()) << errors.front().path << ": " << errors.front().allowed;
-  Simulation sim(scene);
-  test::TempDir dir;
-  RunOptions options;
-  options.out_dir = dir.path();
-  ASSERT_FALSE(run_simulation(sim, scene, options).failure);
-  std::ifstream in(dir.path() / "result.json");
-  const nlohmann::json result = nlohmann::json::parse(in);
+  const nlohmann::json result = test::run_scene_document(doc);
   ASSERT_TRUE(result.contains("pressure_drops"));
   ASSERT_EQ(result["pressure_drops"].size(), 1u);
   ASSERT_FALSE(result["pressure_drops"][0]["drop_pa"].empty());
   const double gradient = result["pressure_drops"][0]["drop_pa"].back().get<double>() / 0.006;
+  // Every particle's volume reached the gas, those the staircase puts inside solid cells too.
+  EXPECT_EQ(result["gas"]["unplaced_deposits"].get<int>(), 0);
 
   // The inflow: the inlet owns the z− faces in front of fluid cells (centres inside R).
   int fluid_columns = 0;
@@ -338,14 +335,7 @@ DenseBedDrop dense_bed_drop(double z0_m, int cube_layers, double gas_cell_z_m) {
         {"max_m", {width, width, height}},
         {"periodic", {true, true, false}},
         {"wall_material", "glass"}}},
-      {"materials",
-       {{{"name", "glass"},
-         {"youngs_modulus_pa", 1e6},
-         {"poisson_ratio", 0.3},
-         {"density_kg_per_m3", 2500},
-         {"restitution", 0.5},
-         {"friction", 0.3},
-         {"frozen", true}}}},
+      {"materials", frozen_glass()},
       {"sources", {{{"type", "list"}, {"material", "glass"}, {"particles", list}}}},
       {"gravity_m_per_s2", {0, 0, 0}},
       {"gas",
@@ -361,17 +351,7 @@ DenseBedDrop dense_bed_drop(double z0_m, int cube_layers, double gas_cell_z_m) {
         {"pressure_drops", {{{"name", "column"}, {"from", "distributor"}, {"to", "top"}}}}}},
       {"time", {{"end_s", 0.005}}},
       {"output", {{"timeseries_interval_s", 0.005}, {"h5", false}}}};
-  InputErrors errors;
-  const SceneConfig scene = parse_scene(doc, ".", errors);
-  EXPECT_TRUE(errors.empty()) << errors.front().path << ": " << errors.front().allowed;
-  if (!errors.empty()) return {};
-  Simulation sim(scene);
-  test::TempDir dir;
-  RunOptions options;
-  options.out_dir = dir.path();
-  EXPECT_FALSE(run_simulation(sim, scene, options).failure);
-  std::ifstream in(dir.path() / "result.json");
-  const nlohmann::json result = nlohmann::json::parse(in);
+  const nlohmann::json result = test::run_scene_document(doc);
   EXPECT_TRUE(result.contains("pressure_drops"));
   if (!result.contains("pressure_drops") || result["pressure_drops"][0]["drop_pa"].empty())
     return {};
@@ -412,6 +392,45 @@ TEST(FrozenBed, ADenseBedsDropFromFaceToFaceIsKochHillOverItsHeight) {
   // ε, so against the lattice's figure the drop is 10 % low (docs/gas.md).
   const DenseBedDrop inside = dense_bed_drop(1e-4, 16, 0.002);
   EXPECT_NEAR(inside.drop_pa, inside.layers_pa, 0.03 * inside.layers_pa);
+}
+
+TEST(FrozenBed, AParticleTheStaircasePutsInASolidCellStillDisplacesGas) {
+  // The cylinder of the test above: the cell 4.5 mm from the axis along both x and y has its
+  // centre 6.36 mm out, beyond the 5.677 mm radius, so the staircase counts it solid, yet a
+  // 0.1 mm sphere at (3.85, 3.85) mm (5.44 mm out) lies wholly inside both that cell and the
+  // cylinder. Its volume goes to the fluid cells around it (nothing is left out) and lowers
+  // their ε.
+  const double R = 5.677e-3, c = 6.75e-3, d = 1e-4, h = 1.5e-3;
+  const nlohmann::json doc = {
+      {"seed", 1},
+      {"domain",
+       {{"min_m", {0, 0, 0}}, {"max_m", {2 * c, 2 * c, 0.009}}, {"wall_material", "glass"}}},
+      {"materials", frozen_glass()},
+      {"walls",
+       {{{"type", "cylinder"},
+         {"point_m", {c, c, 0}},
+         {"axis", {0, 0, 1}},
+         {"radius_m", R},
+         {"material", "glass"}}}},
+      {"sources",
+       {{{"type", "list"},
+         {"material", "glass"},
+         {"particles",
+          {{{"position_m", {c + 3.85e-3, c + 3.85e-3, 2.5 * h}}, {"diameter_m", d}}}}}}},
+      {"gravity_m_per_s2", {0, 0, 0}},
+      {"gas",
+       {{"cells", {9, 9, 6}},
+        {"step_s", 0.0005},
+        {"solids",
+         {{{"type", "cylinder"}, {"center_m", {c, c, 0}}, {"axis", {0, 0, 1}}, {"radius_m", R}}}}}},
+      {"time", {{"end_s", 0.001}}},
+      {"output", {{"timeseries_interval_s", 0.001}, {"h5", false}}}};
+  const nlohmann::json result = test::run_scene_document(doc);
+  ASSERT_TRUE(result.contains("gas"));
+  EXPECT_EQ(result["gas"]["unplaced_deposits"].get<int>(), 0);
+  // Shared by at most eight cells of h³, it displaces at least 1/8 of its volume from one.
+  const double volume = kPi / 6 * d * d * d;
+  EXPECT_LT(result["gas"]["min_volume_fraction"].get<double>(), 1.0 - volume / (8 * h * h * h));
 }
 
 }  // namespace

@@ -1,9 +1,14 @@
 #include "support/scenes.h"
 
-#include "scene/scene_json.h"
-
+#include <gtest/gtest.h>
 #include <unistd.h>
+
+#include <fstream>
 #include <random>
+
+#include "scene/scene_json.h"
+#include "sim/run.h"
+#include "sim/simulation.h"
 
 namespace millsim::test {
 
@@ -14,6 +19,22 @@ FragmentConfig power_law_fragments(double exponent, double min_ratio, double max
   f.min_ratio = min_ratio;
   f.max_ratio = max_ratio;
   return f;
+}
+
+nlohmann::json run_scene_document(const nlohmann::json& doc) {
+  InputErrors errors;
+  const SceneConfig scene = parse_scene(doc, ".", errors);
+  EXPECT_TRUE(errors.empty()) << errors.front().path << ": " << errors.front().allowed;
+  if (!errors.empty()) return nlohmann::json::object();
+  Simulation sim(scene);
+  TempDir dir;
+  RunOptions options;
+  options.out_dir = dir.path();
+  const bool failed = bool(run_simulation(sim, scene, options).failure);
+  EXPECT_FALSE(failed);
+  std::ifstream in(dir.path() / "result.json");
+  if (failed || !in) return nlohmann::json::object();
+  return nlohmann::json::parse(in);
 }
 
 InputErrors scene_errors(const nlohmann::json& doc) {

@@ -34,6 +34,11 @@ FragmentConfig power_law_fragments(double exponent, double min_ratio, double max
 // Every error parse_scene reports for a scene document (base directory ".").
 InputErrors scene_errors(const nlohmann::json& doc);
 
+// Parses a scene document (base directory "."), runs it to its end in a fresh directory and
+// returns its result.json; a test failure and an empty object when the scene is refused or the
+// run fails.
+nlohmann::json run_scene_document(const nlohmann::json& doc);
+
 // A run's result.json without what depends on the wall clock, on the run having been resumed or
 // on how its gas got its spin-up (and the pressure matrix's builds: it is factorised again after
 // a restore, not part of the state), for comparing two runs' physics.
