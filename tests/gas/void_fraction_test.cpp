@@ -126,6 +126,23 @@ TEST(SphereOverlap, SharesMatchTheSpheresVolumeInEachCell) {
   }
 }
 
+// A closed box of 2c × 2c × height holding a cylindrical wall of radius R around its axis
+// (x = y = c), the listed frozen glass spheres and no gravity; tests add the gas.
+nlohmann::json cylinder_column(double c, double R, double height, const nlohmann::json& particles) {
+  return {{"seed", 1},
+          {"domain",
+           {{"min_m", {0, 0, 0}}, {"max_m", {2 * c, 2 * c, height}}, {"wall_material", "glass"}}},
+          {"materials", frozen_glass()},
+          {"walls",
+           {{{"type", "cylinder"},
+             {"point_m", {c, c, 0}},
+             {"axis", {0, 0, 1}},
+             {"radius_m", R},
+             {"material", "glass"}}}},
+          {"sources", {{{"type", "list"}, {"material", "glass"}, {"particles", particles}}}},
+          {"gravity_m_per_s2", {0, 0, 0}}};
+}
+
 // Random sequential addition of n spheres of diameter d inside a cylinder of radius R around
 // (cx, cy), between heights 0 and h: no overlap with each other or the wall.
 std::vector<Vec3> spheres_in_cylinder(int n, double d, double R, double cx, double cy, double h,
@@ -179,37 +196,26 @@ TEST(FrozenBed, InACylinderFollowsKochHillAtTheLocalPorosityOfEachColumn) {
   nlohmann::json list = nlohmann::json::array();
   for (const Vec3& x : spheres)
     list.push_back({{"position_m", {x.x, x.y, x.z}}, {"diameter_m", d}});
-  const nlohmann::json doc = {
-      {"seed", 1},
-      {"domain",
-       {{"min_m", {0, 0, 0}}, {"max_m", {2 * c, 2 * c, height}}, {"wall_material", "glass"}}},
-      {"materials", frozen_glass()},
-      {"walls",
-       {{{"type", "cylinder"},
-         {"point_m", {c, c, 0}},
-         {"axis", {0, 0, 1}},
-         {"radius_m", R},
-         {"material", "glass"}}}},
-      {"sources", {{{"type", "list"}, {"material", "glass"}, {"particles", list}}}},
-      {"gravity_m_per_s2", {0, 0, 0}},
-      {"gas",
-       {{"cells", {9, 9, 12}},
-        {"drag", "koch_hill"},
-        {"step_s", 0.0005},
-        {"solids",
-         {{{"type", "cylinder"}, {"center_m", {c, c, 0}}, {"axis", {0, 0, 1}}, {"radius_m", R}}}},
-        {"boundaries",
-         {{{"name", "distributor"},
-           {"face", "z-"},
-           {"type", "inlet"},
-           {"velocity_m_per_s", {0, 0, U_in}}},
-          {{"name", "top"}, {"face", "z+"}, {"type", "outlet"}, {"pressure_pa", 0}}}},
-        {"pressure_drops",
-         {{{"name", "inside"},
-           {"from", {{"axis", "z"}, {"at_m", 0.003}}},
-           {"to", {{"axis", "z"}, {"at_m", 0.009}}}}}}}},
-      {"time", {{"end_s", 0.01}}},
-      {"output", {{"timeseries_interval_s", 0.005}, {"h5", false}}}};
+  nlohmann::json doc = cylinder_column(c, R, height, list);
+  doc.update(
+      {{"gas",
+        {{"cells", {9, 9, 12}},
+         {"drag", "koch_hill"},
+         {"step_s", 0.0005},
+         {"solids",
+          {{{"type", "cylinder"}, {"center_m", {c, c, 0}}, {"axis", {0, 0, 1}}, {"radius_m", R}}}},
+         {"boundaries",
+          {{{"name", "distributor"},
+            {"face", "z-"},
+            {"type", "inlet"},
+            {"velocity_m_per_s", {0, 0, U_in}}},
+           {{"name", "top"}, {"face", "z+"}, {"type", "outlet"}, {"pressure_pa", 0}}}},
+         {"pressure_drops",
+          {{{"name", "inside"},
+            {"from", {{"axis", "z"}, {"at_m", 0.003}}},
+            {"to", {{"axis", "z"}, {"at_m", 0.009}}}}}}}},
+       {"time", {{"end_s", 0.01}}},
+       {"output", {{"timeseries_interval_s", 0.005}, {"h5", false}}}});
   const nlohmann::json result = test::run_scene_document(doc);
   ASSERT_TRUE(result.contains("pressure_drops"));
   ASSERT_EQ(result["pressure_drops"].size(), 1u);
@@ -401,30 +407,18 @@ TEST(FrozenBed, AParticleTheStaircasePutsInASolidCellStillDisplacesGas) {
   // cylinder. Its volume goes to the fluid cells around it (nothing is left out) and lowers
   // their ε.
   const double R = 5.677e-3, c = 6.75e-3, d = 1e-4, h = 1.5e-3;
-  const nlohmann::json doc = {
-      {"seed", 1},
-      {"domain",
-       {{"min_m", {0, 0, 0}}, {"max_m", {2 * c, 2 * c, 0.009}}, {"wall_material", "glass"}}},
-      {"materials", frozen_glass()},
-      {"walls",
-       {{{"type", "cylinder"},
-         {"point_m", {c, c, 0}},
-         {"axis", {0, 0, 1}},
-         {"radius_m", R},
-         {"material", "glass"}}}},
-      {"sources",
-       {{{"type", "list"},
-         {"material", "glass"},
-         {"particles",
-          {{{"position_m", {c + 3.85e-3, c + 3.85e-3, 2.5 * h}}, {"diameter_m", d}}}}}}},
-      {"gravity_m_per_s2", {0, 0, 0}},
-      {"gas",
-       {{"cells", {9, 9, 6}},
-        {"step_s", 0.0005},
-        {"solids",
-         {{{"type", "cylinder"}, {"center_m", {c, c, 0}}, {"axis", {0, 0, 1}}, {"radius_m", R}}}}}},
-      {"time", {{"end_s", 0.001}}},
-      {"output", {{"timeseries_interval_s", 0.001}, {"h5", false}}}};
+  nlohmann::json doc = cylinder_column(
+      c, R, 0.009, {{{"position_m", {c + 3.85e-3, c + 3.85e-3, 2.5 * h}}, {"diameter_m", d}}});
+  doc.update({{"gas",
+               {{"cells", {9, 9, 6}},
+                {"step_s", 0.0005},
+                {"solids",
+                 {{{"type", "cylinder"},
+                   {"center_m", {c, c, 0}},
+                   {"axis", {0, 0, 1}},
+                   {"radius_m", R}}}}}},
+              {"time", {{"end_s", 0.001}}},
+              {"output", {{"timeseries_interval_s", 0.001}, {"h5", false}}}});
   const nlohmann::json result = test::run_scene_document(doc);
   ASSERT_TRUE(result.contains("gas"));
   EXPECT_EQ(result["gas"]["unplaced_deposits"].get<int>(), 0);
