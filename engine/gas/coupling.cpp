@@ -402,10 +402,11 @@ void GasCoupling::deposit(const ParticleStore& p, double interval_s) {
       }
     }
   };
+  read_fraction_.assign(p.size(), 1.0);
   for (std::size_t i = 0; i < p.size(); ++i) {
     const double beta = effective_beta(p, i, interval_s);
-    push(p.position_m[i], p.fluid_impulse_n_s[i], beta,
-         beta > 0.0 ? fluid_at(p.position_m[i]).volume_fraction : 1.0);
+    if (beta > 0.0) read_fraction_[i] = fluid_at(p.position_m[i]).volume_fraction;
+    push(p.position_m[i], p.fluid_impulse_n_s[i], beta, read_fraction_[i]);
   }
   for (const Released& r : released_) push(r.position_m, r.impulse_n_s, 0.0, 1.0);
   released_.clear();
@@ -450,7 +451,7 @@ void GasCoupling::return_drag_response(ParticleStore& p, double cfd_step_s) {
     if (beta <= 0.0) continue;
     Vec3 x = p.position_m[i];
     box_.wrap(x);
-    const double read_fraction = fluid_at(p.position_m[i]).volume_fraction;
+    const double read_fraction = read_fraction_[i];  // as deposit() read it
     Vec3 impulse;
     for (int a = 0; a < 3; ++a) {
       const Stencil s = face_stencil(x, a);

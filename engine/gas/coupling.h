@@ -207,6 +207,8 @@ class GasCoupling {
   DemCellFluidTable table_;
   std::int64_t next_cfd_step_ = 0;
   std::array<std::vector<double>, 3> drag_fraction_;  // Σ B ε_read per face (scratch of deposit)
+  // Per particle slot, the ε its drag was read at, from deposit() to return_drag_response().
+  std::vector<double> read_fraction_;
   struct Released {
     Vec3 position_m, impulse_n_s, velocity_m_per_s;
   };
