@@ -8,9 +8,10 @@
 //
 // (C: Cunningham's factor, 1 unless given), so a vortex drives dust outwards at τ_k u_t²/r
 // while τ_k Ω ≪ 1, and the slip stays bounded (about the gas speed) where it is not: the plain
-// form τ_k (g − Du/Dt) grows without bound with τ_k. Finite volumes, first-order upwind,
-// sub-stepped at a Courant number of 0.5: every flux is taken from one cell and given to its
-// neighbour, so the mass is conserved to rounding. Walls, inlets and solid cells pass no dust; an
+// form τ_k (g − Du/Dt) grows without bound with τ_k. Finite volumes, upwind with van Leer's
+// limited slope and Heun's method (SSP-RK2), sub-stepped at an outgoing Courant sum of 0.5: every
+// flux is taken from one cell and given to its neighbour, so the mass is conserved to rounding,
+// and no cell gives more than it holds. Walls, inlets and solid cells pass no dust; an
 // outflow face passes what the face flux carries out (never in), into the class's outflow tally.
 // One-way coupled: the dust is carried by the gas and never acts on it (docs/dust.md gives the
 // volume fractions that justifies).
@@ -91,8 +92,9 @@ class DustLedger {
 
  private:
   struct Face {
-    std::size_t face;       // its index in the grid's component `axis`
-    std::size_t low, high;  // the cells on either side (canonical; ghost when not fluid)
+    std::size_t face;          // its index in the grid's component `axis`
+    std::size_t low, high;     // the cells on either side (canonical; ghost when not fluid)
+    std::size_t below, above;  // the fluid cells beyond low and high (padded_size: none)
     int axis;
     bool outflow_low, outflow_high;  // an outflow face with only that side fluid
   };
@@ -101,6 +103,7 @@ class DustLedger {
   std::size_t nearest_fluid_cell(const Vec3& x) const;
   // The gas's acceleration term g − Du/Dt and velocity gradient per fluid cell (ghosts 0).
   void update_acceleration(const GasView& gas, double now_s);
+  double flux_pass(const std::vector<double>& from, std::vector<double>& to, double dt_s);
 
   const GasGrid* grid_;
   std::vector<DustClass> classes_;
@@ -113,7 +116,7 @@ class DustLedger {
   double previous_time_s_ = 0.0;
   bool have_previous_ = false;
   double unplaced_kg_ = 0.0;  // deposits on a grid without fluid cells (held, never moved)
-  std::vector<double> face_speed_, scratch_, start_;
+  std::vector<double> face_speed_, scratch_, start_, stage_;
   DustLedgerStats stats_;
 };
 

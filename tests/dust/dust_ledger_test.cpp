@@ -6,10 +6,14 @@
 //     slip τ_k u_t²/r (Ferry & Balachandar 2001): d⟨r²⟩/dt = 2 τ_k Ω² ⟨r²⟩ over the dust a
 //     tracer class (τ = 0) does not show;
 //   - a box with an inlet and an outlet drains at the outlet's face flux c U A, the inlet passes
-//     no dust, and held + outflow equals what was put in to 1e-12 throughout.
+//     no dust, and held + outflow equals what was put in to 1e-12 throughout;
+//   - a free vortex draining into a central outlet lets out the classes inside the force-balance
+//     cut and holds the others on the ring where drift and sink balance.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "dust/dust_ledger.h"
 #include "gas/gas_solver.h"
@@ -46,14 +50,22 @@ TEST(DustLedger, APulseInUniformFlowMovesAtTheGasSpeed) {
   GasSolver gas(config, build_gas_grid(config, {0, 0, 0}, {L, 0.04, 0.04}, {true, true, true}), {});
   std::fill(gas.velocity()[0].begin(), gas.velocity()[0].end(), U);
   DustLedger dust(gas.grid(), {{2e-6, 0.0}, {8e-6, 2e-4}}, {});
-  for (int k = 0; k < 2; ++k) dust.deposit({0.1, 0.02, 0.02}, k, 1e-9);
+  // A Gaussian pulse three cells wide: the limited slope keeps a smooth profile's mean moving
+  // at the flow's speed (a one-cell pulse it first leaves a fifth of a cell behind while it
+  // spreads it).
+  double total = 0.0;
+  for (int i = 1; i <= 40; ++i) {
+    const double x = (i - 0.5) * 0.01, mass = 1e-9 * std::exp(-(x - 0.1) * (x - 0.1) / 1.8e-3);
+    for (int k = 0; k < 2; ++k) dust.deposit({x, 0.02, 0.02}, k, mass);
+    total += mass;
+  }
   const double x0 = dust_mean(dust, 0, [](const Vec3& x) { return x.x; });
   const double dt = 1e-3;
   for (int step = 0; step < 50; ++step) dust.advance(gas, dt);  // 0.1 m of travel
   for (int k = 0; k < 2; ++k) {
     const double x = dust_mean(dust, k, [](const Vec3& c) { return c.x; });
     EXPECT_NEAR(x - x0, U * 50 * dt, 1e-3) << "class " << k << ": the gas speed, any τ";
-    EXPECT_NEAR(dust.held_kg(k), 1e-9, 1e-21) << "mass conserved to 1e-12";
+    EXPECT_NEAR(dust.held_kg(k), total, 1e-12 * total) << "mass conserved to 1e-12";
     EXPECT_EQ(dust.outflow_kg(k), 0.0) << "a periodic box has no outlet";
   }
 }
@@ -65,15 +77,22 @@ TEST(DustLedger, InStillGasEachClassSettlesAtItsTerminalSpeed) {
   const Vec3 g{0, 0, -9.81};
   const std::vector<DustClass> classes = {{1e-6, 3e-6}, {10e-6, 3e-4}, {30e-6, 3e-3}};
   DustLedger dust(gas.grid(), classes, g);
-  for (int k = 0; k < 3; ++k) dust.deposit({0.02, 0.02, 0.45}, k, 1e-9);
+  // A Gaussian four cells wide about z = 0.45 m (a smooth profile, as in uniform flow above).
+  double total = 0.0;
+  for (int i = 1; i <= 60; ++i) {
+    const double z = (i - 0.5) * 0.01, mass = 1e-9 * std::exp(-(z - 0.45) * (z - 0.45) / 3.2e-3);
+    for (int k = 0; k < 3; ++k) dust.deposit({0.02, 0.02, z}, k, mass);
+    total += mass;
+  }
   const double z0 = dust_mean(dust, 0, [](const Vec3& x) { return x.z; });
   const double dt = 0.2, t = 2.0;  // the coarsest falls 0.059 m, well above the floor
   for (int step = 0; step < 10; ++step) dust.advance(gas, dt);
   for (int k = 0; k < 3; ++k) {
     const double z = dust_mean(dust, k, [](const Vec3& c) { return c.z; });
     const double expected = classes[std::size_t(k)].relaxation_time_s * g.z * t;
-    EXPECT_NEAR(z - z0, expected, 1e-3 * std::abs(expected) + 1e-12) << "class " << k;
-    EXPECT_NEAR(dust.held_kg(k), 1e-9, 1e-21);
+    // The limiter clips the crest to first order, which slows the mean by about 0.1 %.
+    EXPECT_NEAR(z - z0, expected, 3e-3 * std::abs(expected) + 1e-12) << "class " << k;
+    EXPECT_NEAR(dust.held_kg(k), total, 1e-12 * total);
   }
 }
 
@@ -124,6 +143,8 @@ TEST(DustLedger, ASolidBodyVortexDrivesEachClassOutwardsAtTheEquilibriumSlip) {
     const double tau = classes[std::size_t(k)].relaxation_time_s;
     const double expected =
         2.0 * tau * omega * omega * before[k] * dt / (1.0 + tau * tau * omega * omega);
+    std::printf("τΩ = %.2f: d<r²>/dt beyond the tracer %+.1f %% from the equilibrium slip's\n",
+                tau * omega, 100.0 * (drift / expected - 1.0));
     EXPECT_NEAR(drift, expected, 0.05 * expected) << "class " << k;
     EXPECT_NEAR(dust.held_kg(k), total[k], 1e-12 * total[k]) << "walls pass nothing";
   }
@@ -199,6 +220,81 @@ TEST(DustLedger, ADepositInASolidCellGoesToTheNearestFluidCell) {
   const GasGrid& g = gas.grid();
   EXPECT_EQ(dust.cell_mass_kg(0)[g.index(5, 3, 3)], 2e-9) << "the first fluid cell along x";
   EXPECT_EQ(dust.stats().displaced_deposits, 1u);
+}
+
+// A free vortex draining into a central outlet, the flow a cyclone or a spiral jet mill
+// classifies in: u_t = Γ/r, u_r = −q/r outside the outlet radius R_o (a Rankine core inside it,
+// where the dust leaves upwards through a circular outlet in the lid). A class of relaxation time
+// τ drifts at −q/r + τ (Γ² + q²)/r³ (the slip τ (−Du/Dt), centripetal plus the sink's
+// convergence), which vanishes at r_eq = √(τ (Γ² + q²)/q): the force balance. So a class with
+// r_eq < R_o (τ below τ_c = q R_o²/(Γ² + q²)) leaves, and a class above it gathers on the ring
+// r_eq and stays. Fed on a ring at 2.5 R_o, each class is checked against that: the fine ones out,
+// the coarse ones held, their mass-weighted radius within 4 % of r_eq. Γ/q = 5 as in the mill's
+// classifying zone (u_t/u_r at its outlet radius, bench/RESULTS.md). Measured with this ledger
+// (64 cells across, 1 mm): +2.2, +0.8 and +0.1 % at 2, 4 and 8 τ_c; the first-order upwind
+// transport it had before gave +19, +10 and +6 %, its numerical diffusion pushing the rings out.
+TEST(DustLedger, AFreeVortexWithASinkHoldsEachClassAtItsForceBalanceRadius) {
+  const int n = 64;
+  const double L = 0.064, h = L / n, c0 = 0.5 * L, lid = h, outlet_radius = 0.006;
+  const double q = 0.06, circulation = 0.3;  // m²/s: u_r = −10 m/s, u_t = 50 m/s at R_o
+  GasConfig config = still_config({n, n, 1});
+  GasBoundaryPatch outlet;
+  outlet.name = "finder", outlet.face = 5, outlet.kind = GasBoundaryKind::Outlet;
+  outlet.shape = PatchShape::Circle, outlet.center_m = {c0, c0, lid};
+  outlet.radius_m = outlet_radius;
+  config.boundaries = {outlet};
+  GasSolver gas(config, build_gas_grid(config, {0, 0, 0}, {L, L, lid}, {false, false, false}), {});
+  const GasGrid& grid = gas.grid();
+  const auto velocity = [&](double x, double y) {
+    const double dx = x - c0, dy = y - c0, r2 = dx * dx + dy * dy;
+    const double scale = 1.0 / std::max(r2, outlet_radius * outlet_radius);
+    return Vec3{(-q * dx - circulation * dy) * scale, (-q * dy + circulation * dx) * scale, 0.0};
+  };
+  for (int j = 1; j <= n; ++j)
+    for (int i = 1; i < n; ++i) {
+      gas.velocity()[0][grid.index(i, j, 1)] = velocity(i * h, (j - 0.5) * h).x;
+      gas.velocity()[1][grid.index(j, i, 1)] = velocity((j - 0.5) * h, i * h).y;
+    }
+  // What the sink takes in, 2π q per unit height, leaves through the lid's outlet faces.
+  std::vector<std::size_t> lid_outlet;
+  for (std::size_t f = 0; f < grid.padded_size; ++f)
+    if (grid.face[2][f] == FaceKind::Outflow) lid_outlet.push_back(f);
+  ASSERT_GT(lid_outlet.size(), 50u);
+  for (std::size_t f : lid_outlet)
+    gas.velocity()[2][f] = 2.0 * M_PI * q * lid / (double(lid_outlet.size()) * h * h);
+
+  const double tau_c = q * outlet_radius * outlet_radius / (circulation * circulation + q * q);
+  const std::vector<double> ratios = {0.125, 0.25, 0.5, 2.0, 4.0, 8.0};
+  std::vector<DustClass> classes;
+  for (double ratio : ratios) classes.push_back({0.0, ratio * tau_c});
+  DustLedger dust(grid, classes, {});
+  const double feed_radius = 2.5 * outlet_radius;
+  const auto radius_of = [&](const Vec3& x) { return std::hypot(x.x - c0, x.y - c0); };
+  for (int j = 1; j <= n; ++j)
+    for (int i = 1; i <= n; ++i) {
+      const Vec3 x = grid.cell_center(i, j, 1);
+      if (std::abs(radius_of(x) - feed_radius) < 0.5 * h)
+        for (int k = 0; k < int(classes.size()); ++k) dust.deposit(x, k, 1e-12);
+    }
+  const double fed = dust.held_kg(0);
+  ASSERT_GT(fed, 0.0);
+  for (int step = 0; step < 15; ++step) dust.advance(gas, 1e-3);  // 9 transits of a tracer
+  for (int k = 0; k < int(classes.size()); ++k) {
+    const double tau = classes[std::size_t(k)].relaxation_time_s, out = dust.outflow_kg(k) / fed;
+    EXPECT_NEAR(dust.held_kg(k) + dust.outflow_kg(k), fed, 1e-12 * fed) << "class " << k;
+    if (tau < tau_c) {
+      EXPECT_GT(out, 0.999) << "τ/τ_c " << ratios[std::size_t(k)] << ": inside the cut, it leaves";
+      continue;
+    }
+    const double held_radius = dust_mean(dust, k, radius_of);
+    const double equilibrium = std::sqrt(tau * (circulation * circulation + q * q) / q);
+    std::printf("τ/τ_c %.0f: out %.3f, held at r = %.2f mm against r_eq = %.2f mm\n",
+                ratios[std::size_t(k)], out, held_radius * 1e3, equilibrium * 1e3);
+    if (ratios[std::size_t(k)] >= 4.0) {
+      EXPECT_LT(out, 0.01) << "τ/τ_c " << ratios[std::size_t(k)] << ": far outside the cut, held";
+    }
+    EXPECT_NEAR(held_radius, equilibrium, 0.04 * equilibrium) << "τ/τ_c " << ratios[std::size_t(k)];
+  }
 }
 
 }  // namespace
