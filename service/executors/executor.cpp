@@ -82,7 +82,7 @@ ExecHandle LocalExecutor::start(const RunRecord& run, double now) {
     dup2(fd, STDERR_FILENO);
     close(fd);
     close(null_fd);
-#ifndef __SANITIZE_ADDRESS__  // ASan reserves terabytes of address space for its shadow
+#ifndef MILLSIM_SANITIZED  // ASan reserves terabytes of address space for its shadow
     const struct rlimit limit = {memory, memory};
     setrlimit(RLIMIT_AS, &limit);
 #endif

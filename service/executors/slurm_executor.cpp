@@ -87,7 +87,7 @@ ExecHandle SlurmExecutor::start(const RunRecord& run, double now) {
   const long memory_mb = std::max(16L, long(run.memory_limit_mb));
   // The job has no use for the service token (sbatch exports the environment): it is unset.
   std::string job = "unset MILLSIM_TOKEN; " + requeue_script(binary_, run);
-#ifndef __SANITIZE_ADDRESS__  // ASan reserves terabytes of address space for its shadow
+#ifndef MILLSIM_SANITIZED  // ASan reserves terabytes of address space for its shadow
   job = "ulimit -v " + std::to_string(memory_mb * 1024) + "; " + job;
 #endif
   // SIGUSR1 this long before the job's time limit: the run checkpoints and the job requeues.

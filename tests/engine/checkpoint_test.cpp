@@ -135,7 +135,7 @@ TEST(Checkpoint, RestoredRunContinuesBitForBit) {
     // Split at a third and at an odd step past two thirds (off any rebuild or CFD rhythm). Under
     // the sanitizers, whose run checks the memory safety of saving and restoring, at the odd step
     // only (the test's six cases at both splits take two minutes there).
-#if defined(__SANITIZE_ADDRESS__)
+#if defined(MILLSIM_SANITIZED)
     const std::vector<std::int64_t> splits{2 * total / 3 + 7};
 #else
     const std::vector<std::int64_t> splits{total / 3, 2 * total / 3 + 7};

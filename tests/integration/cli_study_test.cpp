@@ -112,7 +112,7 @@ TEST(CliStudy, WallTimeLimitStopsARunAndBadStudiesQueueNothing) {
     EXPECT_EQ(run.state, RunState::ExecutorError);
     EXPECT_NE(run.error.find("wall-time limit"), std::string::npos);
   }
-#ifndef __SANITIZE_ADDRESS__  // under ASan the executor sets no address-space limit
+#ifndef MILLSIM_SANITIZED  // under ASan the executor sets no address-space limit
   // A memory limit too small for the program: the run fails, with the reason kept.
   study = settling_study(0.01, {0.5});
   study["limits"] = {{"memory_mb", 16}};
@@ -135,7 +135,7 @@ TEST(CliStudy, WallTimeLimitStopsARunAndBadStudiesQueueNothing) {
       << r.err;
   Store store(dir.path() / "q.db");
   // Only the studies above; the bad one queued nothing.
-#ifndef __SANITIZE_ADDRESS__
+#ifndef MILLSIM_SANITIZED
   EXPECT_EQ(store.studies(10, 0).size(), 2u);
 #else
   EXPECT_EQ(store.studies(10, 0).size(), 1u);

@@ -42,7 +42,7 @@ int tap_and_rearm() {
 }
 
 TEST(MemoryReserve, RunningOutTapsTheReserveInsteadOfThrowingAndItRearms) {
-#if defined(__SANITIZE_ADDRESS__)
+#if defined(MILLSIM_SANITIZED)
   GTEST_SKIP() << "ASan reserves terabytes of address space: no RLIMIT_AS under it";
 #endif
   const pid_t pid = fork();

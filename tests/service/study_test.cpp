@@ -232,7 +232,7 @@ TEST(Study, TheStoredSizeIsBoundedBeforeTheRunsAreExpanded) {
        {"values", {json::array({{{"position_m", {5e-4, 5e-4, 5e-4}}, {"diameter_m", 1e-4}}})}}});
   EXPECT_EQ(expand_study(spec, ".", 1000, nullptr, limit).runs.size(), 50u);
   // Runs that grow past the limit as they are made stop at the run that crosses it.
-  spec["parameters"][1]["values"] = {many};
+  spec["parameters"][1]["values"] = json::array({many});  // one value: the whole list
   spec["scene"]["sources"][0]["particles"] =
       json::array({{{"position_m", {5e-4, 5e-4, 5e-4}}, {"diameter_m", 1e-4}}});
   try {
