@@ -81,13 +81,7 @@ int main(int argc, char** argv) {
   const GasGrid& grid = gas.grid();
   const MillConfig& mill = *scene.mill;
   const GasConfig& config = *scene.gas;
-  const CompressibleGasConfig& state = config.compressible;
-  const double mean_free_path =
-      config.model == GasModel::Compressible && config.slip_correction
-          ? mean_free_path_m(
-                config.viscosity_pa_s, state.initial_pressure_pa,
-                state.gas.density_kg_per_m3(state.initial_pressure_pa, state.initial_temperature_k))
-          : 0.0;
+  const double mean_free_path = dust_mean_free_path_m(config);
   std::vector<DustClass> classes;
   for (int k = 0; k <= 16; ++k) {
     const double d = 0.25e-6 * std::pow(2.0, 0.375 * k);  // 0.25 to 16 µm

@@ -24,6 +24,14 @@ std::vector<DustClass> dust_classes(const std::vector<double>& edges, double thr
   return classes;
 }
 
+double dust_mean_free_path_m(const GasConfig& gas) {
+  if (gas.model != GasModel::Compressible || !gas.slip_correction) return 0.0;
+  const CompressibleGasConfig& state = gas.compressible;
+  return mean_free_path_m(
+      gas.viscosity_pa_s, state.initial_pressure_pa,
+      state.gas.density_kg_per_m3(state.initial_pressure_pa, state.initial_temperature_k));
+}
+
 int dust_class_of(const std::vector<double>& edges, int class_count, double d) {
   if (d < edges.front()) return 0;
   const int bin = int(std::upper_bound(edges.begin(), edges.end(), d) - edges.begin()) - 1;
@@ -46,6 +54,7 @@ DustLedger::DustLedger(const GasGrid& grid, std::vector<DustClass> classes,
 // outflow face with fluid on one side. Walls, inlets and solids are left out: they pass nothing.
 void DustLedger::build_faces() {
   const GasGrid& g = *grid_;
+  // A fluid cell's neighbours lie inside the padded grid; padded_size marks one not fluid.
   const auto fluid_or_none = [&](std::size_t c) { return g.fluid[c] ? c : g.padded_size; };
   for (int a = 0; a < 3; ++a) {
     const std::size_t au = std::size_t(a), s = g.stride[au];
@@ -56,11 +65,8 @@ void DustLedger::build_faces() {
       const bool fluid_low = g.fluid[low] != 0, fluid_high = g.fluid[high] != 0;
       if (fluid_low && fluid_high) {
         // The cells beyond each side, for the limited slope (none beyond a wall or an outlet).
-        const std::size_t below = low >= s ? g.wrap_cell(low - s, a) : g.padded_size;
-        const std::size_t above =
-            high + s < g.padded_size ? g.wrap_cell(high + s, a) : g.padded_size;
-        faces_.push_back({f, low, high, below < g.padded_size ? fluid_or_none(below) : below,
-                          above < g.padded_size ? fluid_or_none(above) : above, a, false, false});
+        faces_.push_back({f, low, high, fluid_or_none(g.wrap_cell(low - s, a)),
+                          fluid_or_none(g.wrap_cell(high + s, a)), a, false, false});
       } else if (kind == FaceKind::Outflow && (fluid_low || fluid_high)) {
         faces_.push_back({f, low, high, g.padded_size, g.padded_size, a, fluid_low, fluid_high});
       }

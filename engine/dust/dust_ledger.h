@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "core/vec3.h"
+#include "gas/gas_config.h"
 #include "gas/gas_grid.h"
 #include "gas/gas_view.h"
 
@@ -43,6 +44,9 @@ struct DustClass {
 std::vector<DustClass> dust_classes(const std::vector<double>& edges_m, double threshold_m,
                                     double particle_density_kg_per_m3, double viscosity_pa_s,
                                     double mean_free_path_m);
+// The mean free path the classes' Cunningham factor is taken at: the compressible chamber's
+// initial state when the gas has `slip_correction` on, else 0 (no correction).
+double dust_mean_free_path_m(const GasConfig& gas);
 // The class of a dust diameter (the last class for anything at or above its lower edge).
 int dust_class_of(const std::vector<double>& edges_m, int class_count, double diameter_m);
 

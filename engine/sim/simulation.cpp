@@ -288,19 +288,12 @@ Simulation::Simulation(const SceneConfig& scene, SimulationStart start)
     const GasConfig& gas = *scene.gas;
     for (const MaterialConfig& m : scene.materials)
       if (m.breakage) dust_density_kg_per_m3_ = m.density_kg_per_m3;
-    // Cunningham's slip at the chamber's initial state (compressible gas with the correction on).
-    const CompressibleGasConfig& state = gas.compressible;
-    const double mean_free_path =
-        gas.model == GasModel::Compressible && gas.slip_correction
-            ? mean_free_path_m(gas.viscosity_pa_s, state.initial_pressure_pa,
-                               state.gas.density_kg_per_m3(state.initial_pressure_pa,
-                                                           state.initial_temperature_k))
-            : 0.0;
     dust_edges_m_ = breakage_->dust().edges_m;
-    dust_ledger_.emplace(gas_->grid(),
-                         dust_classes(dust_edges_m_, scene.dust->threshold_diameter_m,
-                                      dust_density_kg_per_m3_, gas.viscosity_pa_s, mean_free_path),
-                         gravity_m_per_s2_);
+    dust_ledger_.emplace(
+        gas_->grid(),
+        dust_classes(dust_edges_m_, scene.dust->threshold_diameter_m, dust_density_kg_per_m3_,
+                     gas.viscosity_pa_s, dust_mean_free_path_m(gas)),
+        gravity_m_per_s2_);
     breakage_->record_dust(true);
     window_dust_out_kg_.assign(std::size_t(dust_ledger_->class_count()), 0.0);
     dust_out_seen_kg_ = window_dust_out_kg_;
