@@ -3,7 +3,7 @@
 //
 //   bench_step SCENE.txt [--steps N] [--json] [--skin-dmin F] [--subcells K] [--levels L]
 //              [--checkpoint DIR]  (also times a checkpoint of the final state into DIR)
-//              [--k-scan]
+//              [--k-scan] [--threads N]  (the engine's threads, default 1)
 //   bench_step --generate-mono N OUT.txt   writes a mono-like scene of N particles (d = 100 µm,
 //                                          φ = 0.2, periodic, v ~ N(0, 2 m/s), Table 1, dt as
 //                                          mono) in the shared format, for the scaling runs
@@ -30,6 +30,7 @@
 
 #include "checkpoint/checkpoint_file.h"
 #include "core/errors.h"
+#include "parallel/thread_team.h"
 #include "particles/particle_sources.h"
 #include "search/hashed_grid.h"
 #include "sim/simulation.h"
@@ -145,6 +146,8 @@ int main(int argc, char** argv) {
       search_scan = true;
     else if (a == "--checkpoint" && k + 1 < argc)
       checkpoint_dir = argv[++k];
+    else if (a == "--threads" && k + 1 < argc)
+      set_thread_count(std::max(1, std::stoi(argv[++k])));
     else {
       std::fprintf(stderr, "bench_step: unknown option %s\n", a.c_str());
       return 2;

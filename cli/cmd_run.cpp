@@ -1,6 +1,8 @@
 // millsim run SCENE.json [--out DIR] [--quiet] [--log-interval S] [--checkpoint-wall S] [--resume]
 //   [--files-root DIR] (file sources must lead inside DIR: decided as each is opened)
 //   [--spin-up-cache DIR] (a gas spin-up shared with other runs of the same gas: sim/gas_spin_up.h)
+//   [--threads N] [--strict-threads] (threads of the run: default the cores its affinity mask
+//   allows; more than those is refused with --strict-threads; docs/threads.md)
 // Validates the scene (all errors at once, exit 2, nothing written), runs it with a progress
 // line on a terminal, prints the JSON summary on stdout and writes DIR/{run.h5, run.xdmf,
 // result.json}, with checkpoints in DIR/checkpoints while it runs. Default DIR: out/<scene name>.
@@ -23,6 +25,7 @@
 #include "core/errors.h"
 #include "io/input_file.h"
 #include "io/json_text.h"
+#include "parallel/thread_team.h"
 #include "scene/scene_json.h"
 #include "sim/run.h"
 #include "sim/simulation.h"
@@ -44,6 +47,8 @@ namespace {
 }  // namespace
 namespace {
 
+constexpr int kMaxThreads = 4096;
+
 struct RunArgs {
   std::string scene_path;
   std::string out_dir;
@@ -53,7 +58,38 @@ struct RunArgs {
   bool resume = false;
   std::string files_root;     // where file sources may lead (a service's scenes root)
   std::string spin_up_cache;  // the gas spin-up cache shared with other runs (a study's)
+  int threads = 0;            // 0: the cores the affinity mask allows
+  bool strict_threads = false;
 };
+
+// --threads' value: a whole number ≥ 1 (the result is the same for any of them).
+bool thread_count_value(const std::string& text, int& out) {
+  char* end = nullptr;
+  const long n = std::strtol(text.c_str(), &end, 10);
+  if (text.empty() || *end != '\0' || n < 1 || n > kMaxThreads) {
+    std::fprintf(stderr,
+                 "millsim run: --threads = %s: expected a whole number of threads in [1, %d]\n",
+                 text.c_str(), kMaxThreads);
+    return false;
+  }
+  out = int(n);
+  return true;
+}
+
+// The run's thread count: --threads, or every core the affinity mask allows. More threads than
+// that run (slower, same result) with a warning, or are refused with --strict-threads.
+bool choose_threads(const RunArgs& a, int& threads) {
+  const int cores = usable_core_count();
+  threads = a.threads > 0 ? a.threads : cores;
+  if (threads <= cores) return true;
+  std::fprintf(stderr,
+               "millsim run: --threads = %d is more than the %d core%s this process may use (its "
+               "affinity mask)%s\n",
+               threads, cores, cores == 1 ? "" : "s",
+               a.strict_threads ? "; without --strict-threads it would run oversubscribed"
+                                : "; running oversubscribed (same result, slower)");
+  return !a.strict_threads;
+}
 
 // A number option's value in [lo, hi], or false after saying what is allowed.
 bool seconds_value(const std::string& option, const std::string& text, double lo, double hi,
@@ -72,7 +108,7 @@ bool parse_run_args(const std::vector<std::string>& args, RunArgs& out) {
   for (std::size_t k = 0; k < args.size(); ++k) {
     const std::string& a = args[k];
     const bool takes_value = a == "--out" || a == "--log-interval" || a == "--checkpoint-wall" ||
-                             a == "--files-root" || a == "--spin-up-cache";
+                             a == "--files-root" || a == "--spin-up-cache" || a == "--threads";
     if (takes_value && k + 1 >= args.size()) {
       std::fprintf(stderr, "millsim run: %s needs a value\n", a.c_str());
       return false;
@@ -93,11 +129,15 @@ bool parse_run_args(const std::vector<std::string>& args, RunArgs& out) {
       if (!seconds_value(a, args[++k], 0.0, 1e7, out.checkpoint_wall_s)) return false;
     } else if (a == "--resume") {
       out.resume = true;
+    } else if (a == "--threads") {
+      if (!thread_count_value(args[++k], out.threads)) return false;
+    } else if (a == "--strict-threads") {
+      out.strict_threads = true;
     } else if (!a.empty() && a[0] == '-') {
       std::fprintf(stderr,
                    "millsim run: unknown option \"%s\"; allowed: --out DIR, --quiet, "
                    "--log-interval S, --checkpoint-wall S, --resume, --files-root DIR, "
-                   "--spin-up-cache DIR\n",
+                   "--spin-up-cache DIR, --threads N, --strict-threads\n",
                    a.c_str());
       return false;
     } else if (out.scene_path.empty()) {
@@ -214,6 +254,9 @@ void print_spin_up_progress(const SpinUpProgress& p) {
 int cmd_run(const std::vector<std::string>& args) {
   RunArgs run_args;
   if (!parse_run_args(args, run_args)) return kBadInput;
+  int threads = 1;
+  if (!choose_threads(run_args, threads)) return kBadInput;
+  set_thread_count(threads);
   try {
     SceneConfig scene = load_scene(run_args.scene_path);
     scene.files_root = run_args.files_root;

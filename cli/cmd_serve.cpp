@@ -22,6 +22,7 @@
 #include "core/errors.h"
 #include "http/api_server.h"
 #include "memory_reserve.h"
+#include "parallel/thread_team.h"
 
 namespace millsim::cli {
 namespace {
@@ -63,7 +64,7 @@ int cmd_serve(const std::vector<std::string>& args) {
   // thread's allocation fails first (service/memory_reserve.h).
   arm_memory_reserve(std::size_t(64) << 20);
   ServerConfig config;
-  config.workers = int(std::max(1u, std::thread::hardware_concurrency()));
+  config.workers = usable_core_count();
   config.worker_port = 0;  // the started workers' own path (service/http/http_limits.h)
   // The token from the environment keeps it out of `ps` (systemd: EnvironmentFile=).
   if (const char* t = std::getenv("MILLSIM_TOKEN")) config.token = t;
@@ -113,6 +114,14 @@ int cmd_serve(const std::vector<std::string>& args) {
         "--host H, --port P, --db FILE, --token-file FILE, --workers N, --out DIR, --scenes DIR, "
         "--lease S, --max-body BYTES, --max-runs N, --max-study-bytes BYTES, --worker-port P, "
         "--max-connections N, --max-connections-per-client N, --receive-timeout S");
+  }
+  // Each local worker runs one run of at least one thread: never more of them than cores.
+  if (config.workers > usable_core_count()) {
+    std::fprintf(stderr,
+                 "millsim serve: --workers = %d: expected at most %d, the cores this process may "
+                 "use (its affinity mask); each worker runs one run of at least one thread\n",
+                 config.workers, usable_core_count());
+    return kBadInput;
   }
   // One client (source address) may hold half the connections unless told otherwise.
   config.limits.max_connections_per_client =

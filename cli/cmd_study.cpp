@@ -17,6 +17,7 @@
 #include "commands.h"
 #include "executors/local_runner.h"
 #include "executors/slurm_executor.h"
+#include "parallel/thread_team.h"
 #include "queue/database_lock.h"
 #include "studies/results.h"
 #include "studies/study.h"
@@ -127,6 +128,13 @@ int cmd_study(const std::vector<std::string>& args) {
       return kBadInput;
     }
   }
+  const int workers = a.workers > 0 ? a.workers : usable_core_count();
+  if (study)
+    if (const std::optional<InputError> p =
+            thread_budget_problem(study->limits.threads_per_run, workers, usable_core_count())) {
+      std::fprintf(stderr, "%s", format_input_errors(a.study_path, {*p}).c_str());
+      return kBadInput;
+    }
   try {
     std::filesystem::create_directories(std::filesystem::path(a.db).parent_path().empty()
                                             ? "."
@@ -147,8 +155,7 @@ int cmd_study(const std::vector<std::string>& args) {
     const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe");
     const std::unique_ptr<Executor> executor = make_executor(a.executor, self);
     LocalRunOptions options;
-    options.workers =
-        a.workers > 0 ? a.workers : int(std::max(1u, std::thread::hardware_concurrency()));
+    options.workers = workers;
     options.on_progress = print_progress;
     run_study_locally(store, study_id, *executor, options);
     if (isatty(STDERR_FILENO)) std::fprintf(stderr, "\n");

@@ -77,7 +77,7 @@ const std::vector<VerbHelp>& verb_help() {
       {"run",
        "run one scene",
        "millsim run SCENE.json [--out DIR] [--quiet] [--log-interval S] [--checkpoint-wall S] "
-       "[--resume] [--files-root DIR] [--spin-up-cache DIR]",
+       "[--resume] [--files-root DIR] [--spin-up-cache DIR] [--threads N] [--strict-threads]",
        "Validates the scene (every error at once, exit 2, nothing written), spins its gas up "
        "(gas.spin_up_s, with progress lines), runs it with a progress line on a terminal, prints "
        "the JSON summary on stdout and writes DIR/run.h5, run.xdmf and result.json. While it "
@@ -105,7 +105,13 @@ const std::vector<VerbHelp>& verb_help() {
          "share the gas spin-up with other runs of the same gas inputs (gas, mill, domain, "
          "gravity): read it from DIR when one left it there, else spin up and leave it; a run "
          "waits while another spins up the same gas. Bit for bit the same run; a study's runs "
-         "share one in <study>/spin-up-cache"}},
+         "share one in <study>/spin-up-cache"},
+        {"--threads N", "the affinity mask's cores",
+         "threads of this run (N >= 1). The physics in result.json and run.h5 is the same bit for "
+         "bit on any number of threads, and a checkpoint resumes on any number (docs/threads.md)"},
+        {"--strict-threads", "off",
+         "refuse (exit 2) a --threads above the cores the affinity mask allows, instead of "
+         "running oversubscribed"}},
        "millsim run cases/spiral_jet_mill.json --out out/mill"},
       {"study",
        "run a parameter study on this machine",

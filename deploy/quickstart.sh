@@ -3,6 +3,7 @@
 #   bash deploy/quickstart.sh run        build, then run the default study locally and print its results
 #   bash deploy/quickstart.sh test       build, then run the whole test suite
 #   bash deploy/quickstart.sh sanitize   build with AddressSanitizer + UBSan, then run the tests
+#   bash deploy/quickstart.sh tsan       build the threaded tests with ThreadSanitizer and run them
 # Installs missing Debian packages first (deploy/install-deps.sh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -60,8 +61,22 @@ case "$mode" in
     (cd build-sanitize && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
        ctest -j"$jobs" --output-on-failure)
     ;;
+  tsan)
+    # The engine's threaded loops under ThreadSanitizer: the threaded tests alone (their own
+    # target, without the service), at 1, 2 and 3 threads (docs/threads.md).
+    command -v clang++ >/dev/null 2>&1 ||
+      DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends clang >/dev/null
+    cmake -S . -B build-tsan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang \
+      -DCMAKE_CXX_COMPILER=clang++ -DMILLSIM_TSAN=ON -DMILLSIM_BUILD_BENCH=OFF >/dev/null
+    if ! cmake --build build-tsan -j"$jobs" --target millsim_thread_tests 2>&1 |
+      tee build-tsan/build.log | progress build-tsan; then
+      tail -n 40 build-tsan/build.log >&2
+      exit 1
+    fi
+    TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1" ./build-tsan/tests/millsim_thread_tests
+    ;;
   *)
-    echo "usage: bash deploy/quickstart.sh run|test|sanitize" >&2
+    echo "usage: bash deploy/quickstart.sh run|test|sanitize|tsan" >&2
     exit 2
     ;;
 esac

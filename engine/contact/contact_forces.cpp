@@ -3,6 +3,7 @@
 #include "contact/contact_law.h"
 #include "contact/curved_contact.h"
 #include "geometry/surface.h"
+#include "parallel/thread_team.h"
 
 namespace millsim {
 namespace {
@@ -26,10 +27,11 @@ inline PairSprings wall_springs_at(const ParticleStore& p, std::size_t i, const 
 // The pair loop's memory pipeline, apart from the physics: a lean pass over a chunk of
 // candidates keeps those that touch or touched at the last pass (a few percent). Second partners
 // lie behind in memory, mostly still in cache; the few far ones are fetched some candidates
-// ahead. Then everything the kept contacts read is fetched, and only they are visited.
+// ahead. Then everything the kept contacts read is fetched, and only they are visited. Visits
+// candidates [begin, end) of one active range.
 template <class Law, bool kPeriodic, class Visit>
 void for_each_contact_candidate(const Law& law, const ParticleStore& p, const NeighborList& nl,
-                                Visit&& visit) {
+                                std::size_t begin, std::size_t end, Visit&& visit) {
   const std::uint32_t* first = nl.pairs.first.data();
   const std::uint32_t* second = nl.pairs.second.data();
   const std::uint32_t* history = nl.pair_history.data();
@@ -38,134 +40,367 @@ void for_each_contact_candidate(const Law& law, const ParticleStore& p, const Ne
   const double* r = p.radius_m.data();
   constexpr std::size_t kChunk = 256, kPrefetchAhead = 64;
   std::uint32_t kept[kChunk];
-  for (const NeighborList::PairRange& range : nl.active_ranges())
-    for (std::size_t chunk = range.begin; chunk < range.end; chunk += kChunk) {
-      const std::size_t chunk_end = std::min(range.end, chunk + kChunk);
-      std::size_t n = 0;
-      for (std::size_t k = chunk; k < chunk_end; ++k) {
-        if (k + kPrefetchAhead < range.end) {
-          __builtin_prefetch(&x[second[k + kPrefetchAhead]]);
-          __builtin_prefetch(&r[second[k + kPrefetchAhead]]);
-        }
-        const std::uint32_t i = first[k], j = second[k];
-        Vec3 d = x[i] - x[j];
-        if constexpr (kPeriodic) d -= nl.pair_shift(k);
-        const double rsum = r[i] + r[j];
-        kept[n] = std::uint32_t(k - chunk);
-        n += (norm2(d) < rsum * rsum) | (touching_flag[k] != kPairApart);
+  for (std::size_t chunk = begin; chunk < end; chunk += kChunk) {
+    const std::size_t chunk_end = std::min(end, chunk + kChunk);
+    std::size_t n = 0;
+    for (std::size_t k = chunk; k < chunk_end; ++k) {
+      if (k + kPrefetchAhead < end) {
+        __builtin_prefetch(&x[second[k + kPrefetchAhead]]);
+        __builtin_prefetch(&r[second[k + kPrefetchAhead]]);
       }
-      for (std::size_t h = 0; h < n; ++h) {
-        const std::size_t k = chunk + kept[h];
-        for (const std::uint32_t a : {first[k], second[k]}) {
-          // A 48-byte record may span two cache lines: fetch its first and last byte.
-          const char* m = reinterpret_cast<const char*>(&p.motion[a]);
-          const char* l = reinterpret_cast<const char*>(&p.load[a]);
-          law.prefetch(a);
-          __builtin_prefetch(m), __builtin_prefetch(m + sizeof(Motion) - 1);
-          __builtin_prefetch(l), __builtin_prefetch(l + sizeof(Load) - 1);
-          __builtin_prefetch(&p.material[a]);
-        }
-        if (history[k] != kNoHistory) __builtin_prefetch(&nl.history_pool[history[k]]);
-      }
-      for (std::size_t h = 0; h < n; ++h) visit(chunk + kept[h]);
+      const std::uint32_t i = first[k], j = second[k];
+      Vec3 d = x[i] - x[j];
+      if constexpr (kPeriodic) d -= nl.pair_shift(k);
+      const double rsum = r[i] + r[j];
+      kept[n] = std::uint32_t(k - chunk);
+      n += (norm2(d) < rsum * rsum) | (touching_flag[k] != kPairApart);
     }
+    for (std::size_t h = 0; h < n; ++h) {
+      const std::size_t k = chunk + kept[h];
+      for (const std::uint32_t a : {first[k], second[k]}) {
+        // A 48-byte record may span two cache lines: fetch its first and last byte.
+        const char* m = reinterpret_cast<const char*>(&p.motion[a]);
+        const char* l = reinterpret_cast<const char*>(&p.load[a]);
+        law.prefetch(a);
+        __builtin_prefetch(m), __builtin_prefetch(m + sizeof(Motion) - 1);
+        __builtin_prefetch(l), __builtin_prefetch(l + sizeof(Load) - 1);
+        __builtin_prefetch(&p.material[a]);
+      }
+      if (history[k] != kNoHistory) __builtin_prefetch(&nl.history_pool[history[k]]);
+    }
+    for (std::size_t h = 0; h < n; ++h) visit(chunk + kept[h]);
+  }
+}
+
+// The pair loop's arrays, taken out of their containers once per pass (read through plain
+// pointers, the loop keeps them in registers).
+struct PairArrays {
+  const std::uint32_t* first;
+  const std::uint32_t* second;
+  std::uint32_t* history;
+  std::uint8_t* touching;
+  const Vec3* x;
+  const Motion* motion;
+  const double* r;
+  const std::uint16_t* mat;
+  const double* inv_mass;
+  HistoryPool* pool;
+  const NeighborList* nl;  // its periodic images
+};
+
+PairArrays pair_arrays(ParticleStore& p, NeighborList& nl) {
+  return {nl.pairs.first.data(),
+          nl.pairs.second.data(),
+          nl.pair_history.data(),
+          nl.pair_touching.data(),
+          p.position_m.data(),
+          p.motion.data(),
+          p.radius_m.data(),
+          p.material.data(),
+          p.inv_mass_per_kg.data(),
+          &nl.history_pool,
+          &nl};
+}
+
+// A pass's statistics over a run of candidates: counts, the largest overlap ratio (its first
+// candidate) and the lists of impacts and of contacts past the limit, in candidate order.
+struct alignas(64) PairTally {  // (one cache line of its own: a thread's block counts into it)
+  std::uint64_t touching = 0;
+  double max_ratio = 0.0;
+  std::size_t max_pair = 0;
+  std::vector<Impact> impacts;
+  std::vector<std::uint32_t> over_limit;
+};
+
+// What a contact does beyond its own candidate's state (the loads of both partners and the
+// shared pool of tangential histories), as an `Apply`:
+//  - DirectApply (one thread) does it at once, in candidate order.
+//  - RecordApply (one block of candidates on one of several threads) records it in its block's
+//    RecordingSink; the records are then applied in candidate order (apply_recorded_history,
+//    apply_recorded_loads), so every load receives the same additions in the same order as from
+//    DirectApply: the same bits on any thread count.
+struct DirectApply {
+  Load* load;
+  HistoryPool& pool;
+  std::uint32_t* history;
+
+  // i gets +force and −torque_i, j gets −force and −torque_j.
+  void contact(std::uint32_t i, std::uint32_t j, const Vec3& force, const Vec3& torque_i,
+               const Vec3& torque_j) {
+    Load &li = load[i], &lj = load[j];
+    li.force_n += force;
+    lj.force_n -= force;
+    li.torque_n_m -= torque_i;
+    lj.torque_n_m -= torque_j;
+  }
+  void separation(std::uint32_t i, std::uint32_t j, const Vec3& force) {
+    load[i].force_n -= force;
+    load[j].force_n += force;
+  }
+  // The tangential history of a contact that starts now (zero), to be updated by the law.
+  Vec3* new_history(std::size_t k) {
+    history[k] = pool.take({});
+    return &pool[history[k]];
+  }
+  void forget_history(std::size_t k) {
+    pool.give_back(history[k]);
+    history[k] = kNoHistory;
+  }
+};
+
+struct RecordedContact {
+  std::uint32_t i, j;
+  bool with_torque;
+  Vec3 force, torque_i, torque_j;  // as DirectApply::contact; a separation: −force, no torque
+};
+
+struct HistoryEvent {
+  std::uint32_t k;
+  bool take;   // take a slot holding `value`; else give pair k's slot back
+  Vec3 value;  // the history after this pass's law
+};
+
+struct alignas(64) RecordingSink {  // (cache lines of its own: a thread's block records into it)
+  PairTally tally;
+  std::vector<RecordedContact> contacts;
+  std::vector<HistoryEvent> history_events;
+};
+
+struct RecordApply {
+  RecordingSink& sink;
+
+  void contact(std::uint32_t i, std::uint32_t j, const Vec3& force, const Vec3& torque_i,
+               const Vec3& torque_j) {
+    sink.contacts.push_back({i, j, true, force, torque_i, torque_j});
+  }
+  void separation(std::uint32_t i, std::uint32_t j, const Vec3& force) {
+    sink.contacts.push_back({i, j, false, -force, {}, {}});
+  }
+  Vec3* new_history(std::size_t k) {
+    sink.history_events.push_back({std::uint32_t(k), true, {}});
+    return &sink.history_events.back().value;  // written by the law before the next record
+  }
+  void forget_history(std::size_t k) {
+    sink.history_events.push_back({std::uint32_t(k), false, {}});
+  }
+};
+
+// The contact law on candidate k, which touches now or touched at the last pass. What it does
+// beyond candidate k's own state goes through `apply`; its statistics into the counters and
+// lists (the caller's locals: kept in registers).
+template <class Law, bool kPeriodic, class Apply>
+inline void visit_contact(const Law& law, const MaterialTable& materials, double dt, double limit,
+                          const PairArrays& a, bool record_impacts, std::size_t k, Apply& apply,
+                          std::uint64_t& touching, double& max_ratio, std::size_t& max_pair,
+                          std::vector<Impact>& impacts, std::vector<std::uint32_t>& over_limit) {
+  const std::uint32_t i = a.first[k], j = a.second[k];
+  const double* r = a.r;
+  Vec3 d = a.x[i] - a.x[j];
+  if constexpr (kPeriodic) d -= a.nl->pair_shift(k);
+  const double dist2 = norm2(d), rsum = r[i] + r[j];
+  const std::uint32_t history = a.history[k];
+  if (dist2 >= rsum * rsum) {
+    if (a.touching[k]) {  // the contact ended: it forgets its history
+      if (a.touching[k] == kPairTouching) {
+        // A contact of restitution below 0.05 ends keeping only that share of its normal
+        // separation speed (particles/restitution.h): equal and opposite impulses along n, as a
+        // force over the step; a frozen partner (no inverse mass) takes none of it.
+        const double scale = materials.pair(a.mat[i], a.mat[j]).separation_scale;
+        const double inv_sum = a.inv_mass[i] + a.inv_mass[j];
+        if (scale < 1.0 && inv_sum > 0.0) {
+          const Vec3 n = d * (1.0 / std::sqrt(dist2));
+          const double vn = dot(a.motion[i].velocity_m_per_s - a.motion[j].velocity_m_per_s, n);
+          if (vn > 0.0) apply.separation(i, j, n * separation_force_n(scale, vn, inv_sum, dt));
+        }
+      }
+      a.touching[k] = kPairApart;
+      if (history != kNoHistory) apply.forget_history(k);
+    }
+    return;
+  }
+  const std::uint8_t before = a.touching[k];
+  const bool ghost = before == kPairGhost;
+  const double dist = std::sqrt(dist2);
+  Vec3* spring = nullptr;  // the tangential history; none for a ghost
+  if (!ghost) {
+    a.touching[k] = kPairTouching;
+    spring = history == kNoHistory ? apply.new_history(k) : &(*a.pool)[history];
+  }
+  double overlap = rsum - dist;
+  if (ghost) overlap = ghost_overlap_m(overlap, (*a.pool)[history][0]);
+  if (overlap <= 0.0) return;
+  ++touching;
+  const Vec3 n = d * (1.0 / dist);
+  const PairConstants& pc = materials.pair(a.mat[i], a.mat[j]);
+  // Velocity of the contact point of i relative to j; contact point at −r_i n from i, +r_j n
+  // from j.
+  const Motion &mi = a.motion[i], &mj = a.motion[j];
+  const Vec3 v_rel =
+      mi.velocity_m_per_s - mj.velocity_m_per_s -
+      cross(mi.angular_velocity_rad_per_s * r[i] + mj.angular_velocity_rad_per_s * r[j], n);
+  if (before == kPairApart && record_impacts) {
+    const double vn = dot(v_rel, n);
+    if (vn < 0.0) impacts.push_back({i, j, false, -vn, norm(v_rel - n * vn)});
+  }
+  const ContactResponse c =
+      contact_response(law(i, j, pc), pc, overlap, n, v_rel,
+                       mi.angular_velocity_rad_per_s - mj.angular_velocity_rad_per_s,
+                       r[i] * r[j] / rsum, dt, spring);
+  const Vec3 n_cross_ft = cross(n, c.tangential_force_n);
+  apply.contact(i, j, n * c.normal_force_n + c.tangential_force_n,
+                n_cross_ft * (r[i] - 0.5 * overlap) + c.rolling_torque_n_m,
+                n_cross_ft * (r[j] - 0.5 * overlap) - c.rolling_torque_n_m);
+  const double ratio = overlap / (2.0 * std::min(r[i], r[j]));
+  if (ratio > limit) over_limit.push_back(std::uint32_t(k));
+  if (ratio > max_ratio) max_ratio = ratio, max_pair = k;
+}
+
+// The step's statistics from the tallies, in candidate order.
+void finish_pair_stats(const PairTally& t, const ParticleStore& p, const NeighborList& nl,
+                       ContactStepStats& stats) {
+  stats.touching_pairs = t.touching;
+  if (t.max_ratio > stats.max_overlap_ratio) {
+    stats.max_overlap_ratio = t.max_ratio;
+    const std::uint32_t i = nl.pairs.first[t.max_pair], j = nl.pairs.second[t.max_pair];
+    const bool i_smaller = p.radius_m[i] <= p.radius_m[j];
+    stats.max_overlap_particle = p.id[i_smaller ? i : j];
+    stats.max_overlap_partner = p.id[i_smaller ? j : i];
+    stats.max_overlap_wall = -1;
+  }
+}
+
+// One block's records into the shared state, in candidate order: the history pool's takes and
+// give-backs exactly as DirectApply makes them, the statistics appended.
+void apply_recorded_history(RecordingSink& block, NeighborList& nl, PairTally& total) {
+  for (const HistoryEvent& e : block.history_events) {
+    if (e.take) {
+      nl.pair_history[e.k] = nl.history_pool.take(e.value);
+    } else {
+      nl.history_pool.give_back(nl.pair_history[e.k]);
+      nl.pair_history[e.k] = kNoHistory;
+    }
+  }
+  const PairTally& t = block.tally;
+  total.touching += t.touching;
+  if (t.max_ratio > total.max_ratio) total.max_ratio = t.max_ratio, total.max_pair = t.max_pair;
+  total.impacts.insert(total.impacts.end(), t.impacts.begin(), t.impacts.end());
+  total.over_limit.insert(total.over_limit.end(), t.over_limit.begin(), t.over_limit.end());
+}
+
+// The blocks' recorded loads, in block order: each thread adds to the particles of its own share
+// of slots, so each particle takes its additions in candidate order whatever the thread count.
+void apply_recorded_loads(const std::vector<RecordingSink>& blocks, std::size_t block_count,
+                          std::size_t particles, Load* load) {
+  const std::size_t threads = std::size_t(thread_count());
+  parallel_blocks(threads, [&](std::size_t t) {
+    const std::uint32_t lo = std::uint32_t(particles * t / threads);
+    const std::uint32_t hi = std::uint32_t(particles * (t + 1) / threads);
+    for (std::size_t b = 0; b < block_count; ++b)
+      for (const RecordedContact& c : blocks[b].contacts) {
+        if (c.i >= lo && c.i < hi) {
+          load[c.i].force_n += c.force;
+          if (c.with_torque) load[c.i].torque_n_m -= c.torque_i;
+        }
+        if (c.j >= lo && c.j < hi) {
+          load[c.j].force_n -= c.force;
+          if (c.with_torque) load[c.j].torque_n_m -= c.torque_j;
+        }
+      }
+  });
+}
+
+// The active candidates cut into pieces of at most kPieceCandidates, in candidate order.
+constexpr std::size_t kPieceCandidates = 4096;
+
+void cut_into_pieces(const NeighborList& nl, std::vector<NeighborList::PairRange>& pieces) {
+  pieces.clear();
+  for (const NeighborList::PairRange& range : nl.active_ranges())
+    for (std::size_t b = range.begin; b < range.end; b += block_items(kPieceCandidates))
+      pieces.push_back({b, std::min(range.end, b + block_items(kPieceCandidates))});
+}
+
+// Scratch of the threaded pair loop, kept between steps.
+struct PairLoopScratch {
+  std::vector<NeighborList::PairRange> pieces;
+  std::vector<RecordingSink> blocks;
+};
+
+// One thread: each contact applied at once, in candidate order. Its own function (as is the
+// threaded one), so that each gets g++'s whole inlining budget: in one function together the
+// contact law went out of line and the mill's pair loop took 17 % longer.
+template <class Law, bool kPeriodic>
+[[gnu::noinline]] void pair_loop_direct(const Law& law, const MaterialTable& materials, double dt,
+                                        double limit, ParticleStore& p, NeighborList& nl,
+                                        bool impacts, PairTally& total) {
+  const PairArrays a = pair_arrays(p, nl);
+  DirectApply apply{p.load.data(), nl.history_pool, nl.pair_history.data()};
+  std::uint64_t touching = 0;
+  double max_ratio = 0.0;
+  std::size_t max_pair = 0;
+  for (const NeighborList::PairRange& range : nl.active_ranges())
+    for_each_contact_candidate<Law, kPeriodic>(
+        law, p, nl, range.begin, range.end, [&](std::size_t k) {
+          visit_contact<Law, kPeriodic>(law, materials, dt, limit, a, impacts, k, apply, touching,
+                                        max_ratio, max_pair, total.impacts, total.over_limit);
+        });
+  total.touching = touching, total.max_ratio = max_ratio, total.max_pair = max_pair;
+}
+
+// Several threads: blocks of candidates record what their contacts do, applied after in
+// candidate order. Waves of 16 pieces per thread: the records stay a few MB at any particle
+// count.
+template <class Law, bool kPeriodic>
+[[gnu::noinline]] void pair_loop_recorded(const Law& law, const MaterialTable& materials, double dt,
+                                          double limit, ParticleStore& p, NeighborList& nl,
+                                          bool impacts, PairTally& total) {
+  const PairArrays a = pair_arrays(p, nl);
+  // (Named here, on the calling thread: inside the loop a thread_local would be the worker's.)
+  static thread_local PairLoopScratch calling_thread_scratch;
+  PairLoopScratch& scratch = calling_thread_scratch;
+  cut_into_pieces(nl, scratch.pieces);
+  const std::size_t wave = 16 * std::size_t(thread_count());
+  if (scratch.blocks.size() < wave) scratch.blocks.resize(wave);
+  for (std::size_t w = 0; w < scratch.pieces.size(); w += wave) {
+    const std::size_t count = std::min(wave, scratch.pieces.size() - w);
+    parallel_blocks(count, [&](std::size_t b) {
+      RecordingSink& sink = scratch.blocks[b];
+      sink.contacts.clear(), sink.history_events.clear();
+      sink.tally.impacts.clear(), sink.tally.over_limit.clear();
+      RecordApply apply{sink};
+      std::uint64_t touching = 0;
+      double max_ratio = 0.0;
+      std::size_t max_pair = 0;
+      const NeighborList::PairRange piece = scratch.pieces[w + b];
+      for_each_contact_candidate<Law, kPeriodic>(
+          law, p, nl, piece.begin, piece.end, [&](std::size_t k) {
+            visit_contact<Law, kPeriodic>(law, materials, dt, limit, a, impacts, k, apply, touching,
+                                          max_ratio, max_pair, sink.tally.impacts,
+                                          sink.tally.over_limit);
+          });
+      sink.tally.touching = touching, sink.tally.max_ratio = max_ratio;
+      sink.tally.max_pair = max_pair;
+    });
+    for (std::size_t b = 0; b < count; ++b) apply_recorded_history(scratch.blocks[b], nl, total);
+    apply_recorded_loads(scratch.blocks, count, p.size(), p.load.data());
+  }
 }
 
 template <class Law, bool kPeriodic>
 void pair_loop(const Law& law, const MaterialTable& materials, double dt, double limit,
                ParticleStore& p, NeighborList& nl, ContactStepStats& stats) {
-  const std::uint32_t* first = nl.pairs.first.data();
-  const std::uint32_t* second = nl.pairs.second.data();
-  std::uint32_t* history = nl.pair_history.data();
-  HistoryPool& pool = nl.history_pool;
-  std::uint8_t* touching_flag = nl.pair_touching.data();
-  const Vec3* x = p.position_m.data();
-  const Motion* motion = p.motion.data();
-  const double* r = p.radius_m.data();
-  const std::uint16_t* mat = p.material.data();
-  Load* load = p.load.data();
-  std::uint64_t touching = 0;
-  double max_ratio = 0.0;
-  std::size_t max_pair = 0;
-
-  // A contact of restitution below 0.05 ends keeping only that share of its normal separation
-  // speed (particles/restitution.h): equal and opposite impulses along n, as a force over the
-  // step; a frozen partner (no inverse mass) takes none of it.
-  const double* inv_mass = p.inv_mass_per_kg.data();
-  auto end_of_contact = [&](std::uint32_t i, std::uint32_t j, const Vec3& d, double dist) {
-    const double scale = materials.pair(mat[i], mat[j]).separation_scale;
-    const double inv_sum = inv_mass[i] + inv_mass[j];
-    if (scale >= 1.0 || inv_sum <= 0.0) return;
-    const Vec3 n = d * (1.0 / dist);
-    const double vn = dot(motion[i].velocity_m_per_s - motion[j].velocity_m_per_s, n);
-    if (vn <= 0.0) return;
-    const Vec3 force = n * separation_force_n(scale, vn, inv_sum, dt);
-    load[i].force_n -= force;
-    load[j].force_n += force;
-  };
-
-  // The contact law on candidate k, which touches now or touched at the last pass.
-  auto visit = [&](std::size_t k) {
-    const std::uint32_t i = first[k], j = second[k];
-    Vec3 d = x[i] - x[j];
-    if constexpr (kPeriodic) d -= nl.pair_shift(k);
-    const double dist2 = norm2(d), rsum = r[i] + r[j];
-    if (dist2 >= rsum * rsum) {
-      if (touching_flag[k]) {  // the contact ended: it forgets its history
-        if (touching_flag[k] == kPairTouching) end_of_contact(i, j, d, std::sqrt(dist2));
-        touching_flag[k] = kPairApart;
-        if (history[k] != kNoHistory) pool.give_back(history[k]), history[k] = kNoHistory;
-      }
-      return;
-    }
-    const std::uint8_t before = touching_flag[k];
-    const bool ghost = before == kPairGhost;
-    const double dist = std::sqrt(dist2);
-    if (!ghost) {
-      touching_flag[k] = kPairTouching;
-      if (history[k] == kNoHistory) history[k] = pool.take({});
-    }
-    double overlap = rsum - dist;
-    if (ghost) overlap = ghost_overlap_m(overlap, pool[history[k]][0]);
-    if (overlap <= 0.0) return;
-    ++touching;
-    const Vec3 n = d * (1.0 / dist);
-    const PairConstants& pc = materials.pair(mat[i], mat[j]);
-    // Velocity of the contact point of i relative to j; contact point at −r_i n from i, +r_j n
-    // from j.
-    const Motion &mi = motion[i], &mj = motion[j];
-    const Vec3 v_rel =
-        mi.velocity_m_per_s - mj.velocity_m_per_s -
-        cross(mi.angular_velocity_rad_per_s * r[i] + mj.angular_velocity_rad_per_s * r[j], n);
-    if (before == kPairApart && stats.record_impacts) {
-      const double vn = dot(v_rel, n);
-      if (vn < 0.0) stats.impacts.push_back({i, j, false, -vn, norm(v_rel - n * vn)});
-    }
-    const ContactResponse c =
-        contact_response(law(i, j, pc), pc, overlap, n, v_rel,
-                         mi.angular_velocity_rad_per_s - mj.angular_velocity_rad_per_s,
-                         r[i] * r[j] / rsum, dt, ghost ? nullptr : &pool[history[k]]);
-    const Vec3 force = n * c.normal_force_n + c.tangential_force_n;
-    Load &li = load[i], &lj = load[j];
-    li.force_n += force;
-    lj.force_n -= force;
-    const Vec3 n_cross_ft = cross(n, c.tangential_force_n);
-    li.torque_n_m -= n_cross_ft * (r[i] - 0.5 * overlap) + c.rolling_torque_n_m;
-    lj.torque_n_m -= n_cross_ft * (r[j] - 0.5 * overlap) - c.rolling_torque_n_m;
-    const double ratio = overlap / (2.0 * std::min(r[i], r[j]));
-    if (ratio > limit) stats.pairs_over_limit.push_back(std::uint32_t(k));
-    if (ratio > max_ratio) max_ratio = ratio, max_pair = k;
-  };
-  for_each_contact_candidate<Law, kPeriodic>(law, p, nl, visit);
-  stats.touching_pairs = touching;
-  if (max_ratio > stats.max_overlap_ratio) {
-    stats.max_overlap_ratio = max_ratio;
-    const std::uint32_t i = first[max_pair], j = second[max_pair];
-    const bool i_smaller = r[i] <= r[j];
-    stats.max_overlap_particle = p.id[i_smaller ? i : j];
-    stats.max_overlap_partner = p.id[i_smaller ? j : i];
-    stats.max_overlap_wall = -1;
-  }
+  PairTally total;
+  total.impacts = std::move(stats.impacts);
+  total.over_limit = std::move(stats.pairs_over_limit);
+  // By particles, not candidates: what the threads add to, the next kick-drift reads (a loop
+  // on two cores below the minimum moves the loads from cache to cache).
+  if (!worth_threads(p.size()))
+    pair_loop_direct<Law, kPeriodic>(law, materials, dt, limit, p, nl, stats.record_impacts, total);
+  else
+    pair_loop_recorded<Law, kPeriodic>(law, materials, dt, limit, p, nl, stats.record_impacts,
+                                       total);
+  stats.impacts = std::move(total.impacts);
+  stats.pairs_over_limit = std::move(total.over_limit);
+  finish_pair_stats(total, p, nl, stats);
 }
 
 template <class Law>
@@ -193,11 +428,17 @@ void compute_pair_forces(ContactModel model, const MaterialTable& materials, con
   }
 }
 
-void compute_wall_forces(const MaterialTable& materials, const std::vector<Wall>& walls, double dt,
-                         double limit, ParticleStore& p, NeighborList& nl,
-                         ContactStepStats& stats) {
+namespace {
+
+// The wall contacts of candidates [begin, end): the contact law on each, its force and torque
+// added to its particle, its statistics into `tally`.
+void wall_contacts(const MaterialTable& materials, const std::vector<Wall>& walls, double dt,
+                   double limit, bool record_impacts, ParticleStore& p, NeighborList& nl,
+                   std::size_t begin, std::size_t end, PairTally& tally) {
   std::uint64_t touching = 0;
-  for (std::size_t k = 0; k < nl.wall_particle.size(); ++k) {
+  double max_ratio = 0.0;
+  std::size_t max_pair = 0;
+  for (std::size_t k = begin; k < end; ++k) {
     const std::uint32_t i = nl.wall_particle[k];
     const Wall& wall = walls[nl.wall_index[k]];
     const double r = p.radius_m[i];
@@ -226,9 +467,9 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Wall>
     ++touching;
     const Motion& m = p.motion[i];
     const Vec3 v_rel = m.velocity_m_per_s - cross(m.angular_velocity_rad_per_s * r, n);
-    if (onset && stats.record_impacts) {
+    if (onset && record_impacts) {
       const double vn = dot(v_rel, n);
-      if (vn < 0.0) stats.impacts.push_back({i, nl.wall_index[k], true, -vn, norm(v_rel - n * vn)});
+      if (vn < 0.0) tally.impacts.push_back({i, nl.wall_index[k], true, -vn, norm(v_rel - n * vn)});
     }
     const ContactResponse c = contact_response(wall_springs_at(p, i, wall, pc), pc, overlap, n,
                                                v_rel, m.angular_velocity_rad_per_s, r, dt,
@@ -237,12 +478,59 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Wall>
     p.load[i].torque_n_m -=
         cross(n, c.tangential_force_n) * (r - 0.5 * overlap) + c.rolling_torque_n_m;
     const double ratio = overlap / (2.0 * r);
-    if (ratio > limit) stats.walls_over_limit.push_back(std::uint32_t(k));
-    if (ratio > stats.max_overlap_ratio) {
-      stats.max_overlap_ratio = ratio;
+    if (ratio > limit) tally.over_limit.push_back(std::uint32_t(k));
+    if (ratio > max_ratio) max_ratio = ratio, max_pair = k;
+  }
+  tally.touching = touching, tally.max_ratio = max_ratio, tally.max_pair = max_pair;
+}
+
+// Wall candidates per piece, about: a piece ends where a particle's run of candidates ends, so
+// that one thread adds all of a particle's wall forces, in candidate order.
+constexpr std::size_t kWallPieceCandidates = 2048;
+
+}  // namespace
+
+void compute_wall_forces(const MaterialTable& materials, const std::vector<Wall>& walls, double dt,
+                         double limit, ParticleStore& p, NeighborList& nl,
+                         ContactStepStats& stats) {
+  const std::size_t n = nl.wall_particle.size();
+  const bool impacts = stats.record_impacts;
+  // The pieces: the rebuild lists a particle's wall candidates together (by slot, then wall).
+  static thread_local std::vector<std::size_t> calling_thread_starts;
+  std::vector<std::size_t>& starts = calling_thread_starts;
+  starts.assign(1, 0);
+  while (starts.back() < n) {
+    std::size_t end = std::min(n, starts.back() + block_items(kWallPieceCandidates));
+    while (end < n && nl.wall_particle[end] == nl.wall_particle[end - 1]) ++end;
+    starts.push_back(end);
+  }
+  const std::size_t pieces = starts.size() - 1;
+  static thread_local std::vector<PairTally> calling_thread_tallies;
+  std::vector<PairTally>& tallies = calling_thread_tallies;
+  if (tallies.size() < pieces) tallies.resize(pieces);
+  auto run_piece = [&](std::size_t piece) {
+    PairTally& t = tallies[piece];
+    t.impacts.clear(), t.over_limit.clear();
+    wall_contacts(materials, walls, dt, limit, impacts, p, nl, starts[piece], starts[piece + 1], t);
+  };
+  if (worth_threads(p.size()))
+    parallel_blocks(pieces, run_piece);
+  else
+    for (std::size_t piece = 0; piece < pieces; ++piece) run_piece(piece);
+  // The statistics in candidate order, as one thread gathers them.
+  std::uint64_t touching = 0;
+  for (std::size_t piece = 0; piece < pieces; ++piece) {
+    const PairTally& t = tallies[piece];
+    touching += t.touching;
+    stats.impacts.insert(stats.impacts.end(), t.impacts.begin(), t.impacts.end());
+    stats.walls_over_limit.insert(stats.walls_over_limit.end(), t.over_limit.begin(),
+                                  t.over_limit.end());
+    if (t.max_ratio > stats.max_overlap_ratio) {
+      const std::uint32_t i = nl.wall_particle[t.max_pair];
+      stats.max_overlap_ratio = t.max_ratio;
       stats.max_overlap_particle = p.id[i];
       stats.max_overlap_partner = 0;
-      stats.max_overlap_wall = int(nl.wall_index[k]);
+      stats.max_overlap_wall = int(nl.wall_index[t.max_pair]);
     }
   }
   stats.touching_walls = touching;

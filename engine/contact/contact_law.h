@@ -122,9 +122,10 @@ inline double hertz_normal_force_n(const PairSprings& s, double overlap_m, doubl
 // Tangential spring with history and Coulomb's limit; returns the tangential force on the first
 // body. `n` points from the second body to the first; v_t is the tangential slip velocity; the
 // stored displacement `history` is rotated into the current tangent plane and advanced by v_t dt.
-inline Vec3 tangential_force_n(const PairSprings& s, double sqrt_overlap, double normal_force,
-                               double friction, const Vec3& n, const Vec3& v_t, double dt,
-                               Vec3& history) {
+[[gnu::always_inline]] inline Vec3 tangential_force_n(const PairSprings& s, double sqrt_overlap,
+                                                      double normal_force, double friction,
+                                                      const Vec3& n, const Vec3& v_t, double dt,
+                                                      Vec3& history) {
   // Keep the stored displacement in the current tangent plane, with its length (rotation).
   const double len2 = norm2(history);
   if (len2 > 0.0) {
@@ -170,11 +171,12 @@ struct ContactResponse {
 // The contact law at overlap δ > 0 with unit normal n (from the second body to the first), the
 // contact point's relative velocity v_rel, the relative spin w_rel and the rolling radius (R* for
 // a pair, r on a wall). `history` is null for a contact born overlapping (no tangential spring,
-// neighbor_list.h).
-inline ContactResponse contact_response(const PairSprings& s, const PairConstants& pc,
-                                        double overlap, const Vec3& n, const Vec3& v_rel,
-                                        const Vec3& w_rel, double rolling_radius_m, double dt,
-                                        Vec3* history) {
+// neighbor_list.h). Always inlined: the pair loop's two ways of applying a contact
+// (contact_forces.cpp) and the wall loop each call it, and g++ then took it out of line (a call
+// per contact, 5 % of the shipped mill's time).
+[[gnu::always_inline]] inline ContactResponse contact_response(
+    const PairSprings& s, const PairConstants& pc, double overlap, const Vec3& n, const Vec3& v_rel,
+    const Vec3& w_rel, double rolling_radius_m, double dt, Vec3* history) {
   ContactResponse out;
   const double sqrt_overlap = std::sqrt(overlap);
   const double vn = dot(v_rel, n);

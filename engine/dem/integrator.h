@@ -17,6 +17,7 @@
 #include "dem/box.h"
 
 #include "core/vec3.h"
+#include "parallel/thread_team.h"
 #include "particles/particle_store.h"
 
 namespace millsim {
@@ -28,22 +29,33 @@ namespace millsim {
 // Slots per block for the speed report of the kick-drift passes.
 inline constexpr std::size_t kSpeedBlockSlots = 4096;
 
-// Runs `kick_particle(i)`, which kicks and drifts particle i and returns |v½|², over every slot
-// in blocks of kSpeedBlockSlots; stores each block's largest drift speed and returns the largest
-// of all.
+// Runs `kick_particle(i)`, which kicks and drifts particle i and returns |v½|², over every slot,
+// in chunks (a block of kSpeedBlockSlots, or a part of one: parallel/thread_team.h,
+// block_items) spread over the engine's threads; stores each block's largest drift speed and
+// returns the largest of all (maxima: the same for any thread count).
 template <class KickParticle>
 double kick_in_blocks(std::size_t n, std::vector<double>& block_max_speed_m_per_s,
                       KickParticle&& kick_particle) {
-  block_max_speed_m_per_s.resize((n + kSpeedBlockSlots - 1) / kSpeedBlockSlots);
+  const std::size_t blocks = (n + kSpeedBlockSlots - 1) / kSpeedBlockSlots;
+  const std::size_t chunk = block_items(kSpeedBlockSlots),
+                    chunks_per_block = kSpeedBlockSlots / chunk;
+  // (Named here, on the calling thread: inside the loop a thread_local would be the worker's.)
+  static thread_local std::vector<double> calling_thread_chunk_max;
+  std::vector<double>& chunk_max2 = calling_thread_chunk_max;
+  chunk_max2.resize((n + chunk - 1) / chunk);
+  parallel_ranges(n, chunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
+    double speed2 = 0.0;
+    for (std::size_t i = begin; i < end; ++i) speed2 = std::max(speed2, kick_particle(i));
+    chunk_max2[c] = speed2;
+  });
+  block_max_speed_m_per_s.assign(blocks, 0.0);
   double max_speed2 = 0.0;
-  for (std::size_t block = 0, begin = 0; begin < n; ++block, begin += kSpeedBlockSlots) {
-    const std::size_t end = std::min(n, begin + kSpeedBlockSlots);
-    double block_speed2 = 0.0;
-    for (std::size_t i = begin; i < end; ++i)
-      block_speed2 = std::max(block_speed2, kick_particle(i));
-    block_max_speed_m_per_s[block] = std::sqrt(block_speed2);
-    max_speed2 = std::max(max_speed2, block_speed2);
+  for (std::size_t c = 0; c < chunk_max2.size(); ++c) {
+    double& block = block_max_speed_m_per_s[c / chunks_per_block];
+    block = std::max(block, chunk_max2[c]);
+    max_speed2 = std::max(max_speed2, chunk_max2[c]);
   }
+  for (double& v : block_max_speed_m_per_s) v = std::sqrt(v);
   return std::sqrt(max_speed2);
 }
 
@@ -73,16 +85,19 @@ inline double kick_drift(ParticleStore& p, double dt, const Vec3& gravity,
 
 inline void kick(ParticleStore& p, double dt) {
   const double half = 0.5 * dt;
-  const std::size_t n = p.size();
   Motion* motion = p.motion.data();
   const Load* load = p.load.data();
   const Load* previous_load = p.previous_load.data();
-  for (std::size_t i = 0; i < n; ++i) {
-    const Load l = load[i], l_old = previous_load[i];
-    motion[i].velocity_m_per_s += (l.force_n - l_old.force_n) * (half * p.inv_mass_per_kg[i]);
-    motion[i].angular_velocity_rad_per_s +=
-        (l.torque_n_m - l_old.torque_n_m) * (half * p.inv_inertia_per_kg_m2[i]);
-  }
+  parallel_ranges(p.size(), block_items(kSpeedBlockSlots),
+                  [&](std::size_t begin, std::size_t end, std::size_t) {
+                    for (std::size_t i = begin; i < end; ++i) {
+                      const Load l = load[i], l_old = previous_load[i];
+                      motion[i].velocity_m_per_s +=
+                          (l.force_n - l_old.force_n) * (half * p.inv_mass_per_kg[i]);
+                      motion[i].angular_velocity_rad_per_s +=
+                          (l.torque_n_m - l_old.torque_n_m) * (half * p.inv_inertia_per_kg_m2[i]);
+                    }
+                  });
 }
 
 // kick of one step and kick_drift of the next in one pass: per particle the same operations in
@@ -120,34 +135,98 @@ inline double kick_then_kick_drift(ParticleStore& p, double dt, const Vec3& grav
 // starts its next forces from gravity itself (no swap of whole arrays), so the particles left
 // out keep their forces untouched while they wait.
 
+// Entries of a slot list per piece: the unit the listed passes spread over the engine's threads,
+// and in which they sum what they sum (so the sums are the same on any thread count).
+inline constexpr std::size_t kListPieceEntries = 4096;
+
+// Runs speed2 = visit(i, sum) for every listed slot i, the list cut into pieces of
+// kListPieceEntries spread over the engine's threads; raises block_max_speed2[i /
+// kSpeedBlockSlots] to each speed2 and returns the largest. `sum` is the piece's own Vec3, for a
+// visit that adds something up; the pieces' sums go to piece_sums when given (one per piece),
+// for the caller to add in piece order: the same sum on any thread count. Maxima are exact in
+// any order. Each piece keeps its maxima and its sum in registers and writes them once per slot
+// block (the lists are in slot order) and once at its end: threads never write one cache line
+// per particle.
+template <class Visit>
+double for_listed_speeds(const std::vector<std::uint32_t>& slots,
+                         std::vector<double>& block_max_speed2, Visit&& visit,
+                         std::vector<Vec3>* piece_sums = nullptr) {
+  const std::size_t n = slots.size();
+  const std::size_t piece_entries = block_items(kListPieceEntries);
+  const std::size_t pieces = (n + piece_entries - 1) / piece_entries;
+  if (piece_sums) piece_sums->assign(pieces, Vec3{});
+  // One piece; block_out: its block maxima (raised, never lowered). Returns its largest speed2.
+  auto run_piece = [&](std::size_t begin, std::size_t end, std::size_t piece, double* block_out) {
+    Vec3 sum;
+    double piece_max = 0.0, block_max = 0.0;
+    std::size_t block = ~std::size_t(0);
+    for (std::size_t k = begin; k < end; ++k) {
+      const std::uint32_t i = slots[k];
+      const double speed2 = visit(i, sum);
+      if (i / kSpeedBlockSlots != block) {
+        if (block != ~std::size_t(0)) block_out[block] = std::max(block_out[block], block_max);
+        block = i / kSpeedBlockSlots, block_max = 0.0;
+      }
+      block_max = std::max(block_max, speed2);
+      piece_max = std::max(piece_max, speed2);
+    }
+    if (block != ~std::size_t(0)) block_out[block] = std::max(block_out[block], block_max);
+    if (piece_sums) (*piece_sums)[piece] = sum;
+    return piece_max;
+  };
+  double max_speed2 = 0.0;
+  if (pieces <= 1 || !worth_threads(n)) {
+    for (std::size_t piece = 0; piece < pieces; ++piece)
+      max_speed2 = std::max(
+          max_speed2, run_piece(piece * piece_entries, std::min(n, (piece + 1) * piece_entries),
+                                piece, block_max_speed2.data()));
+    return max_speed2;
+  }
+  const std::size_t blocks = block_max_speed2.size();
+  const std::size_t stride = (blocks + 1 + 7) / 8 * 8;  // whole cache lines per piece
+  // (Named here, on the calling thread: inside the loop a thread_local would be the worker's.)
+  static thread_local std::vector<double> calling_thread_piece_maxima;
+  std::vector<double>& piece_block = calling_thread_piece_maxima;
+  piece_block.assign(pieces * stride, 0.0);  // per piece: its blocks' maxima, then its own
+  parallel_ranges(n, piece_entries, [&](std::size_t begin, std::size_t end, std::size_t piece) {
+    double* mine = piece_block.data() + piece * stride;
+    mine[blocks] = run_piece(begin, end, piece, mine);
+  });
+  for (std::size_t piece = 0; piece < pieces; ++piece) {
+    const double* mine = piece_block.data() + piece * stride;
+    for (std::size_t b = 0; b < blocks; ++b)
+      block_max_speed2[b] = std::max(block_max_speed2[b], mine[b]);
+    max_speed2 = std::max(max_speed2, mine[blocks]);
+  }
+  return max_speed2;
+}
+
 // Kick-drift of the listed slots by `dt`; returns the largest |v½|² and raises
 // block_max_speed2[slot / kSpeedBlockSlots] to each particle's |v½|². Each particle's next force
-// pass starts from next_load(i) (gravity, plus what the caller keeps applied).
+// pass starts from next_load(i, sum) (gravity, plus what the caller keeps applied; `sum` and
+// `piece_sums` as in for_listed_speeds, for a caller that adds something up).
 template <class NextLoad>
 double kick_drift_listed(ParticleStore& p, const std::vector<std::uint32_t>& slots, double dt,
-                         std::vector<double>& block_max_speed2, NextLoad&& next_load) {
+                         std::vector<double>& block_max_speed2, NextLoad&& next_load,
+                         std::vector<Vec3>* piece_sums = nullptr) {
   const double half = 0.5 * dt;
   Vec3* x = p.position_m.data();
   Motion* motion = p.motion.data();
   Load* load = p.load.data();
   Load* previous_load = p.previous_load.data();
-  double max_speed2 = 0.0;
-  for (const std::uint32_t i : slots) {
+  auto kick_drift_one = [&](std::uint32_t i, Vec3& sum) {
     const Motion m = motion[i];
     const Load l = load[i];
     previous_load[i] = l;
-    load[i] = next_load(i);
+    load[i] = next_load(i, sum);
     const Vec3 dv = l.force_n * (half * p.inv_mass_per_kg[i]);
     const Vec3 v_half = m.velocity_m_per_s + dv;
     x[i] += v_half * dt;
     motion[i] = {v_half + dv,
                  m.angular_velocity_rad_per_s + l.torque_n_m * (dt * p.inv_inertia_per_kg_m2[i])};
-    const double speed2 = norm2(v_half);
-    double& block = block_max_speed2[i / kSpeedBlockSlots];
-    block = std::max(block, speed2);
-    max_speed2 = std::max(max_speed2, speed2);
-  }
-  return max_speed2;
+    return norm2(v_half);
+  };
+  return for_listed_speeds(slots, block_max_speed2, kick_drift_one, piece_sums);
 }
 
 // The same, each next force pass starting from gravity, m·g.
@@ -155,7 +234,7 @@ inline double kick_drift_listed(ParticleStore& p, const std::vector<std::uint32_
                                 double dt, const Vec3& gravity,
                                 std::vector<double>& block_max_speed2) {
   const double* mass = p.mass_kg.data();
-  return kick_drift_listed(p, slots, dt, block_max_speed2, [&](std::uint32_t i) {
+  return kick_drift_listed(p, slots, dt, block_max_speed2, [&](std::uint32_t i, Vec3&) {
     return Load{gravity * mass[i], {}};
   });
 }
@@ -166,12 +245,17 @@ inline void kick_listed(ParticleStore& p, const std::vector<std::uint32_t>& slot
   Motion* motion = p.motion.data();
   const Load* load = p.load.data();
   const Load* previous_load = p.previous_load.data();
-  for (const std::uint32_t i : slots) {
-    const Load l = load[i], l_old = previous_load[i];
-    motion[i].velocity_m_per_s += (l.force_n - l_old.force_n) * (half * p.inv_mass_per_kg[i]);
-    motion[i].angular_velocity_rad_per_s +=
-        (l.torque_n_m - l_old.torque_n_m) * (half * p.inv_inertia_per_kg_m2[i]);
-  }
+  parallel_ranges(slots.size(), block_items(kListPieceEntries),
+                  [&](std::size_t begin, std::size_t end, std::size_t) {
+                    for (std::size_t k = begin; k < end; ++k) {
+                      const std::uint32_t i = slots[k];
+                      const Load l = load[i], l_old = previous_load[i];
+                      motion[i].velocity_m_per_s +=
+                          (l.force_n - l_old.force_n) * (half * p.inv_mass_per_kg[i]);
+                      motion[i].angular_velocity_rad_per_s +=
+                          (l.torque_n_m - l_old.torque_n_m) * (half * p.inv_inertia_per_kg_m2[i]);
+                    }
+                  });
 }
 
 // After a kick-drift pass: keeps the current forces as the previous ones, and starts from the

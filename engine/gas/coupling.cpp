@@ -7,6 +7,7 @@
 
 #include "gas/drag.h"
 #include "gas/gas_stencil.h"
+#include "parallel/thread_team.h"
 
 namespace millsim {
 namespace {
@@ -204,6 +205,24 @@ std::uint32_t DemCellFluidTable::find_or_fill(std::uint64_t key, long i, long j,
   last_key_ = key, last_state_ = std::uint32_t(states_.size() - 1);
   if (2 * states_.size() > keys_.size()) grow();
   return last_state_;
+}
+
+const FluidCellState* DemCellFluidTable::find(const Vec3& x, FluidCellRef& hint,
+                                              FluidCellRef& last) const {
+  long i, j, k;
+  const std::uint64_t key = key_of(x, i, j, k);
+  if (key == hint.key && hint.generation == generation_) return &states_[hint.state];
+  if (!(key == last.key && last.generation == generation_)) {
+    const std::size_t mask = keys_.size() - 1;
+    std::size_t h = mix(key) & mask;
+    while (keys_[h] != key) {
+      if (!keys_[h]) return nullptr;
+      h = (h + 1) & mask;
+    }
+    last = {key, slot_state_[h], generation_};
+  }
+  hint = last;
+  return &states_[last.state];
 }
 
 const FluidCellState& DemCellFluidTable::at(const Vec3& x, const GasView& gas,
@@ -519,6 +538,10 @@ std::optional<std::string> GasCoupling::spin_up(std::uint64_t max_steps) {
 // Drag, lift and pressure-gradient force of the particles in slots slot_of(0 .. count−1), added to
 // their loads; with `accumulate` each exchange's impulse over `dt` is kept for the gas. The
 // settings are read once, before the loop: the table lookup is a call that could change them.
+// Blocks of particles run on the engine's threads (parallel/thread_team.h) against the DEM-cell
+// table as it stands; a particle whose cell is not filled yet waits. Then the waiting particles'
+// cells are filled in slot order (the order one thread would have filled them in) and their
+// blocks finish. Each block keeps its own counts and impulse sum; they are combined in block order.
 template <class SlotOf>
 void GasCoupling::fluid_pass(ParticleStore& p, std::size_t count, SlotOf&& slot_of, double dt,
                              bool accumulate) {
@@ -528,14 +551,8 @@ void GasCoupling::fluid_pass(ParticleStore& p, std::size_t count, SlotOf&& slot_
   const bool keep = p.has_multi_rate_state;  // the kept force of multi-rate stepping
   const bool slip_correction = config_.slip_correction;
   const GasView gas = view();
-  std::uint64_t evaluations = 0, past_mach = 0;
-  double max_mach = stats_.max_slip_mach, max_knudsen = stats_.max_knudsen;
-  Vec3 impulse_sum;
-  for (std::size_t k = 0; k < count; ++k) {
-    const std::size_t i = slot_of(k);
-    Vec3 x = p.position_m[i];
-    box_.wrap(x);
-    const FluidCellState& st = table_.at(x, gas, lift, p.fluid_cell[i]);
+
+  auto apply = [&](std::size_t i, const FluidCellState& st, FluidPassTally& tally) {
     const Vec3 slip = st.velocity_m_per_s - p.motion[i].velocity_m_per_s;
     const double d = 2.0 * p.radius_m[i];
     bool recompute = p.fluid_coefficient_kg_per_s[i] < 0.0 || threshold <= 0.0;
@@ -557,9 +574,9 @@ void GasCoupling::fluid_pass(ParticleStore& p, std::size_t count, SlotOf&& slot_
           slip_correction ? 1.0 / cunningham_correction(d, st.mean_free_path_m) : 1.0;
       if (st.sound_speed_m_per_s > 0.0) {
         const double mach = in.slip_speed_m_per_s / st.sound_speed_m_per_s;
-        max_mach = std::max(max_mach, mach);
-        max_knudsen = std::max(max_knudsen, 2.0 * st.mean_free_path_m / d);
-        past_mach += mach > 0.3 ? 1 : 0;
+        tally.max_mach = std::max(tally.max_mach, mach);
+        tally.max_knudsen = std::max(tally.max_knudsen, 2.0 * st.mean_free_path_m / d);
+        tally.past_mach += mach > 0.3 ? 1 : 0;
       }
       const double beta = drag_coefficient_kg_per_s(config_.drag, in) * slip_factor;
       // β's slope in the squared slip speed, so the cached β follows the slip to first order
@@ -579,7 +596,7 @@ void GasCoupling::fluid_pass(ParticleStore& p, std::size_t count, SlotOf&& slot_
       p.fluid_cached_slip_m_per_s[i] = slip;
       p.fluid_cached_fraction[i] = st.volume_fraction;
       p.fluid_cached_force_n[i] = store_force ? slip * beta + lift_force : lift_force;
-      ++evaluations;
+      ++tally.evaluations;
     }
     const double beta_now =
         p.fluid_coefficient_kg_per_s[i] +
@@ -592,15 +609,64 @@ void GasCoupling::fluid_pass(ParticleStore& p, std::size_t count, SlotOf&& slot_
     if (keep) p.fluid_held[i] = {force, exchange};
     if (accumulate) {
       p.fluid_impulse_n_s[i] += exchange * dt;
-      impulse_sum += exchange * dt;
+      tally.impulse_n_s += exchange * dt;
     }
+  };
+  auto wrapped_position = [&](std::size_t i) {
+    Vec3 x = p.position_m[i];
+    box_.wrap(x);
+    return x;
+  };
+
+  const std::size_t block_size = block_items(4096);
+  const std::size_t blocks = (count + block_size - 1) / block_size;
+  pass_tally_.assign(blocks, {});
+  pass_missed_.resize(count);
+  const FluidPassTally start{0, 0, stats_.max_slip_mach, stats_.max_knudsen, {}, 0};
+  parallel_ranges(count, block_size, [&](std::size_t begin, std::size_t end, std::size_t block) {
+    FluidPassTally tally = start;
+    FluidCellRef last;
+    for (std::size_t k = begin; k < end; ++k) {
+      const std::size_t i = slot_of(k);
+      const FluidCellState* st = table_.find(wrapped_position(i), p.fluid_cell[i], last);
+      if (st)
+        apply(i, *st, tally);
+      else
+        pass_missed_[begin + tally.missed++] = std::uint32_t(k);
+    }
+    pass_tally_[block] = tally;
+  });
+  bool any_missed = false;
+  for (std::size_t block = 0; block < blocks; ++block) {
+    const std::uint32_t* missed = pass_missed_.data() + block * block_size;
+    for (std::size_t m = 0; m < pass_tally_[block].missed; ++m) {
+      const std::size_t i = slot_of(missed[m]);
+      table_.at(wrapped_position(i), gas, lift, p.fluid_cell[i]);
+      any_missed = true;
+    }
+  }
+  auto finish_block = [&](std::size_t block) {
+    const std::uint32_t* missed = pass_missed_.data() + block * block_size;
+    for (std::size_t m = 0; m < pass_tally_[block].missed; ++m) {
+      const std::size_t i = slot_of(missed[m]);
+      apply(i, table_.state(p.fluid_cell[i].state), pass_tally_[block]);
+    }
+  };
+  if (any_missed && worth_threads(count))
+    parallel_blocks(blocks, finish_block);
+  else if (any_missed)
+    for (std::size_t block = 0; block < blocks; ++block) finish_block(block);
+
+  std::uint64_t evaluations = 0;
+  for (const FluidPassTally& t : pass_tally_) {
+    evaluations += t.evaluations;
+    stats_.drag_evaluations_past_mach_0_3 += t.past_mach;
+    stats_.max_slip_mach = std::max(stats_.max_slip_mach, t.max_mach);
+    stats_.max_knudsen = std::max(stats_.max_knudsen, t.max_knudsen);
+    stats_.particle_impulse_n_s += t.impulse_n_s;
   }
   stats_.drag_evaluations += evaluations;
   stats_.drag_reuses += count - evaluations;
-  stats_.max_slip_mach = max_mach;
-  stats_.max_knudsen = max_knudsen;
-  stats_.drag_evaluations_past_mach_0_3 += past_mach;
-  stats_.particle_impulse_n_s += impulse_sum;
 }
 
 void GasCoupling::add_held_impulse(const Vec3& impulse_n_s) {

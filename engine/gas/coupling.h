@@ -75,6 +75,11 @@ class DemCellFluidTable {
   // table has not been cleared since, no hash lookup; the hint is updated otherwise.
   const FluidCellState& at(const Vec3& x, const GasView& gas, bool with_vorticity,
                            FluidCellRef& hint);
+  // The same without filling: null when the cell has not been filled since clear(). A caller
+  // may call it from several threads at once while nothing fills the table; `last` is the
+  // caller's own memory of the cell it found last (the next particle is often in it too).
+  const FluidCellState* find(const Vec3& x, FluidCellRef& hint, FluidCellRef& last) const;
+  const FluidCellState& state(std::uint32_t index) const { return states_[index]; }
   std::size_t size() const { return states_.size(); }
   std::uint64_t fills() const { return fills_; }
   const Vec3& cell_m() const { return cell_m_; }
@@ -205,6 +210,16 @@ class GasCoupling {
   std::optional<GasSolver> incompressible_;
   std::optional<CompressibleSolver> compressible_;
   DemCellFluidTable table_;
+  // Scratch of fluid_pass, per block of particles: its counts and sums (combined in block order,
+  // so the same for any thread count), and the particles whose DEM cell it found unfilled.
+  struct FluidPassTally {
+    std::uint64_t evaluations = 0, past_mach = 0;
+    double max_mach = 0.0, max_knudsen = 0.0;
+    Vec3 impulse_n_s;
+    std::size_t missed = 0;
+  };
+  std::vector<FluidPassTally> pass_tally_;
+  std::vector<std::uint32_t> pass_missed_;
   std::int64_t next_cfd_step_ = 0;
   std::array<std::vector<double>, 3> drag_fraction_;  // Σ B ε_read per face (scratch of deposit)
   // Per particle slot, the ε its drag was read at, from deposit() to return_drag_response().

@@ -104,11 +104,29 @@ std::string unit_of(std::string_view name) {
   return "1";
 }
 
+// Creation properties of a dataset or group (`property_class`: H5P_DATASET_CREATE or
+// H5P_GROUP_CREATE) without HDF5's modification times, so that a run writes the same bytes
+// whenever and on however many threads it runs. Closed by the caller.
+hid_t untimed_creation(hid_t property_class) {
+  const hid_t properties = H5Pcreate(property_class);
+  H5Pset_obj_track_times(properties, false);
+  return properties;
+}
+
+// H5Gcreate2 without modification times.
+hid_t create_group(hid_t parent, const char* name) {
+  const hid_t properties = untimed_creation(H5P_GROUP_CREATE);
+  const hid_t group = H5Gcreate2(parent, name, H5P_DEFAULT, properties, H5P_DEFAULT);
+  H5Pclose(properties);
+  return group;
+}
+
 void write_dataset(hid_t group, const char* name, hid_t mem_type, hid_t file_type, int rank,
                    const hsize_t* dims, const void* data, const std::filesystem::path& path) {
   const hid_t space = H5Screate_simple(rank, dims, nullptr);
-  const hid_t set =
-      H5Dcreate2(group, name, file_type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  const hid_t properties = untimed_creation(H5P_DATASET_CREATE);
+  const hid_t set = H5Dcreate2(group, name, file_type, space, H5P_DEFAULT, properties, H5P_DEFAULT);
+  H5Pclose(properties);
   if (set < 0) {
     H5Sclose(space);
     throw IoError(std::string("HDF5: cannot create dataset ") + name + " in " + path.string());
@@ -136,7 +154,7 @@ H5Writer::H5Writer(const std::filesystem::path& path) : path_(path) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors become IoError, not stderr noise
   file_ = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
   if (file_ < 0) throw IoError("cannot create " + path.string());
-  const hid_t g = H5Gcreate2(file_, "/snapshots", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  const hid_t g = create_group(file_, "/snapshots");
   if (g < 0) throw IoError("HDF5: cannot create /snapshots in " + path.string());
   H5Gclose(g);
 }
@@ -150,7 +168,7 @@ void H5Writer::write_root_attribute(const std::string& name, const std::string& 
 }
 
 void H5Writer::write_meta(const std::vector<std::pair<std::string, std::string>>& fields) {
-  const hid_t g = H5Gcreate2(file_, "/meta", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  const hid_t g = create_group(file_, "/meta");
   if (g < 0) throw IoError("HDF5: cannot create /meta in " + path_.string());
   try {
     for (const auto& [name, value] : fields) {
@@ -169,7 +187,7 @@ void H5Writer::write_meta(const std::vector<std::pair<std::string, std::string>>
 void H5Writer::write_snapshot(std::int64_t step, double time_s, const ParticleStore& p) {
   char name[64];
   std::snprintf(name, sizeof name, "/snapshots/s%09lld", static_cast<long long>(step));
-  const hid_t g = H5Gcreate2(file_, name, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  const hid_t g = create_group(file_, name);
   if (g < 0) throw IoError(std::string("HDF5: cannot create ") + name + " in " + path_.string());
   const std::size_t n = p.size();
   const hsize_t dims3[2] = {n, 3}, dims1[1] = {n};
@@ -253,7 +271,7 @@ void H5Writer::write_gas_snapshot(const GasFieldSnapshot& gas) {
 
 void H5Writer::write_geometry(const SurfaceMesh& mesh) {
   if (mesh.triangles.empty()) return;
-  const hid_t g = H5Gcreate2(file_, "/geometry", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  const hid_t g = create_group(file_, "/geometry");
   if (g < 0) throw IoError("HDF5: cannot create /geometry in " + path_.string());
   std::vector<std::int64_t> triangles;
   for (const auto& t : mesh.triangles) triangles.insert(triangles.end(), t.begin(), t.end());
@@ -337,7 +355,7 @@ void H5Writer::write_timeseries(const std::vector<std::string>& names,
 
 void H5Writer::write_columns(const std::string& group, const std::vector<std::string>& names,
                              const std::vector<std::vector<double>>& columns) {
-  const hid_t g = H5Gcreate2(file_, group.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  const hid_t g = create_group(file_, group.c_str());
   if (g < 0) throw IoError("HDF5: cannot create " + group + " in " + path_.string());
   try {
     for (std::size_t c = 0; c < names.size(); ++c) {
@@ -363,7 +381,7 @@ void H5Writer::write_count_array(const std::string& group, const std::string& na
                                  const std::vector<std::uint64_t>& counts) {
   const hid_t g = H5Lexists(file_, group.c_str(), H5P_DEFAULT) > 0
                       ? H5Gopen2(file_, group.c_str(), H5P_DEFAULT)
-                      : H5Gcreate2(file_, group.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+                      : create_group(file_, group.c_str());
   if (g < 0) throw IoError("HDF5: cannot create " + group + " in " + path_.string());
   std::vector<hsize_t> extent(dims.begin(), dims.end());
   try {

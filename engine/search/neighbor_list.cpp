@@ -1,5 +1,7 @@
 #include "search/neighbor_list.h"
 
+#include "parallel/thread_team.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -429,11 +431,26 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
       }
     }
 
+  // Wall candidates by slot, then wall: blocks of slots on the engine's threads, joined in
+  // block order (the list one thread makes).
+  const std::size_t wall_block_slots = block_items(4096);
+  const std::size_t wall_blocks = (p.size() + wall_block_slots - 1) / wall_block_slots;
+  if (wall_block_scratch_.size() < wall_blocks) wall_block_scratch_.resize(wall_blocks);
+  parallel_ranges(
+      p.size(), wall_block_slots, [&](std::size_t begin, std::size_t end, std::size_t b) {
+        std::vector<std::uint32_t>& found = wall_block_scratch_[b];  // slot, wall, slot, wall, ...
+        found.clear();
+        if (walls.empty()) return;
+        for (std::size_t i = begin; i < end; ++i)
+          for (std::size_t w = 0; w < walls.size(); ++w)
+            if (wall_gap_m(walls[w], p.position_m[i]) < p.radius_m[i] + settings_.skin_m)
+              found.push_back(std::uint32_t(i)), found.push_back(std::uint32_t(w));
+      });
   wall_particle.clear(), wall_index.clear();
-  for (std::size_t i = 0; i < p.size(); ++i)
-    for (std::size_t w = 0; w < walls.size(); ++w)
-      if (wall_gap_m(walls[w], p.position_m[i]) < p.radius_m[i] + settings_.skin_m)
-        wall_particle.push_back(std::uint32_t(i)), wall_index.push_back(std::uint32_t(w));
+  for (std::size_t b = 0; b < wall_blocks; ++b)
+    for (std::size_t e = 0; e < wall_block_scratch_[b].size(); e += 2)
+      wall_particle.push_back(wall_block_scratch_[b][e]),
+          wall_index.push_back(wall_block_scratch_[b][e + 1]);
   wall_history_m.assign(wall_particle.size(), Vec3{});
   wall_touching.assign(wall_particle.size(), kPairApart);
   if (!old_walls.empty() || !newborn_.empty())

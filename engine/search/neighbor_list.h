@@ -212,8 +212,9 @@ class NeighborList {
   std::vector<std::uint32_t> order_;
   PairList sorted_pairs_;
   std::vector<std::uint8_t> image_scratch_, band_scratch_;
-  static constexpr std::uint8_t kOverlappingBit = 0x80;  // in band_scratch_
-  std::vector<std::uint32_t> overlapping_;               // candidates overlapping at the rebuild
+  std::vector<std::vector<std::uint32_t>> wall_block_scratch_;  // per slot block, while listing
+  static constexpr std::uint8_t kOverlappingBit = 0x80;         // in band_scratch_
+  std::vector<std::uint32_t> overlapping_;  // candidates overlapping at the rebuild
   static constexpr int kGapBands = 4;
   std::size_t band_end_[kGapBands] = {0, 0, 0, 0};
   int active_bands_ = kGapBands;  // bands [0, active_bands_) are active in every block

@@ -41,14 +41,12 @@ std::int64_t max_wait_steps(double dt, double relaxation_s) {
 void bound_waiting_speeds(const ParticleStore& p, double dt, MultiRate& m) {
   const double credit_s = 0.5 * double(m.max_wait_steps) * dt;
   m.waiting_block_speed2.assign((p.size() + kSpeedBlockSlots - 1) / kSpeedBlockSlots, 0.0);
-  m.waiting_max_speed2 = 0.0;
-  for (const std::uint32_t i : m.waiting) {
-    const double speed = norm(p.motion[i].velocity_m_per_s) +
-                         credit_s * norm(p.load[i].force_n) * p.inv_mass_per_kg[i];
-    double& block = m.waiting_block_speed2[i / kSpeedBlockSlots];
-    block = std::max(block, speed * speed);
-    m.waiting_max_speed2 = std::max(m.waiting_max_speed2, speed * speed);
-  }
+  m.waiting_max_speed2 =
+      for_listed_speeds(m.waiting, m.waiting_block_speed2, [&](std::uint32_t i, Vec3&) {
+        const double speed = norm(p.motion[i].velocity_m_per_s) +
+                             credit_s * norm(p.load[i].force_n) * p.inv_mass_per_kg[i];
+        return speed * speed;
+      });
   m.speeds_valid = true;
 }
 
@@ -58,13 +56,21 @@ Vec3 kick_drift_keeping_fluid(ParticleStore& p, const std::vector<std::uint32_t>
   const double* mass = p.mass_kg.data();
   const HeldFluidForce* held = p.fluid_held.data();
   Vec3* impulse = p.fluid_impulse_n_s.data();
+  // The impulse booked for the gas, summed per piece of the list and then in piece order: the
+  // same sum on any thread count.
+  static thread_local std::vector<Vec3> calling_thread_piece_sums;
+  std::vector<Vec3>& booked_per_piece = calling_thread_piece_sums;
+  max_speed2 = kick_drift_listed(
+      p, slots, dt, block_max_speed2,
+      [&](std::uint32_t i, Vec3& booked_here) {
+        const Vec3 step_impulse = held[i].exchange_n * dt;
+        impulse[i] += step_impulse;
+        booked_here += step_impulse;
+        return Load{gravity * mass[i] + held[i].force_n, {}};
+      },
+      &booked_per_piece);
   Vec3 booked;
-  max_speed2 = kick_drift_listed(p, slots, dt, block_max_speed2, [&](std::uint32_t i) {
-    const Vec3 step_impulse = held[i].exchange_n * dt;
-    impulse[i] += step_impulse;
-    booked += step_impulse;
-    return Load{gravity * mass[i] + held[i].force_n, {}};
-  });
+  for (const Vec3& b : booked_per_piece) booked += b;
   return booked;
 }
 

@@ -14,6 +14,7 @@
 #include "io/h5_writer.h"
 #include "io/json_text.h"
 #include "io/text_file.h"
+#include "parallel/thread_team.h"
 #include "process/classification.h"
 #include "process/impact_spectrum_plot.h"
 #include "sim/run_eta.h"
@@ -984,6 +985,7 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
   }
   s["simulated_time_s"] = sim.time_s();
   s["wall_time_s"] = wall_s;  // with the gas spin-up, when this attempt did it
+  s["threads"] = thread_count();
   if (spin_up) s["spin_up"] = spin_up_json(*spin_up, sim);
   if (resumed || earlier_wall_s > 0.0) s["wall_time_total_s"] = earlier_wall_s + wall_s;
   if (resumed) {

@@ -7,6 +7,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstring>
 #include <fstream>
@@ -58,6 +59,8 @@ ExecHandle LocalExecutor::start(const RunRecord& run, double now) {
   }
   arg_text.push_back("--spin-up-cache");
   arg_text.push_back(spin_up_cache_dir(run).string());
+  arg_text.push_back("--threads");
+  arg_text.push_back(std::to_string(std::max(1, run.threads)));
   std::vector<char*> argv;
   for (std::string& a : arg_text) argv.push_back(a.data());
   argv.push_back(nullptr);

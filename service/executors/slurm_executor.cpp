@@ -59,7 +59,8 @@ namespace {
 std::string requeue_script(const std::filesystem::path& binary, const RunRecord& run) {
   const std::string root =
       run.files_root.empty() ? "" : " --files-root " + shell_quoted(run.files_root);
-  const std::string cache = " --spin-up-cache " + shell_quoted(spin_up_cache_dir(run).string());
+  const std::string cache = " --spin-up-cache " + shell_quoted(spin_up_cache_dir(run).string()) +
+                            " --threads " + std::to_string(std::max(1, run.threads));
   // The summary on stdout is result.json's copy: kept out of log.txt (the job's output), as
   // under the local executor, so the log ends with the run's thermo lines.
   return shell_quoted(binary.string()) + " run scene.json --out . --quiet --resume" + root + cache +
@@ -95,7 +96,8 @@ ExecHandle SlurmExecutor::start(const RunRecord& run, double now) {
   const std::string command =
       "sbatch --parsable --job-name=" + shell_quoted("millsim-" + run.id) +
       " --chdir=" + shell_quoted(h.out_dir.string()) +
-      " --output=log.txt --open-mode=append --ntasks=1 --time=" + std::to_string(minutes) +
+      " --output=log.txt --open-mode=append --ntasks=1 --cpus-per-task=" +
+      std::to_string(std::max(1, run.threads)) + " --time=" + std::to_string(minutes) +
       " --mem=" + std::to_string(memory_mb) + " --requeue --signal=B:USR1@" +
       std::to_string(lead_s) + " " + extra_args_ + study_options(run.slurm) +
       " --wrap=" + shell_quoted(job);

@@ -43,6 +43,7 @@ RunRecord record_from(const json& run) {
   r.out_dir = run.at("out_dir").get<std::string>();
   r.wall_limit_s = run.at("wall_limit_s").get<double>();
   r.memory_limit_mb = run.at("memory_limit_mb").get<double>();
+  r.threads = run.value("threads", 1);
   if (run.contains("slurm")) r.slurm = SlurmOptions::from_json(run["slurm"]);
   if (run.contains("files_root") && run["files_root"].is_string())
     r.files_root = run["files_root"].get<std::string>();

@@ -5,6 +5,7 @@
 #include "core/errors.h"
 #include "executors/executor.h"
 #include "http/handlers.h"
+#include "parallel/thread_team.h"
 #include "sim/run.h"
 #include "studies/results.h"
 #include "studies/study.h"
@@ -122,6 +123,13 @@ void post_study(ApiState& api, const Request& req, Response& res) {
                "; nothing was queued"),
         details);
   }
+  if (const std::optional<InputError> p = thread_budget_problem(
+          study.limits.threads_per_run, api.config.workers, usable_core_count()))
+    return send_error(
+        res, 400, "invalid_study",
+        "1 problem(s) in the study: its runs' threads do not fit this server's "
+        "cores; nothing was queued",
+        ordered_json::array({{{"path", p->path}, {"value", p->value}, {"allowed", p->allowed}}}));
   std::optional<std::string> key;
   if (req.has_header("Idempotency-Key")) key = req.get_header_value("Idempotency-Key");
   std::lock_guard<std::mutex> lock(api.store_mutex);

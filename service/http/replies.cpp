@@ -97,7 +97,8 @@ ordered_json run_json(const RunRecord& r, bool with_scene) {
                     {"error", r.error},
                     {"wall_time_s", r.wall_time_s},
                     {"wall_limit_s", r.wall_limit_s},
-                    {"memory_limit_mb", r.memory_limit_mb}};
+                    {"memory_limit_mb", r.memory_limit_mb},
+                    {"threads", r.threads}};
   if (with_scene) {
     j["scene"] = json::parse(r.scene);
     j["out_dir"] = r.out_dir;

@@ -76,11 +76,14 @@ constexpr const char* kSchemaV3 =
 // Version 4: the simulated time each attempt resumed from (a checkpoint), NULL from the start.
 constexpr const char* kSchemaV4 = "ALTER TABLE attempts ADD COLUMN resumed_from_s REAL;";
 
+// Version 5: each run's thread count (the study's limits.threads_per_run).
+constexpr const char* kSchemaV5 = "ALTER TABLE runs ADD COLUMN threads INTEGER NOT NULL DEFAULT 1;";
+
 constexpr const char* kRunColumns =
     "id, study_id, idx, params, seed, scene, is_reference, state, attempts, max_attempts, "
     "fencing_token, lease_owner, lease_expires_at, created_at, started_at, finished_at, "
     "exit_code, error, wall_time_s, result, out_dir, wall_limit_s, memory_limit_mb, "
-    "executor_options";
+    "executor_options, threads";
 
 RunRecord read_run(const Statement& s) {
   RunRecord r;
@@ -108,6 +111,7 @@ RunRecord read_run(const Statement& s) {
   r.wall_limit_s = s.real(21);
   r.memory_limit_mb = s.real(22);
   r.slurm = SlurmOptions::from_json(nlohmann::json::parse(s.text(23), nullptr, false));
+  r.threads = int(s.integer(24));
   return r;
 }
 
@@ -146,6 +150,7 @@ void Store::migrate() {
     if (version < 2) db_.exec(kSchemaV2);
     if (version < 3) db_.exec(kSchemaV3);
     if (version < 4) db_.exec(kSchemaV4);
+    if (version < 5) db_.exec(kSchemaV5);
     db_.exec(("PRAGMA user_version = " + std::to_string(kSchemaVersion)).c_str());
   });
 }
@@ -175,14 +180,15 @@ Store::Submitted Store::submit(const Study& study, const std::optional<std::stri
       const std::string run_id = study_id + "-r" + std::to_string(r.index);
       Statement run = db_.prepare(
           "INSERT INTO runs (id, study_id, idx, params, seed, scene, is_reference, state, "
-          "max_attempts, created_at, out_dir, wall_limit_s, memory_limit_mb, executor_options) "
-          "VALUES (?, ?, ?, ?, ?, ?, ?, 'QUEUED', ?, ?, ?, ?, ?, ?)");
+          "max_attempts, created_at, out_dir, wall_limit_s, memory_limit_mb, executor_options, "
+          "threads) VALUES (?, ?, ?, ?, ?, ?, ?, 'QUEUED', ?, ?, ?, ?, ?, ?, ?)");
       run.bind(1, run_id).bind(2, study_id).bind(3, std::int64_t(r.index));
       run.bind(4, r.params.dump()).bind(5, std::int64_t(r.seed)).bind(6, r.scene.dump());
       run.bind(7, std::int64_t(r.is_reference)).bind(8, std::int64_t(study.limits.max_attempts));
       run.bind(9, now).bind(10, (out_root / study_id / run_id).string());
       run.bind(11, study.limits.wall_time_s).bind(12, study.limits.memory_mb);
       run.bind(13, study.slurm.to_json().dump());
+      run.bind(14, std::int64_t(study.limits.threads_per_run));
       run.run();
     }
     return {study_id, true};

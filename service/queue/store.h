@@ -20,7 +20,7 @@
 
 namespace millsim {
 
-inline constexpr int kSchemaVersion = 4;
+inline constexpr int kSchemaVersion = 5;
 
 struct RunRecord {
   std::string id;
@@ -43,6 +43,7 @@ struct RunRecord {
   std::string result;  // result.json text, when complete
   std::string out_dir;
   double wall_limit_s = 0.0, memory_limit_mb = 0.0;
+  int threads = 1;     // `millsim run --threads` (the study's limits.threads_per_run)
   SlurmOptions slurm;  // the study's batch-job options (Slurm executor)
   // Where the run's file sources may lead: the server's scenes root, sent with a claim and
   // passed to `millsim run --files-root` (not stored; empty for a local study).

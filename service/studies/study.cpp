@@ -347,6 +347,7 @@ Study expand_study(const json& spec, const std::filesystem::path& base_dir, int 
     study.limits.wall_time_s = r.number("wall_time_s", 3600.0, NumberRange::open_closed(0, 1e7));
     study.limits.memory_mb = r.number("memory_mb", 4096.0, NumberRange::closed(16, 1e7));
     study.limits.max_attempts = int(r.integer("max_attempts", 3, 1, 100));
+    study.limits.threads_per_run = int(r.integer("threads_per_run", 1, 1, 1024));
     r.finish();
   }
   if (const json* sl = top.child("slurm")) parse_slurm(*sl, study.slurm, errors);
@@ -494,6 +495,16 @@ Study load_study(const std::filesystem::path& path, int max_runs) {
   if (!std::filesystem::is_regular_file(path, ec))
     throw InputErrorList({{path.string(), "", "no such study file"}});
   return expand_study(read_json_file(path, path.string()), path.parent_path(), max_runs);
+}
+
+std::optional<InputError> thread_budget_problem(int threads_per_run, int workers, int cores) {
+  if (workers <= 0 || std::int64_t(threads_per_run) * workers <= cores) return std::nullopt;
+  return InputError{"/limits/threads_per_run", std::to_string(threads_per_run),
+                    concat("at most ", std::max(1, cores / workers), ": ", workers,
+                           " local worker(s) would start ", std::int64_t(threads_per_run) * workers,
+                           " threads on the ", cores,
+                           " core(s) this machine allows (its affinity mask); ask for fewer "
+                           "threads per run or run with fewer workers")};
 }
 
 }  // namespace millsim

@@ -19,7 +19,8 @@ namespace millsim {
 struct StudyLimits {
   double wall_time_s = 3600.0;
   double memory_mb = 4096.0;
-  int max_attempts = 3;  // system errors are retried up to this many attempts in all
+  int max_attempts = 3;     // system errors are retried up to this many attempts in all
+  int threads_per_run = 1;  // `millsim run --threads` of each run (Slurm: --cpus-per-task)
 };
 
 // Slurm options of a study's batch jobs (`slurm` key): each becomes one sbatch option, after the
@@ -67,6 +68,10 @@ struct Study {
 Study expand_study(const nlohmann::json& spec, const std::filesystem::path& base_dir, int max_runs,
                    const std::filesystem::path* files_root = nullptr,
                    std::size_t max_stored_bytes = 0);
+
+// The problem with running a study's runs at `threads_per_run` threads each on `workers` local
+// workers when the machine's affinity mask allows `cores` (more threads than cores), or nullopt.
+std::optional<InputError> thread_budget_problem(int threads_per_run, int workers, int cores);
 
 // A study whose runs' scenes would exceed the server's --max-study-bytes.
 class StudyTooLarge : public std::runtime_error {

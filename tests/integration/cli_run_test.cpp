@@ -14,6 +14,7 @@
 #include <sstream>
 #include <thread>
 
+#include "parallel/thread_team.h"
 #include "support/process.h"
 #include "support/scenes.h"
 
@@ -442,6 +443,51 @@ TEST(CliRun, RunFilesDescribeThemselves) {
   EXPECT_EQ(column(file, "/psd/dust_count").first, H5T_FLOAT);
   EXPECT_EQ(column(file, "/timeseries/time_s").first, H5T_FLOAT);
   H5Fclose(file);
+}
+
+// --threads: a count that is not a whole number ≥ 1 is exit 2 with the reason; more than the
+// affinity mask allows is exit 2 with --strict-threads; and the result does not depend on it:
+// run.h5 is the same file, result.json the same apart from its timings and the count itself.
+TEST(CliRun, ThreadCountsAreCheckedAndDoNotChangeTheResult) {
+  test::TempDir dir;
+  std::ifstream in(MILLSIM_SOURCE_DIR "/cases/attrition_target.json");
+  nlohmann::json scene = nlohmann::json::parse(in);
+  scene["time"]["end_s"] = 2e-4;  // breakage starts at about 1e-4 s
+  write_file(dir.path() / "scene.json", scene.dump());
+  for (const char* bad : {"0", "-1", "2x", "''", "99999"}) {
+    const CommandResult r =
+        run_millsim(std::string("run scene.json --out bad --quiet --threads ") + bad, dir.path());
+    EXPECT_EQ(r.exit_code, 2) << bad;
+    EXPECT_NE(r.err.find("--threads"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("whole number of threads"), std::string::npos) << r.err;
+  }
+  const std::string too_many = std::to_string(usable_core_count() + 1);
+  const CommandResult strict = run_millsim(
+      "run scene.json --out bad --quiet --strict-threads --threads " + too_many, dir.path());
+  EXPECT_EQ(strict.exit_code, 2);
+  EXPECT_NE(strict.err.find("affinity mask"), std::string::npos) << strict.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "bad"));
+
+  std::map<std::string, nlohmann::json> summary;
+  for (const std::string& threads : std::vector<std::string>{"1", "2", too_many}) {
+    const CommandResult r = run_millsim(
+        "run scene.json --quiet --out t" + threads + " --threads " + threads, dir.path());
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    summary[threads] = nlohmann::json::parse(r.out);
+    EXPECT_EQ(summary[threads]["threads"], std::stoi(threads));
+    // (Compared as a bool: gtest would print both files on a mismatch.)
+    EXPECT_TRUE(test::read_file(dir.path() / ("t" + threads) / "run.h5") ==
+                test::read_file(dir.path() / "t1" / "run.h5"))
+        << "run.h5 differs at " << threads << " threads";
+  }
+  EXPECT_NE(summary[too_many].dump().size(), 0u);
+  EXPECT_GT(summary["1"]["breakage"]["events"].get<int>(), 0) << "the case must break something";
+  for (auto& [threads, s] : summary)
+    for (const char* timing :
+         {"wall_time_s", "threads", "particle_steps_per_second", "phase_seconds"})
+      s.erase(timing);
+  EXPECT_EQ(summary["2"], summary["1"]);
+  EXPECT_EQ(summary[too_many], summary["1"]);
 }
 
 }  // namespace

@@ -24,6 +24,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "parallel/thread_team.h"
 #include "queue/store.h"
 #include "support/process.h"
 #include "support/scenes.h"
@@ -211,10 +212,32 @@ json slow_study(int runs, double end_s) {
           {"parameters", {{{"path", "materials.0.restitution"}, {"values", values}}}}};
 }
 
+// Each local worker runs one run of at least one thread: no more workers than cores.
+TEST(Service, MoreWorkersThanCoresAreRefused) {
+  test::TempDir dir;
+  const test::CommandResult r = test::run_millsim(
+      "serve --port 0 --db q.db --workers " + std::to_string(usable_core_count() + 1), dir.path());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--workers"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("affinity mask"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "q.db"));
+}
+
 TEST(Service, StudyOverHttpFinishesWithResultsAndPsd) {
   test::TempDir dir;
   ServerProcess server(dir.path(), 2);
   ASSERT_FALSE(server.url().empty()) << "the server did not start";
+  // Runs of as many threads as there are cores, on two workers: more threads than cores.
+  json greedy = attrition_study({1.2e-4});
+  greedy["limits"] = {{"threads_per_run", usable_core_count()}};
+  auto refused = server.post("/v1/studies", greedy.dump(), true);
+  ASSERT_TRUE(refused);
+  EXPECT_EQ(refused->status, 400) << refused->body;
+  EXPECT_NE(refused->body.find("/limits/threads_per_run"), std::string::npos) << refused->body;
+  const auto none_queued = server.get("/v1/studies");
+  ASSERT_TRUE(none_queued);
+  EXPECT_EQ(json::parse(none_queued->body)["studies"].size(), 0u);
+
   auto res = server.post("/v1/studies", attrition_study({1.2e-4, 8e-5, 6e-5}).dump(), true,
                          {{"Idempotency-Key", "k1"}});
   ASSERT_TRUE(res);

@@ -71,17 +71,19 @@ TEST(LocalExecutor, TheEngineGetsTheFilesRootAndNotTheToken) {
   unsetenv("MILLSIM_EXECUTOR_TEST");
   ASSERT_FALSE(got.empty()) << "the engine script did not run";
   EXPECT_NE(got.find("args: run scene.json --out . --quiet --resume --files-root /srv/scenes" +
-                     cache_arg(dir.path()) + "\n"),
+                     cache_arg(dir.path()) + " --threads 1\n"),
             std::string::npos)
       << got;
   EXPECT_EQ(got.find("MILLSIM_TOKEN"), std::string::npos) << got;
   EXPECT_NE(got.find("MILLSIM_EXECUTOR_TEST=kept"), std::string::npos) << got;  // the rest stays
 
-  // A local study (no server, no root): no --files-root.
+  // A local study (no server, no root): no --files-root; its limits.threads_per_run.
   test::TempDir local;
-  const std::string unrooted = what_the_engine_got(local.path(), RunRecord{});
+  RunRecord threaded;
+  threaded.threads = 3;
+  const std::string unrooted = what_the_engine_got(local.path(), threaded);
   EXPECT_NE(unrooted.find("args: run scene.json --out . --quiet --resume" +
-                          cache_arg(local.path()) + "\n"),
+                          cache_arg(local.path()) + " --threads 3\n"),
             std::string::npos)
       << unrooted;
 }

@@ -74,13 +74,15 @@ TEST(Store, VersionOneFilesMigrateAndKeepTheRegressionHistory) {
     Database raw(db);
     raw.exec(
         "DROP TABLE regressions; ALTER TABLE runs DROP COLUMN executor_options; "
-        "ALTER TABLE attempts DROP COLUMN resumed_from_s; PRAGMA user_version = 1;");
+        "ALTER TABLE attempts DROP COLUMN resumed_from_s; ALTER TABLE runs DROP COLUMN threads; "
+        "PRAGMA user_version = 1;");
   }
   Store store(db);
   EXPECT_EQ(store.schema_version(), kSchemaVersion);
   EXPECT_TRUE(store.run(study_id + "-r0")->slurm.empty());
   EXPECT_EQ(store.progress(study_id).total, 2);
   EXPECT_TRUE(store.attempts(study_id + "-r0").empty());  // the v4 column is readable
+  EXPECT_EQ(store.run(study_id + "-r0")->threads, 1);     // v5: one thread, as before
   auto record = [](const char* suite, bool passed) {
     return nlohmann::json{
         {"suite", suite}, {"passed", passed}, {"rows", {{{"verdict", passed ? "pass" : "drift"}}}}};

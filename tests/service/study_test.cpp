@@ -314,5 +314,29 @@ TEST(Study, SlurmOptionsAreCheckedAndQuoted) {
                                              "/slurm/sbatch_args/2", "/slurm/queue"}));
 }
 
+// limits.threads_per_run: a whole number in [1, 1024], 1 when not given; a machine refuses a
+// study whose runs, one per local worker, would start more threads than its cores.
+TEST(Study, ThreadsPerRunIsCheckedAndMustFitTheCores) {
+  json spec = study_with({{{"path", "seed"}, {"values", {1, 2}}}});
+  EXPECT_EQ(expand_study(spec, ".", 1000).limits.threads_per_run, 1);
+  spec["limits"] = {{"threads_per_run", 3}};
+  EXPECT_EQ(expand_study(spec, ".", 1000).limits.threads_per_run, 3);
+  for (const json& bad : {json(0), json(-2), json(1025), json(1.5), json("2")}) {
+    spec["limits"] = {{"threads_per_run", bad}};
+    const std::vector<InputError> errors = errors_of(spec);
+    ASSERT_EQ(errors.size(), 1u) << bad;
+    EXPECT_EQ(errors[0].path, "/limits/threads_per_run");
+  }
+  EXPECT_FALSE(thread_budget_problem(1, 2, 2));   // one thread per worker on each core
+  EXPECT_FALSE(thread_budget_problem(2, 4, 8));   // 8 threads on 8 cores
+  EXPECT_FALSE(thread_budget_problem(16, 0, 2));  // no local worker: the cluster's cores
+  const std::optional<InputError> over = thread_budget_problem(3, 2, 4);  // 6 threads on 4
+  ASSERT_TRUE(over);
+  EXPECT_EQ(over->path, "/limits/threads_per_run");
+  EXPECT_EQ(over->value, "3");
+  EXPECT_NE(over->allowed.find("at most 2"), std::string::npos) << over->allowed;
+  EXPECT_NE(over->allowed.find("6 threads on the 4 core(s)"), std::string::npos) << over->allowed;
+}
+
 }  // namespace
 }  // namespace millsim

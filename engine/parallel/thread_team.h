@@ -1,0 +1,92 @@
+// The engine's threads: one process-wide team that runs a loop's blocks on every thread, each
+// thread always given the same contiguous share of the blocks (thread t of T takes blocks
+// [t·B/T, (t+1)·B/T)). Nothing about a result may depend on that split: a loop writes each
+// block's partial results to the block's own slot, and the caller combines the slots in block
+// order, so the numbers are the same for any thread count (docs/threads.md).
+//
+// Why a team of our own rather than OpenMP: the same code and the same behaviour under g++ and
+// clang (the sanitized and fuzzing builds use clang, whose OpenMP runtime is another package),
+// ThreadSanitizer sees every synchronisation (libgomp is not instrumented and reports its own
+// barriers as races), and a loop is a plain function call that a unit test can run at 1, 2 and
+// 3 threads in one process.
+//
+// The team is set once, before a run (set_thread_count), and never from inside a loop. A loop
+// started from inside a loop runs on the calling thread alone. Workers wait for work by spinning
+// briefly (a step's loops follow each other within microseconds), then sleep on a futex, so an
+// idle team costs nothing on a machine that is busy with other runs.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <type_traits>
+
+namespace millsim {
+
+// The cores this process may run on: its affinity mask (which Slurm's and systemd's CPU limits
+// set), at least 1.
+int usable_core_count();
+
+// Threads the engine's loops use from now on, n ≥ 1 (1: the calling thread alone, no workers).
+// Not to be called while a loop runs.
+void set_thread_count(int n);
+int thread_count();
+
+// Divides the block and piece sizes of the engine's threaded loops (a power of two ≥ 1; 1 unless
+// a test sets it), so that a test's small scene runs every loop on several threads. A result may
+// depend on the sizes (sums are kept per block), never on the thread count.
+void set_block_divisor(std::size_t divisor);
+std::size_t block_divisor();
+// `nominal` items per block, divided by block_divisor() (at least 1).
+inline std::size_t block_items(std::size_t nominal) {
+  const std::size_t items = nominal / block_divisor();
+  return items > 0 ? items : 1;
+}
+
+// Loops that ran on more than one thread since the process started (tests: that a loop did).
+std::uint64_t loops_run_on_team();
+
+// Loops over fewer items than this (divided by block_divisor()) run on the calling thread alone.
+// Below it a step's particles fit in one core's caches, and a loop on two cores moves them from
+// cache to cache every step: the shipped mill at 5-15 thousand particles took 1.55x longer on 2
+// threads than on 1 (docs/threads.md). The result is the same either way.
+inline constexpr std::size_t kMinItemsForThreads = 32768;
+inline bool worth_threads(std::size_t items) {
+  return thread_count() > 1 && items >= kMinItemsForThreads / block_divisor();
+}
+
+namespace detail {
+// Runs body(context, block) for every block in [0, blocks) on the team; returns when all have
+// run. The first exception a block throws (in block order of the threads' shares) is rethrown.
+void run_blocks(std::size_t blocks, void (*body)(void*, std::size_t), void* context);
+}  // namespace detail
+
+// Runs body(block) for block = 0 .. blocks−1, spread over the team as above.
+template <class Body>
+void parallel_blocks(std::size_t blocks, Body&& body) {
+  if (blocks == 0) return;
+  if (blocks == 1 || thread_count() == 1) {
+    for (std::size_t b = 0; b < blocks; ++b) body(b);
+    return;
+  }
+  detail::run_blocks(
+      blocks, [](void* c, std::size_t b) { (*static_cast<std::remove_reference_t<Body>*>(c))(b); },
+      const_cast<void*>(static_cast<const void*>(&body)));
+}
+
+// Runs body(begin, end, block) over [0, n) cut into blocks of `block_size` items (the last one
+// shorter); on the calling thread alone unless worth_threads(n).
+template <class Body>
+void parallel_ranges(std::size_t n, std::size_t block_size, Body&& body) {
+  const std::size_t blocks = (n + block_size - 1) / block_size;
+  if (!worth_threads(n)) {
+    for (std::size_t b = 0, begin = 0; b < blocks; ++b, begin += block_size)
+      body(begin, begin + block_size < n ? begin + block_size : n, b);
+    return;
+  }
+  parallel_blocks(blocks, [&](std::size_t b) {
+    const std::size_t begin = b * block_size;
+    body(begin, begin + block_size < n ? begin + block_size : n, b);
+  });
+}
+
+}  // namespace millsim
