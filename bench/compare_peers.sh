@@ -8,6 +8,7 @@
 # (its best-tuned settings from shared/bench/peers/RESULTS.md) alternately REPS times, one core
 # each, 1000 steps. Prints loop-time particle-steps per second of both and the median of the
 # per-pair ratios millsim/LAMMPS. Needs: apt-get install lammps python3-numpy.
+# CORES=N (default 1): millsim with --threads N against LAMMPS on N MPI ranks (mpirun -np N).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/.." && pwd)
@@ -16,6 +17,9 @@ scenes=${1:-"mono r10 r100 burst"}
 reps=${2:-3}
 work=${WORK:-/tmp/millsim-peers}
 bench=${BENCH:-$root/build/bench/bench_step}
+cores=${CORES:-1}
+lammps=(lmp)
+if [ "$cores" -gt 1 ]; then lammps=(mpirun --allow-run-as-root --oversubscribe -np "$cores" lmp); fi
 mkdir -p "$work/decks" "$work/data"
 cp "$shared/bench/peers/decks/"* "$work/decks/"
 
@@ -38,8 +42,9 @@ for scene in $scenes; do
   for word in $rest; do extra+=("${word//_/ }"); done
   ours=() theirs=() ratios=()
   for ((r = 1; r <= reps; r++)); do
-    m=$("$bench" "$work/data/$scene.txt" --steps 1000 --json | sed -n 's/.*"loop_seconds": \([0-9.e+-]*\).*/\1/p')
-    (cd "$work/data" && OMP_NUM_THREADS=1 lmp -nocite -in "../decks/$deck" -var base "$scene" "${extra[@]}" \
+    m=$("$bench" "$work/data/$scene.txt" --steps 1000 --json --threads "$cores" |
+      sed -n 's/.*"loop_seconds": \([0-9.e+-]*\).*/\1/p')
+    (cd "$work/data" && OMP_NUM_THREADS=1 "${lammps[@]}" -nocite -in "../decks/$deck" -var base "$scene" "${extra[@]}" \
        -log "log.$scene.$r" >/dev/null)
     l=$(sed -n 's/^Loop time of \([0-9.e+-]*\) on.*/\1/p' "$work/data/log.$scene.$r" | head -1)
     ours+=("$m") theirs+=("$l") ratios+=("$(awk -v a="$m" -v b="$l" 'BEGIN{print b/a}')")
