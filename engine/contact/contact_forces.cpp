@@ -255,6 +255,15 @@ inline void visit_contact(const Law& law, const MaterialTable& materials, double
   if (ratio > max_ratio) max_ratio = ratio, max_pair = k;
 }
 
+// A later run of candidates' tally after `total`'s: counts added, lists appended, the largest
+// ratio kept at its first candidate.
+void add_tally(PairTally& total, const PairTally& t) {
+  total.touching += t.touching;
+  if (t.max_ratio > total.max_ratio) total.max_ratio = t.max_ratio, total.max_pair = t.max_pair;
+  total.impacts.insert(total.impacts.end(), t.impacts.begin(), t.impacts.end());
+  total.over_limit.insert(total.over_limit.end(), t.over_limit.begin(), t.over_limit.end());
+}
+
 // The step's statistics from the tallies, in candidate order.
 void finish_pair_stats(const PairTally& t, const ParticleStore& p, const NeighborList& nl,
                        ContactStepStats& stats) {
@@ -280,11 +289,7 @@ void apply_recorded_history(RecordingSink& block, NeighborList& nl, PairTally& t
       nl.pair_history[e.k] = kNoHistory;
     }
   }
-  const PairTally& t = block.tally;
-  total.touching += t.touching;
-  if (t.max_ratio > total.max_ratio) total.max_ratio = t.max_ratio, total.max_pair = t.max_pair;
-  total.impacts.insert(total.impacts.end(), t.impacts.begin(), t.impacts.end());
-  total.over_limit.insert(total.over_limit.end(), t.over_limit.begin(), t.over_limit.end());
+  add_tally(total, block.tally);
 }
 
 // The blocks' recorded loads, in block order: each thread adds to the particles of its own share
@@ -496,11 +501,14 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Wall>
   const std::size_t n = nl.wall_particle.size();
   const bool impacts = stats.record_impacts;
   // The pieces: the rebuild lists a particle's wall candidates together (by slot, then wall).
+  // One piece of all of them unless the population is worth threads.
+  const std::size_t piece_size =
+      worth_threads(p.size()) ? block_items(kWallPieceCandidates) : std::max<std::size_t>(n, 1);
   static thread_local std::vector<std::size_t> calling_thread_starts;
   std::vector<std::size_t>& starts = calling_thread_starts;
   starts.assign(1, 0);
   while (starts.back() < n) {
-    std::size_t end = std::min(n, starts.back() + block_items(kWallPieceCandidates));
+    std::size_t end = std::min(n, starts.back() + piece_size);
     while (end < n && nl.wall_particle[end] == nl.wall_particle[end - 1]) ++end;
     starts.push_back(end);
   }
@@ -508,32 +516,26 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Wall>
   static thread_local std::vector<PairTally> calling_thread_tallies;
   std::vector<PairTally>& tallies = calling_thread_tallies;
   if (tallies.size() < pieces) tallies.resize(pieces);
-  auto run_piece = [&](std::size_t piece) {
+  parallel_blocks(pieces, [&](std::size_t piece) {
     PairTally& t = tallies[piece];
     t.impacts.clear(), t.over_limit.clear();
     wall_contacts(materials, walls, dt, limit, impacts, p, nl, starts[piece], starts[piece + 1], t);
-  };
-  if (worth_threads(p.size()))
-    parallel_blocks(pieces, run_piece);
-  else
-    for (std::size_t piece = 0; piece < pieces; ++piece) run_piece(piece);
+  });
   // The statistics in candidate order, as one thread gathers them.
-  std::uint64_t touching = 0;
-  for (std::size_t piece = 0; piece < pieces; ++piece) {
-    const PairTally& t = tallies[piece];
-    touching += t.touching;
-    stats.impacts.insert(stats.impacts.end(), t.impacts.begin(), t.impacts.end());
-    stats.walls_over_limit.insert(stats.walls_over_limit.end(), t.over_limit.begin(),
-                                  t.over_limit.end());
-    if (t.max_ratio > stats.max_overlap_ratio) {
-      const std::uint32_t i = nl.wall_particle[t.max_pair];
-      stats.max_overlap_ratio = t.max_ratio;
-      stats.max_overlap_particle = p.id[i];
-      stats.max_overlap_partner = 0;
-      stats.max_overlap_wall = int(nl.wall_index[t.max_pair]);
-    }
+  PairTally total;
+  total.impacts = std::move(stats.impacts);
+  total.over_limit = std::move(stats.walls_over_limit);
+  for (std::size_t piece = 0; piece < pieces; ++piece) add_tally(total, tallies[piece]);
+  stats.impacts = std::move(total.impacts);
+  stats.walls_over_limit = std::move(total.over_limit);
+  stats.touching_walls = total.touching;
+  if (total.max_ratio > stats.max_overlap_ratio) {
+    const std::uint32_t i = nl.wall_particle[total.max_pair];
+    stats.max_overlap_ratio = total.max_ratio;
+    stats.max_overlap_particle = p.id[i];
+    stats.max_overlap_partner = 0;
+    stats.max_overlap_wall = int(nl.wall_index[total.max_pair]);
   }
-  stats.touching_walls = touching;
 }
 
 double contact_elastic_energy_j(ContactModel model, const MaterialTable& materials,
