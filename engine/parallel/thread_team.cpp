@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cstdint>
 #include <exception>
+#include <memory>
 #include <thread>
 #include <vector>
 
@@ -61,6 +62,8 @@ class Team {
     stop_workers();
     threads_ = n;
     errors_.assign(std::size_t(n), nullptr);
+    error_block_.assign(std::size_t(n), 0);
+    shares_ = std::make_unique<Share[]>(std::size_t(n));
     stop_.store(false, std::memory_order_relaxed);
     // A new worker waits for the loop after the last one started.
     const std::uint32_t epoch = epoch_.load(std::memory_order_relaxed);
@@ -69,30 +72,45 @@ class Team {
 
   void run(std::size_t blocks, void (*body)(void*, std::size_t), void* context) {
     ++loops_run_;
-    blocks_ = blocks, body_ = body, context_ = context;
+    body_ = body, context_ = context;
+    const std::size_t n = std::size_t(threads_);
+    for (std::size_t t = 0; t < n; ++t) {
+      shares_[t].next.store(blocks * t / n, std::memory_order_relaxed);
+      shares_[t].end = blocks * (t + 1) / n;
+    }
     pending_.store(threads_ - 1, std::memory_order_relaxed);
     epoch_.fetch_add(1, std::memory_order_release);
     epoch_.notify_all();
     run_share(0);
     for (int left = pending_.load(std::memory_order_acquire); left != 0;)
       left = wait_while_equal(pending_, left);
-    for (std::exception_ptr& e : errors_)
-      if (e) {
-        std::exception_ptr first = e;
-        for (std::exception_ptr& x : errors_) x = nullptr;
-        std::rethrow_exception(first);
-      }
+    std::size_t first = n;
+    for (std::size_t t = 0; t < n; ++t)
+      if (errors_[t] && (first == n || error_block_[t] < error_block_[first])) first = t;
+    if (first == n) return;
+    std::exception_ptr error = errors_[first];
+    for (std::exception_ptr& e : errors_) e = nullptr;
+    std::rethrow_exception(error);
   }
 
  private:
+  // Thread t's blocks: its own share from the front, then what is left of the others' shares
+  // (taken from their fronts), so that a thread held up (a slower block, a core lent to another
+  // process for a moment) does not hold up the loop. Which thread runs a block never changes
+  // what the block computes.
   void run_share(int t) {
     const std::size_t n = std::size_t(threads_);
-    const std::size_t begin = blocks_ * std::size_t(t) / n, end = blocks_ * std::size_t(t + 1) / n;
     t_inside_loop = true;
+    std::size_t b = 0;
     try {
-      for (std::size_t b = begin; b < end; ++b) body_(context_, b);
+      for (std::size_t k = 0; k < n; ++k) {
+        Share& share = shares_[(std::size_t(t) + k) % n];
+        while ((b = share.next.fetch_add(1, std::memory_order_relaxed)) < share.end)
+          body_(context_, b);
+      }
     } catch (...) {
       errors_[std::size_t(t)] = std::current_exception();
+      error_block_[std::size_t(t)] = b;
     }
     t_inside_loop = false;
   }
@@ -119,8 +137,14 @@ class Team {
   std::uint64_t loops_run_ = 0;
   std::vector<std::thread> workers_;
   std::vector<std::exception_ptr> errors_{nullptr};
+  std::vector<std::size_t> error_block_{0};  // the block that threw errors_[t]
   // The loop under way: written before epoch_ moves on, read by the workers after they see it.
-  std::size_t blocks_ = 0;
+  // Each thread's share of blocks is [next, end), claimed one block at a time from the front.
+  struct alignas(64) Share {
+    std::atomic<std::size_t> next{0};
+    std::size_t end = 0;
+  };
+  std::unique_ptr<Share[]> shares_ = std::make_unique<Share[]>(1);
   void (*body_)(void*, std::size_t) = nullptr;
   void* context_ = nullptr;
   std::atomic<std::uint32_t> epoch_{0};

@@ -1,8 +1,9 @@
-// The engine's threads: one process-wide team that runs a loop's blocks on every thread, each
-// thread always given the same contiguous share of the blocks (thread t of T takes blocks
-// [t·B/T, (t+1)·B/T)). Nothing about a result may depend on that split: a loop writes each
-// block's partial results to the block's own slot, and the caller combines the slots in block
-// order, so the numbers are the same for any thread count (docs/threads.md).
+// The engine's threads: one process-wide team that runs a loop's blocks on every thread. Thread t
+// of T starts on its own contiguous share of the blocks ([t·B/T, (t+1)·B/T), the same particles
+// every step) and, when done, takes the blocks the others have not started yet. Nothing about a
+// result may depend on which thread runs a block: a loop writes each block's partial results to
+// the block's own slot, and the caller combines the slots in block order, so the numbers are the
+// same for any thread count (docs/threads.md).
 //
 // Why a team of our own rather than OpenMP: the same code and the same behaviour under g++ and
 // clang (the sanitized and fuzzing builds use clang, whose OpenMP runtime is another package),
@@ -48,7 +49,8 @@ std::uint64_t loops_run_on_team();
 // Loops over fewer items than this (divided by block_divisor()) run on the calling thread alone.
 // Below it a step's particles fit in one core's caches, and a loop on two cores moves them from
 // cache to cache every step: the shipped mill at 5-15 thousand particles took 1.55x longer on 2
-// threads than on 1 (docs/threads.md). The result is the same either way.
+// threads than on 1, and its multi-rate passes, which split lists of particles rather than the
+// slots, still lose at 8192 (docs/threads.md). The result is the same either way.
 inline constexpr std::size_t kMinItemsForThreads = 32768;
 inline bool worth_threads(std::size_t items) {
   return thread_count() > 1 && items >= kMinItemsForThreads / block_divisor();
@@ -56,7 +58,8 @@ inline bool worth_threads(std::size_t items) {
 
 namespace detail {
 // Runs body(context, block) for every block in [0, blocks) on the team; returns when all have
-// run. The first exception a block throws (in block order of the threads' shares) is rethrown.
+// run. Of the blocks that threw, the lowest one's exception is rethrown (a thread stops at its
+// first exception; the others go on).
 void run_blocks(std::size_t blocks, void (*body)(void*, std::size_t), void* context);
 }  // namespace detail
 
@@ -71,6 +74,14 @@ void parallel_blocks(std::size_t blocks, Body&& body) {
   detail::run_blocks(
       blocks, [](void* c, std::size_t b) { (*static_cast<std::remove_reference_t<Body>*>(c))(b); },
       const_cast<void*>(static_cast<const void*>(&body)));
+}
+
+// parallel_blocks when `on_team` (a caller's worth_threads() of the population the loop serves),
+// else the same blocks in order on the calling thread.
+template <class Body>
+void parallel_blocks_if(bool on_team, std::size_t blocks, Body&& body) {
+  if (on_team) return parallel_blocks(blocks, body);
+  for (std::size_t b = 0; b < blocks; ++b) body(b);
 }
 
 // Runs body(begin, end, block) over [0, n) cut into blocks of `block_size` items (the last one

@@ -1,14 +1,22 @@
 #include "search/hashed_grid.h"
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
+
+#include "parallel/thread_team.h"
 
 namespace millsim {
 namespace {
 
 constexpr int kAxisBits = 21;
 constexpr long kAxisLimit = (1L << kAxisBits) - 1;
+
+// A threaded search is cut into pieces of about this many particles (of a level, or of those
+// visiting another level), run in waves of kPiecesPerThreadWave pieces per thread.
+constexpr std::size_t kSearchPieceParticles = 8192;
+constexpr std::size_t kPiecesPerThreadWave = 8;
 
 // LSD radix sort of (key, value) by key, 16 bits per pass, only as many passes as the keys need.
 // The scratch arrays keep their capacity from call to call.
@@ -158,16 +166,29 @@ int half_shell_cells(const CellLevel& level, const PeriodicBox& box, const long 
   return count;
 }
 
-// All pairs within one level: own cell + half shell with the proximity check.
-void same_level_pairs(const CellLevel& level, const PeriodicBox& box, double reach_extra,
-                      PairSink& sink) {
+// Whether a periodic axis has fewer than 3 cells (small_box_pairs then).
+bool small_periodic_box(const CellLevel& level) {
   for (int a = 0; a < 3; ++a)
-    if (level.periodic_cells(a) != 0 && level.periodic_cells(a) < 3)
-      return small_box_pairs(level, sink);
+    if (level.periodic_cells(a) != 0 && level.periodic_cells(a) < 3) return true;
+  return false;
+}
+
+// The pairs within one level that cells [cell_begin, cell_end) start: own cell + half shell with
+// the proximity check.
+void same_level_cells(const CellLevel& level, const PeriodicBox& box, double reach_extra,
+                      std::size_t cell_begin, std::size_t cell_end, PairSink& sink) {
+  if (cell_begin >= cell_end) return;
   const Vec3 no_shift{0.0, 0.0, 0.0};
-  std::size_t cursor[5] = {0, 0, 0, 0, 0};
+  // Every half-shell row of a cell at or after cell_begin lies at or after the key (x, y, 0) of
+  // cell_begin's (x, y): the rows' cursors start at the first cell from there.
+  long c_begin[3];
+  level.coordinates(cell_begin, c_begin);
+  const std::size_t first_row_cell =
+      level.first_cell_from(CellLevel::pack(c_begin[0], c_begin[1], 0));
+  std::size_t cursor[5];
+  for (std::size_t& c : cursor) c = first_row_cell;
   ShellCell shell[13];
-  for (std::size_t cell = 0; cell < level.cell_count(); ++cell) {
+  for (std::size_t cell = cell_begin; cell < cell_end; ++cell) {
     long c[3];
     level.coordinates(cell, c);
     const int shell_count = half_shell_cells(level, box, c, cursor, shell, sink.lookups);
@@ -234,12 +255,13 @@ bool axis_cover(const CellLevel& level, const PeriodicBox& box, int axis, double
   return unique_images;
 }
 
-// Every particle of `from` visits the cells of `to` that its reach sphere (r_i + reach_extra)
-// touches. `to` holds the other level, so no pair is met twice.
+// Every particle of `from` in members [member_begin, member_end) visits the cells of `to` that its
+// reach sphere (r_i + reach_extra) touches. `to` holds the other level, so no pair is met twice.
 void cross_level_pairs(const CellLevel& from, const CellLevel& to, const PeriodicBox& box,
-                       double reach_extra, PairSink& sink) {
+                       double reach_extra, std::uint32_t member_begin, std::uint32_t member_end,
+                       PairSink& sink) {
   std::vector<CoverCell> cover[3];
-  for (std::uint32_t q = 0; q < from.slots().size(); ++q) {
+  for (std::uint32_t q = member_begin; q < member_end; ++q) {
     const Sphere& p = from.spheres()[q];
     const std::uint32_t slot = from.slots()[q];
     const double reach = p.r + reach_extra, reach2 = reach * reach;
@@ -263,6 +285,38 @@ void cross_level_pairs(const CellLevel& from, const CellLevel& to, const Periodi
                                    to.last(std::size_t(cell)), false);
         }
       }
+  }
+}
+
+// Runs search(piece, sink) for pieces 0 .. pieces−1 and appends their candidates to `sink` in
+// piece order: the list one thread makes searching the pieces one after the other. With
+// `on_team`, waves of kPiecesPerThreadWave pieces per thread run on the engine's threads, each
+// piece into a list of its own, and each wave is joined before the next starts, so the lists
+// hold a bounded share of the candidates at any particle count.
+template <class Search>
+void search_in_pieces(std::size_t pieces, bool on_team, std::vector<SearchPart>& scratch,
+                      PairSink& sink, const Search& search) {
+  if (!on_team) {
+    for (std::size_t piece = 0; piece < pieces; ++piece) search(piece, sink);
+    return;
+  }
+  const std::size_t wave = kPiecesPerThreadWave * std::size_t(thread_count());
+  if (scratch.size() < wave) scratch.resize(wave);
+  for (std::size_t first = 0; first < pieces; first += wave) {
+    const std::size_t count = std::min(wave, pieces - first);
+    parallel_blocks(count, [&](std::size_t q) {
+      SearchPart& own = scratch[q];
+      own.pairs.clear();
+      PairSink piece_sink{sink.box, sink.skin, own.pairs};
+      search(first + q, piece_sink);
+      own.tests = piece_sink.tests, own.lookups = piece_sink.lookups;
+    });
+    for (std::size_t q = 0; q < count; ++q) {
+      const PairList& own = scratch[q].pairs;
+      sink.out.first.insert(sink.out.first.end(), own.first.begin(), own.first.end());
+      sink.out.second.insert(sink.out.second.end(), own.second.begin(), own.second.end());
+      sink.tests += scratch[q].tests, sink.lookups += scratch[q].lookups;
+    }
   }
 }
 
@@ -310,20 +364,29 @@ void CellLevel::build(const std::vector<Vec3>& x, const std::vector<double>& r,
       edge_[a] = cell_m;
     }
   }
-  // Cell coordinates of every member, and the box of cells they occupy.
+  // Cell coordinates of every member, and the box of cells they occupy (per block of members on
+  // the engine's threads; the largest index of each axis over the blocks).
   std::vector<std::uint64_t>& keys = scratch.input_keys;
   keys.resize(members.size());
-  long max_index[3] = {0, 0, 0};
-  for (std::size_t k = 0; k < members.size(); ++k) {
-    long c[3];
-    for (int a = 0; a < 3; ++a) {
-      c[a] = index_of(x[members[k]][a], a);
-      if (periodic_cells_[a]) c[a] = std::clamp(c[a], 0L, periodic_cells_[a] - 1);
-      c[a] = std::clamp(c[a], 0L, kAxisLimit);
-      max_index[a] = std::max(max_index[a], c[a]);
+  const std::size_t block = block_items(16384);
+  std::vector<std::array<long, 3>> block_max_index((members.size() + block - 1) / block);
+  parallel_ranges(members.size(), block, [&](std::size_t begin, std::size_t end, std::size_t b) {
+    long max_index[3] = {0, 0, 0};
+    for (std::size_t k = begin; k < end; ++k) {
+      long c[3];
+      for (int a = 0; a < 3; ++a) {
+        c[a] = index_of(x[members[k]][a], a);
+        if (periodic_cells_[a]) c[a] = std::clamp(c[a], 0L, periodic_cells_[a] - 1);
+        c[a] = std::clamp(c[a], 0L, kAxisLimit);
+        max_index[a] = std::max(max_index[a], c[a]);
+      }
+      keys[k] = pack(c[0], c[1], c[2]);
     }
-    keys[k] = pack(c[0], c[1], c[2]);
-  }
+    block_max_index[b] = {max_index[0], max_index[1], max_index[2]};
+  });
+  long max_index[3] = {0, 0, 0};
+  for (const std::array<long, 3>& m : block_max_index)
+    for (int a = 0; a < 3; ++a) max_index[a] = std::max(max_index[a], m[std::size_t(a)]);
   double box_cells = 1.0;
   for (int a = 0; a < 3; ++a) {
     dims_[a] = periodic_cells_[a] ? periodic_cells_[a] : max_index[a] + 1;
@@ -382,10 +445,21 @@ void CellLevel::build(const std::vector<Vec3>& x, const std::vector<double>& r,
 
 void CellLevel::fill_spheres(const std::vector<Vec3>& x, const std::vector<double>& r) {
   sphere_.resize(members_.size());
-  for (std::size_t k = 0; k < members_.size(); ++k) {
-    const Vec3& p = x[members_[k]];
-    sphere_[k] = {p[0], p[1], p[2], r[members_[k]]};
-  }
+  parallel_ranges(members_.size(), block_items(16384),
+                  [&](std::size_t begin, std::size_t end, std::size_t) {
+                    for (std::size_t k = begin; k < end; ++k) {
+                      const Vec3& p = x[members_[k]];
+                      sphere_[k] = {p[0], p[1], p[2], r[members_[k]]};
+                    }
+                  });
+}
+
+std::size_t CellLevel::first_cell_from(std::uint64_t key) const {
+  return std::size_t(std::lower_bound(cell_key_.begin(), cell_key_.end(), key) - cell_key_.begin());
+}
+
+std::size_t CellLevel::first_cell_at_member(std::uint32_t member) const {
+  return std::size_t(std::lower_bound(start_.begin(), start_.end() - 1, member) - start_.begin());
 }
 
 long CellLevel::find(long ix, long iy, long iz) const {
@@ -463,11 +537,33 @@ void HashedGrid::find_pairs(const std::vector<Vec3>& x, const std::vector<double
     summary[l].r_max_m = std::max(summary[l].r_max_m, r[i]);
   }
   PairSink sink{box, skin, out};
+  // On the engine's threads, pieces of a level's own pairs are runs of cells holding about
+  // kSearchPieceParticles of its particles, pieces across levels runs of as many visiting
+  // particles; on one thread, one piece. The list is the same for any cut.
+  const bool on_team = worth_threads(n);
+  auto piece_count = [&](std::size_t particles) {
+    const std::size_t size = block_items(kSearchPieceParticles);
+    return on_team ? std::max<std::size_t>(1, (particles + size - 1) / size) : 1;
+  };
+  auto share = [](std::size_t count, std::size_t piece, std::size_t pieces) {
+    return std::uint32_t(count * piece / pieces);
+  };
   int used[kMaxGridLevels], used_count = 0;
   for (int l = 0; l < levels; ++l) {
     if (members_[l].empty() && l > 0) continue;
+    const CellLevel& level = level_[l];
     level_[l].build(x, r, members_[l], box, origin, edge[l], scratch_);
-    same_level_pairs(level_[l], box, summary[l].r_max_m + skin, sink);
+    const double reach_extra = summary[l].r_max_m + skin;
+    if (small_periodic_box(level)) {
+      small_box_pairs(level, sink);
+    } else {
+      const std::size_t members = level.slots().size(), pieces = piece_count(members);
+      search_in_pieces(pieces, on_team, pieces_, sink, [&](std::size_t q, PairSink& piece_sink) {
+        same_level_cells(level, box, reach_extra,
+                         level.first_cell_at_member(share(members, q, pieces)),
+                         level.first_cell_at_member(share(members, q + 1, pieces)), piece_sink);
+      });
+    }
     LevelSummary& s = summary[l];
     s.count = double(members_[l].size());
     s.r_mean_m /= std::max(1.0, s.count);
@@ -488,10 +584,12 @@ void HashedGrid::find_pairs(const std::vector<Vec3>& x, const std::vector<double
       if (members_[coarse].empty()) continue;
       const bool upwards = visit_cost(summary[fine], summary[coarse], skin) <
                            visit_cost(summary[coarse], summary[fine], skin);
-      if (upwards)
-        cross_level_pairs(level_[fine], level_[coarse], box, summary[coarse].r_max_m + skin, sink);
-      else
-        cross_level_pairs(level_[coarse], level_[fine], box, summary[fine].r_max_m + skin, sink);
+      const int from = upwards ? fine : coarse, to = upwards ? coarse : fine;
+      const std::size_t visitors = level_[from].slots().size(), pieces = piece_count(visitors);
+      search_in_pieces(pieces, on_team, pieces_, sink, [&](std::size_t q, PairSink& piece_sink) {
+        cross_level_pairs(level_[from], level_[to], box, summary[to].r_max_m + skin,
+                          share(visitors, q, pieces), share(visitors, q + 1, pieces), piece_sink);
+      });
     }
   stats_.distance_tests = sink.tests;
   stats_.cell_lookups = sink.lookups;

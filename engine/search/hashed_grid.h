@@ -62,6 +62,10 @@ class CellLevel {
   void coordinates(std::size_t cell, long out[3]) const;
   // Key of an occupied cell; cells are numbered in increasing key order (x slowest, z fastest).
   std::uint64_t key(std::size_t cell) const { return cell_key_[cell]; }
+  // The first occupied cell whose key is at least `key` (cell_count() when none).
+  std::size_t first_cell_from(std::uint64_t key) const;
+  // The first cell whose members start at or after position `member` (cell_count() when none).
+  std::size_t first_cell_at_member(std::uint32_t member) const;
   static std::uint64_t pack(long ix, long iy, long iz);
   // Members of a cell as positions into the level's arrays: [first(cell), last(cell)).
   std::uint32_t first(std::size_t cell) const { return start_[cell]; }
@@ -111,6 +115,13 @@ struct HashedGridStats {
   std::uint64_t level_particles[kMaxGridLevels] = {0, 0, 0, 0};
 };
 
+// One piece of a search run on the engine's threads: its candidates, in the order one thread
+// finds them, and its counts. The pieces' lists are joined in piece order.
+struct SearchPart {
+  PairList pairs;
+  std::uint64_t tests = 0, lookups = 0;
+};
+
 class HashedGrid {
  public:
   void find_pairs(const std::vector<Vec3>& x, const std::vector<double>& r, const PeriodicBox& box,
@@ -123,6 +134,7 @@ class HashedGrid {
   CellLevel level_[kMaxGridLevels];
   std::vector<std::uint32_t> members_[kMaxGridLevels];
   SortScratch scratch_;
+  std::vector<SearchPart> pieces_;  // one wave's pieces while the search runs on several threads
   HashedGridStats stats_;
 };
 

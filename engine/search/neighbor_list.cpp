@@ -88,98 +88,179 @@ void NeighborList::mark_newborn(std::vector<Newborn> newborn, double penetration
 }
 
 double NeighborList::max_displacement_m(const ParticleStore& p, const PeriodicBox& box) const {
+  // Per block of slots on the engine's threads, each block stopping once past skin/2. Below
+  // skin/2 the figure is the exact largest displacement on any count; past it only the rebuild
+  // it triggers is used.
   const double limit2 = 0.25 * settings_.skin_m * settings_.skin_m;
+  const std::size_t block =
+      worth_threads(p.size()) ? block_items(16384) : std::max<std::size_t>(1, p.size());
+  std::vector<double> block_max2((p.size() + block - 1) / block, 0.0);
+  parallel_ranges(p.size(), block, [&](std::size_t begin, std::size_t end, std::size_t b) {
+    double max2 = 0.0;
+    for (std::size_t i = begin; i < end && max2 <= limit2; ++i)
+      max2 = std::max(max2, norm2(box.minimum_image(p.position_m[i] - reference_position_m_[i])));
+    block_max2[b] = max2;
+  });
   double max2 = 0.0;
-  for (std::size_t i = 0; i < p.size(); ++i) {
-    max2 = std::max(max2, norm2(box.minimum_image(p.position_m[i] - reference_position_m_[i])));
-    if (max2 > limit2) break;
-  }
+  for (double m : block_max2) max2 = std::max(max2, m);
   return std::sqrt(max2);
 }
 
 void NeighborList::sort_pairs(const ParticleStore& p, const PeriodicBox& box) {
-  // Each pair listed from its higher slot, then a counting sort on that slot: the force loop
-  // walks particles in memory order, and each second partner lies behind, where that walk has
-  // just been (in cache).
-  for (std::size_t k = 0; k < pairs.size(); ++k)
-    if (pairs.first[k] < pairs.second[k]) std::swap(pairs.first[k], pairs.second[k]);
-  std::vector<std::uint32_t>& start = order_;
-  start.assign(p.size() + 1, 0);
-  for (std::uint32_t i : pairs.first) ++start[i + 1];
-  for (std::size_t i = 0; i < p.size(); ++i) start[i + 1] += start[i];
-  PairList& sorted = sorted_pairs_;
-  sorted.first.resize(pairs.size());
-  sorted.second.resize(pairs.size());
-  for (std::size_t k = 0; k < pairs.size(); ++k) {
-    const std::uint32_t at = start[pairs.first[k]]++;
-    sorted.first[at] = pairs.first[k];
-    sorted.second[at] = pairs.second[k];
-  }
-  // Periodic image and gap band of each pair, then a stable sort by band.
+  // Each pair listed from its higher slot and ordered by that slot, stably (the pairs of one slot
+  // keep the search's order): the force loop walks particles in memory order, and each second
+  // partner lies behind, where that walk has just been (in cache). Then stably by gap band.
+  // The work is cut into chunks of the list and buckets of slots (a bucket lies within one speed
+  // block), each writing only its own places, on the engine's threads: the same list on any
+  // count, and the one a single counting sort makes.
   for (int image = 0; image < 27; ++image) {
     const int n[3] = {image % 3 - 1, (image / 3) % 3 - 1, image / 9 - 1};
     for (int a = 0; a < 3; ++a)
       image_shift_[image][a] = box.periodic[a] ? n[a] * box.length(a) : 0.0;
   }
-  const double band_width = 0.25 * settings_.skin_m;
-  image_scratch_.resize(sorted.size());
-  band_scratch_.resize(sorted.size());
-  std::size_t band_count[kGapBands] = {};
-  // Per slot block, the blocks its second partners lie in (itself first), collected in first
-  // order: `seen[b] == a` once block b is listed for block a.
+  const std::size_t count = pairs.size();
+  const bool threaded = worth_threads(p.size());
+  auto run = [threaded](std::size_t parts, const auto& body) {
+    parallel_blocks_if(threaded, parts, body);
+  };
   const std::size_t blocks = (p.size() + kSpeedBlockSlots - 1) / kSpeedBlockSlots;
+  const std::size_t bucket_slots = threaded ? block_items(kSpeedBlockSlots) : kSpeedBlockSlots;
+  const std::size_t buckets = (p.size() + bucket_slots - 1) / bucket_slots;
+  const std::size_t chunk_pairs = threaded ? block_items(16384) : std::max<std::size_t>(1, count);
+  const std::size_t chunks = (count + chunk_pairs - 1) / chunk_pairs;
+  auto chunk_end = [&](std::size_t c) { return std::min(count, (c + 1) * chunk_pairs); };
+
+  // 1. Each chunk counts its pairs per bucket of their higher slot; the counts become where each
+  //    chunk's pairs of a bucket go (buckets in order, and within one the chunks in order).
+  std::vector<std::uint32_t>& at = sort_positions_;  // [chunk][bucket]
+  at.assign(chunks * buckets, 0);
+  run(chunks, [&](std::size_t c) {
+    std::uint32_t* own = at.data() + c * buckets;
+    for (std::size_t k = c * chunk_pairs; k < chunk_end(c); ++k) {
+      if (pairs.first[k] < pairs.second[k]) std::swap(pairs.first[k], pairs.second[k]);
+      ++own[pairs.first[k] / bucket_slots];
+    }
+  });
+  bucket_start_.assign(buckets + 1, 0);
+  std::size_t placed = 0;
+  for (std::size_t b = 0; b < buckets; ++b) {
+    bucket_start_[b] = placed;
+    for (std::size_t c = 0; c < chunks; ++c) {
+      const std::uint32_t n = at[c * buckets + b];
+      at[c * buckets + b] = std::uint32_t(placed);
+      placed += n;
+    }
+  }
+  bucket_start_[buckets] = placed;
+  PairList& sorted = sorted_pairs_;
+  sorted.first.resize(count);
+  sorted.second.resize(count);
+  run(chunks, [&](std::size_t c) {
+    std::uint32_t* own = at.data() + c * buckets;
+    for (std::size_t k = c * chunk_pairs; k < chunk_end(c); ++k) {
+      const std::uint32_t to = own[pairs.first[k] / bucket_slots]++;
+      sorted.first[to] = pairs.first[k];
+      sorted.second[to] = pairs.second[k];
+    }
+  });
+
+  // 2. Within each bucket, a counting sort on the slot, back into `pairs`; then each pair's
+  //    periodic image, gap band and overlap, the bucket's count per band, and the speed blocks its
+  //    second partners lie in (other than its own), in order of first appearance.
+  const double band_width = 0.25 * settings_.skin_m;
+  image_scratch_.resize(count);
+  band_scratch_.resize(count);
+  bucket_band_pairs_.assign(buckets * kGapBands, 0);
+  if (bucket_partner_blocks_.size() < buckets) bucket_partner_blocks_.resize(buckets);
+  run(buckets, [&](std::size_t b) {
+    const std::size_t begin = bucket_start_[b], end = bucket_start_[b + 1];
+    const std::uint32_t first_slot = std::uint32_t(b * bucket_slots);
+    std::uint32_t start[kSpeedBlockSlots + 1];
+    std::fill(start, start + bucket_slots + 1, 0u);
+    for (std::size_t k = begin; k < end; ++k) ++start[sorted.first[k] - first_slot + 1];
+    for (std::size_t i = 0; i < bucket_slots; ++i) start[i + 1] += start[i];
+    for (std::size_t k = begin; k < end; ++k) {
+      const std::size_t to = begin + start[sorted.first[k] - first_slot]++;
+      pairs.first[to] = sorted.first[k];
+      pairs.second[to] = sorted.second[k];
+    }
+    std::size_t* band_pairs = &bucket_band_pairs_[b * kGapBands];
+    std::vector<std::uint32_t>& partner_blocks = bucket_partner_blocks_[b];
+    partner_blocks.clear();
+    const std::uint32_t own_block = first_slot / kSpeedBlockSlots;
+    for (std::size_t k = begin; k < end; ++k) {
+      const std::uint32_t i = pairs.first[k], j = pairs.second[k];
+      const Vec3 d = p.position_m[i] - p.position_m[j];
+      int image = 0, stride = 1;
+      for (int a = 0; a < 3; ++a, stride *= 3) image += (box.image_of(d[a], a) + 1) * stride;
+      image_scratch_[k] = std::uint8_t(image);
+      const double dist2 = norm2(d - image_shift_[image]), reach = p.radius_m[i] + p.radius_m[j];
+      const double gap = std::sqrt(dist2) - p.radius_m[i] - p.radius_m[j];
+      const int band = band_width > 0.0 ? std::clamp(int(gap / band_width), 0, kGapBands - 1) : 0;
+      band_scratch_[k] = std::uint8_t(band | (dist2 < reach * reach ? kOverlappingBit : 0));
+      ++band_pairs[band];
+      const std::uint32_t block_j = std::uint32_t(j / kSpeedBlockSlots);
+      if (block_j != own_block &&
+          std::find(partner_blocks.begin(), partner_blocks.end(), block_j) == partner_blocks.end())
+        partner_blocks.push_back(block_j);
+    }
+  });
+
+  // 3. Per speed block, the blocks its candidates' second partners lie in (itself first), and
+  //    where each band's run of it begins; then where each bucket's pairs of each band go.
   partner_block_start_.assign(blocks + 1, 0);
   partner_blocks_.clear();
-  std::vector<std::uint32_t>& seen = block_seen_;
+  std::vector<std::uint32_t>& seen = block_seen_;  // seen[b] == a: block b listed for block a
   seen.assign(blocks, ~std::uint32_t(0));
-  std::uint32_t open = 0;  // the block whose list is being written
-  auto open_block = [&](std::uint32_t a) {
-    for (; open <= a && open < blocks; ++open) {
-      partner_block_start_[open] = std::uint32_t(partner_blocks_.size());
-      partner_blocks_.push_back(open);
-      seen[open] = open;
-    }
-  };
-  open_block(0);
-  for (int b = 0; b < kGapBands; ++b) band_block_start_[b].assign(blocks + 1, 0);
-  for (std::size_t k = 0; k < sorted.size(); ++k) {
-    const std::uint32_t i = sorted.first[k], j = sorted.second[k];
-    const std::uint32_t block_i = std::uint32_t(i / kSpeedBlockSlots);
-    const std::uint32_t block_j = std::uint32_t(j / kSpeedBlockSlots);
-    open_block(block_i);
-    if (seen[block_j] != block_i) seen[block_j] = block_i, partner_blocks_.push_back(block_j);
-    const Vec3 d = p.position_m[i] - p.position_m[j];
-    int image = 0, stride = 1;
-    for (int a = 0; a < 3; ++a, stride *= 3) image += (box.image_of(d[a], a) + 1) * stride;
-    image_scratch_[k] = std::uint8_t(image);
-    const double dist2 = norm2(d - image_shift_[image]), reach = p.radius_m[i] + p.radius_m[j];
-    const double gap = std::sqrt(dist2) - p.radius_m[i] - p.radius_m[j];
-    const int band = band_width > 0.0 ? std::clamp(int(gap / band_width), 0, kGapBands - 1) : 0;
-    band_scratch_[k] = std::uint8_t(band | (dist2 < reach * reach ? kOverlappingBit : 0));
-    ++band_count[band];
-    ++band_block_start_[band][block_i + 1];
+  const std::size_t buckets_per_block = kSpeedBlockSlots / bucket_slots;
+  for (std::uint32_t a = 0; a < blocks; ++a) {
+    partner_block_start_[a] = std::uint32_t(partner_blocks_.size());
+    partner_blocks_.push_back(a);
+    seen[a] = a;
+    for (std::size_t b = a * buckets_per_block; b < std::min(buckets, (a + 1) * buckets_per_block);
+         ++b)
+      for (const std::uint32_t partner : bucket_partner_blocks_[b])
+        if (seen[partner] != a) seen[partner] = a, partner_blocks_.push_back(partner);
   }
-  open_block(std::uint32_t(blocks));
   partner_block_start_[blocks] = std::uint32_t(partner_blocks_.size());
-  std::size_t at[kGapBands], sum = 0;
-  for (int b = 0; b < kGapBands; ++b) {
-    at[b] = sum;
-    band_block_start_[b][0] = sum;
-    for (std::size_t a = 0; a < blocks; ++a) band_block_start_[b][a + 1] += band_block_start_[b][a];
-    sum += band_count[b];
-    band_end_[b] = sum;
+  std::size_t band_start = 0;
+  for (int band = 0; band < kGapBands; ++band) {
+    band_block_start_[band].assign(blocks + 1, 0);
+    std::size_t position = band_start;
+    for (std::size_t b = 0; b < buckets; ++b) {
+      const std::size_t block = b / buckets_per_block;
+      if (b % buckets_per_block == 0) band_block_start_[band][block] = position;
+      std::size_t& bucket_pairs = bucket_band_pairs_[b * kGapBands + std::size_t(band)];
+      const std::size_t pairs_here = bucket_pairs;
+      bucket_pairs = position;  // from here on: where the bucket's next pair of the band goes
+      position += pairs_here;
+    }
+    band_block_start_[band][blocks] = position;
+    band_end_[band] = position;
+    band_start = position;
   }
-  pairs.first.resize(sorted.size());
-  pairs.second.resize(sorted.size());
-  pair_image.resize(sorted.size());
+
+  // 4. Each bucket's pairs to their band's run, the overlapping ones noted.
+  pair_image.resize(count);
+  if (bucket_overlapping_.size() < buckets) bucket_overlapping_.resize(buckets);
+  run(buckets, [&](std::size_t b) {
+    std::size_t* band_at = &bucket_band_pairs_[b * kGapBands];
+    std::vector<std::uint32_t>& overlapping = bucket_overlapping_[b];
+    overlapping.clear();
+    for (std::size_t k = bucket_start_[b]; k < bucket_start_[b + 1]; ++k) {
+      const std::size_t to = band_at[band_scratch_[k] & ~kOverlappingBit]++;
+      sorted.first[to] = pairs.first[k];
+      sorted.second[to] = pairs.second[k];
+      pair_image[to] = image_scratch_[k];
+      if (band_scratch_[k] & kOverlappingBit) overlapping.push_back(std::uint32_t(to));
+    }
+  });
+  pairs.first.swap(sorted.first);
+  pairs.second.swap(sorted.second);
   overlapping_.clear();
-  for (std::size_t k = 0; k < sorted.size(); ++k) {
-    const std::size_t to = at[band_scratch_[k] & ~kOverlappingBit]++;
-    pairs.first[to] = sorted.first[k];
-    pairs.second[to] = sorted.second[k];
-    pair_image[to] = image_scratch_[k];
-    if (band_scratch_[k] & kOverlappingBit) overlapping_.push_back(std::uint32_t(to));
-  }
+  for (std::size_t b = 0; b < buckets; ++b)
+    overlapping_.insert(overlapping_.end(), bucket_overlapping_[b].begin(),
+                        bucket_overlapping_[b].end());
   std::sort(overlapping_.begin(), overlapping_.end());
 }
 
@@ -271,16 +352,26 @@ double NeighborList::steer_skin(const ParticleStore& p, double steps_per_skin) c
   constexpr int kBins = 32;
   const double s = settings_.skin_m;
   if (s <= 0.0 || pairs.size() == 0) return s;
-  std::vector<double> below(kBins + 1, 0.0);  // below[b]: candidates with gap < s·b/kBins
-  // A regular sample of at most ~32 000 candidates, each standing for `stride` of them.
+  // A regular sample of at most ~32 000 candidates, each standing for `stride` of them, binned
+  // per piece of the sample on the engine's threads (whole counts: exact in any order).
   const std::size_t stride = std::max<std::size_t>(1, pairs.size() / 32768);
-  for (std::size_t k = 0; k < pairs.size(); k += stride) {
-    const std::uint32_t i = pairs.first[k], j = pairs.second[k];
-    const double gap =
-        norm(p.position_m[i] - p.position_m[j] - pair_shift(k)) - p.radius_m[i] - p.radius_m[j];
-    const int bin = std::clamp(int(std::ceil(gap / s * kBins)), 0, kBins);
-    below[std::size_t(bin)] += double(stride);
-  }
+  const std::size_t samples = (pairs.size() + stride - 1) / stride, piece = block_items(8192);
+  const std::size_t pieces = (samples + piece - 1) / piece;
+  std::vector<double> piece_below(pieces * (kBins + 1), 0.0);
+  parallel_blocks_if(worth_threads(p.size()), pieces, [&](std::size_t q) {
+    double* bins = &piece_below[q * (kBins + 1)];
+    for (std::size_t sample = q * piece; sample < std::min(samples, (q + 1) * piece); ++sample) {
+      const std::size_t k = sample * stride;
+      const std::uint32_t i = pairs.first[k], j = pairs.second[k];
+      const double gap =
+          norm(p.position_m[i] - p.position_m[j] - pair_shift(k)) - p.radius_m[i] - p.radius_m[j];
+      bins[std::clamp(int(std::ceil(gap / s * kBins)), 0, kBins)] += double(stride);
+    }
+  });
+  std::vector<double> below(kBins + 1, 0.0);  // below[b]: candidates with gap < s·b/kBins
+  for (std::size_t q = 0; q < pieces; ++q)
+    for (int b = 0; b <= kBins; ++b)
+      below[std::size_t(b)] += piece_below[q * (kBins + 1) + std::size_t(b)];
   const std::vector<double> in_bin = below;
   for (int b = 0; b < kBins; ++b) below[std::size_t(b + 1)] += below[std::size_t(b)];
   const double slope = (below[kBins] - below[kBins / 2]) / (0.5 * s);

@@ -225,7 +225,14 @@ class NeighborList {
   std::vector<double> block_bound_m_;
   bool block_bounds_valid_ = false;
   std::vector<std::uint32_t> partner_block_start_, partner_blocks_;
-  std::vector<std::uint32_t> block_seen_;  // work array of sort_pairs
+  // Work arrays of sort_pairs: per chunk of the list and bucket of slots, where its pairs go;
+  // per bucket, where its pairs start, its pairs per band (then where they go), the speed blocks
+  // its second partners lie in, and its overlapping candidates; per speed block, which blocks
+  // are listed for it.
+  std::vector<std::uint32_t> sort_positions_;
+  std::vector<std::size_t> bucket_start_, bucket_band_pairs_;
+  std::vector<std::vector<std::uint32_t>> bucket_partner_blocks_, bucket_overlapping_;
+  std::vector<std::uint32_t> block_seen_;
   std::vector<std::size_t> band_block_start_[kGapBands];
   std::vector<std::uint8_t> block_active_[kGapBands];
   std::size_t blocks_joined_[kGapBands] = {0, 0, 0, 0};

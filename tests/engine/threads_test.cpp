@@ -1,15 +1,19 @@
 // The engine's threads (parallel/thread_team.h): the team runs every block of a loop exactly once
 // on any thread count, and a run's physics is the same bit for bit on 1, 2 and 3 threads: the
 // spiral jet mill (gas, walls, multi-rate stepping), the fluidized bed (dense contacts, gas) and
-// the attrition target (breakage and fragment spawning), each compared column by column.
+// the attrition target (breakage and fragment spawning), each compared column by column. The
+// hashed grid's search, cut into one part per thread, returns the one-thread list in its order.
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <chrono>
+#include <random>
 #include <stdexcept>
 #include <thread>
 #include <vector>
 
 #include "parallel/thread_team.h"
+#include "search/hashed_grid.h"
 #include "sim/simulation.h"
 #include "support/run_compare.h"
 
@@ -35,22 +39,35 @@ TEST(ThreadTeam, RunsEveryBlockOnceOnEveryThreadCount) {
     ASSERT_EQ(thread_count(), threads);
     for (std::size_t blocks : {std::size_t(1), std::size_t(2), std::size_t(7), std::size_t(1000)}) {
       std::vector<std::atomic<int>> runs(blocks);
-      std::vector<std::thread::id> ran_on(blocks);
       for (int repeat = 0; repeat < 20; ++repeat)
-        parallel_blocks(blocks, [&](std::size_t b) {
-          runs[b].fetch_add(1);
-          ran_on[b] = std::this_thread::get_id();
-        });
+        parallel_blocks(blocks, [&](std::size_t b) { runs[b].fetch_add(1); });
       for (std::size_t b = 0; b < blocks; ++b) EXPECT_EQ(runs[b].load(), 20) << blocks << " " << b;
-      // Each thread's share is contiguous: the blocks change thread at most threads − 1 times.
-      int changes = 0;
-      for (std::size_t b = 1; b < blocks; ++b) changes += ran_on[b] != ran_on[b - 1];
-      EXPECT_LE(changes, threads - 1);
-      if (blocks >= std::size_t(threads) && threads > 1) {
-        EXPECT_EQ(changes, threads - 1);
-      }
     }
   }
+}
+
+TEST(ThreadTeam, AThreadHeldUpInABlockLeavesTheRestOfItsShareToTheOthers) {
+  // 2 threads, 8 blocks: the calling thread's share is blocks 0-3. Block 0 waits until blocks 1-3
+  // have run, which only the other thread can do once its own share (4-7) is done.
+  Threads team(2);
+  std::vector<std::atomic<int>> done(8);
+  std::vector<std::thread::id> ran_on(8);
+  std::atomic<bool> timed_out{false};
+  parallel_blocks(8, [&](std::size_t b) {
+    ran_on[b] = std::this_thread::get_id();
+    if (b == 0) {
+      const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+      while (done[1].load() + done[2].load() + done[3].load() < 3)
+        if (std::chrono::steady_clock::now() > give_up) {
+          timed_out = true;
+          break;
+        }
+    }
+    done[b].store(1);
+  });
+  ASSERT_FALSE(timed_out.load()) << "blocks 1-3 waited for block 0's thread";
+  for (std::size_t b = 1; b < 4; ++b) EXPECT_NE(ran_on[b], ran_on[0]) << b;
+  for (int d = 0; d < 8; ++d) EXPECT_EQ(done[std::size_t(d)].load(), 1);
 }
 
 TEST(ThreadTeam, RangesCoverEveryItemOnce) {
@@ -75,6 +92,17 @@ TEST(ThreadTeam, AnExceptionInABlockReachesTheCallerAndTheTeamGoesOn) {
                                  if (b == 6) throw std::runtime_error("block 6");
                                }),
                std::runtime_error);
+  // Two blocks throw: the lower block's exception is the one the caller gets.
+  for (int repeat = 0; repeat < 20; ++repeat) {
+    try {
+      parallel_blocks(8, [](std::size_t b) {
+        if (b == 1 || b == 5) throw std::runtime_error(b == 1 ? "block 1" : "block 5");
+      });
+      ADD_FAILURE() << "no exception";
+    } catch (const std::runtime_error& e) {
+      EXPECT_STREQ(e.what(), "block 1");
+    }
+  }
   std::atomic<int> sum{0};
   parallel_blocks(8, [&](std::size_t b) { sum += int(b); });
   EXPECT_EQ(sum.load(), 28);
@@ -97,6 +125,66 @@ TEST(ThreadTeam, UsableCoresFollowTheAffinityMask) {
   CPU_ZERO(&set);
   ASSERT_EQ(sched_getaffinity(0, sizeof set, &set), 0);
   EXPECT_EQ(usable_core_count(), CPU_COUNT(&set));
+}
+
+// A cloud for the grid: radii log-uniform over `size_ratio`, in a few tight clusters of a box
+// (periodic or not), so that the parts of a threaded search hold very different work.
+struct GridCloud {
+  std::vector<Vec3> x;
+  std::vector<double> r;
+  PeriodicBox box;
+};
+
+GridCloud clustered_cloud(std::size_t n, double size_ratio, bool periodic, unsigned seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  GridCloud c;
+  const double length = 1.0, r_max = 0.02;
+  c.box = {{0, 0, 0}, {length, length, length}, {periodic, periodic, periodic}};
+  const Vec3 centres[3] = {{0.1, 0.5, 0.95}, {0.5, 0.5, 0.5}, {0.8, 0.05, 0.3}};
+  for (std::size_t i = 0; i < n; ++i) {
+    c.r.push_back(r_max * std::pow(size_ratio, -u(rng)));
+    Vec3 p = centres[i % 3] + Vec3{u(rng) - 0.5, u(rng) - 0.5, u(rng) - 0.5} * 0.25;
+    c.box.wrap(p);
+    for (int a = 0; a < 3; ++a) p[a] = std::clamp(p[a], 0.0, length);
+    c.x.push_back(p);
+  }
+  return c;
+}
+
+TEST(Threads, GridSearchGivesTheOneThreadListInItsOrder) {
+  SmallBlocks small_blocks;  // 3000 particles: past the threads' minimum
+  for (const bool periodic : {false, true})
+    for (const double size_ratio : {1.0, 30.0})
+      for (const int k : {1, 3}) {
+        SCOPED_TRACE(testing::Message()
+                     << "periodic " << periodic << ", ratio " << size_ratio << ", k " << k);
+        const GridCloud c = clustered_cloud(3000, size_ratio, periodic, 5u + unsigned(k));
+        const HashedGridSettings settings{0.004, k, 3, std::nullopt};
+        PairList serial_list;
+        HashedGrid serial_grid;
+        {
+          Threads one(1);
+          serial_grid.find_pairs(c.x, c.r, c.box, settings, serial_list);
+        }
+        ASSERT_GT(serial_list.size(), 1000u);
+        if (k > 1 && size_ratio > 1.0) {
+          ASSERT_GT(serial_grid.stats().levels, 1);  // the cross-level search is cut too
+        }
+        for (int threads : {2, 3}) {
+          SCOPED_TRACE(threads);
+          Threads team(threads);
+          PairList list;
+          HashedGrid grid;
+          const std::uint64_t loops_before = loops_run_on_team();
+          grid.find_pairs(c.x, c.r, c.box, settings, list);
+          EXPECT_GE(loops_run_on_team() - loops_before, 2u);
+          EXPECT_EQ(list.first, serial_list.first);
+          EXPECT_EQ(list.second, serial_list.second);
+          EXPECT_EQ(grid.stats().distance_tests, serial_grid.stats().distance_tests);
+          EXPECT_EQ(grid.stats().cell_lookups, serial_grid.stats().cell_lookups);
+        }
+      }
 }
 
 struct ThreadCase {
