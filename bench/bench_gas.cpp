@@ -2,10 +2,13 @@
 //   bench_gas grid [steps]          time per CFD step against grid size, multigrid and
 //                                   incomplete-Cholesky preconditioners side by side: a 3-D
 //                                   box with a nozzle inlet and an outlet, from rest
-//   bench_gas compressible [steps]  the compressible model against the incompressible one on
+//   bench_gas compressible [steps] [threads]
+//                                   the compressible model against the incompressible one on
 //                                   the same box, inlet and outlet (a 20 m/s inlet into gas at
 //                                   rest): time per step, per cell-step, the stable step, and
-//                                   so the cost of one simulated millisecond of each
+//                                   so the cost of one simulated millisecond of each; on the
+//                                   engine's `threads` (default 1; the compressible model's
+//                                   passes use them, the incompressible solver's do not yet)
 //   bench_gas cavity N MACH         the lid-driven cavity at Re = 100 on N × N cells (Ghia, Ghia &
 //                                   Shin 1982, Table I) by both models to t = 20 L/U, the
 //                                   compressible one at lid Mach number MACH: the incompressible
@@ -27,6 +30,7 @@
 
 #include "gas/compressible/compressible_solver.h"
 #include "gas/gas_solver.h"
+#include "parallel/thread_team.h"
 #include "scene/scene_json.h"
 #include "sim/simulation.h"
 
@@ -284,6 +288,7 @@ int main(int argc, char** argv) {
   if (mode == "grid") {
     grid_scan(argc > 2 ? std::atoi(argv[2]) : 20);
   } else if (mode == "compressible") {
+    set_thread_count(argc > 3 ? std::max(1, std::atoi(argv[3])) : 1);
     compressible_scan(argc > 2 ? std::atoi(argv[2]) : 20);
   } else if (mode == "cavity" && argc > 3) {
     std::printf(
@@ -306,7 +311,7 @@ int main(int argc, char** argv) {
     for (double t : {0.0, 0.01, 0.05, 0.10}) fluidized(argv[2], t);
   } else {
     std::fprintf(stderr,
-                 "usage: bench_gas grid [steps] | bench_gas compressible [steps] | "
+                 "usage: bench_gas grid [steps] | bench_gas compressible [steps] [threads] | "
                  "bench_gas cavity N MACH | bench_gas stokes N | bench_gas cache SOURCE_DIR\n");
     return 2;
   }

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "gas/gas_stencil.h"
+#include "parallel/thread_team.h"
 
 namespace millsim {
 namespace {
@@ -23,6 +24,22 @@ enum CellRole : std::uint8_t {
 
 bool is_wall(std::uint8_t role) {
   return role == kSolid || role == kWall || role == kSlipWall;
+}
+
+// A cell-step of the scheme (two stages of reconstruction, fluxes and updates) costs about as much
+// as this many particle-steps of the DEM's passes, so a grid runs on the engine's threads from
+// kMinItemsForThreads / kCellWeight cells (4096), the same work per loop as a particle population
+// at the threads' minimum. Every pass writes per cell, or per slab of cells, so the state is the
+// same bits on any thread count.
+constexpr std::size_t kCellWeight = 8;
+
+// body(c) for every padded cell c, in blocks on the engine's threads when `on_team`.
+template <class Body>
+void for_cells(std::size_t cells, bool on_team, const Body& body) {
+  const std::size_t block = block_items(4096);
+  parallel_blocks_if(on_team, (cells + block - 1) / block, [&](std::size_t b) {
+    for (std::size_t c = b * block; c < std::min(cells, (b + 1) * block); ++c) body(c);
+  });
 }
 
 // Primitive state of one face side: ρ, u, v, w, p.
@@ -199,27 +216,38 @@ double CompressibleSolver::stable_step_s(double courant) const {
   const double diffusivity_factor = 2.0 * std::max(4.0 / 3.0, gas_.gamma / gas_.prandtl);
   double inverse_h2 = 0.0;
   for (int a = 0; a < 3; ++a) inverse_h2 += 1.0 / (grid_.h_m[a] * grid_.h_m[a]);
-  double rate = 0.0;
-  for (std::size_t c = 0; c < grid_.padded_size; ++c) {
-    if (role_[c] != kFluid) continue;
-    const Vec3 u = velocity_m_per_s(c);
-    const double sound = gas_.sound_speed_m_per_s(density_[c], pressure_pa(c));
-    double cell_rate = 0.0;
-    for (int a = 0; a < 3; ++a) cell_rate += (std::abs(u[a]) + sound) / grid_.h_m[a];
-    cell_rate += diffusivity_factor * viscosity_pa_s_ / density_[c] * inverse_h2;
-    rate = std::max(rate, cell_rate);
-  }
+  // The largest rate per block of cells, then over the blocks (a maximum: exact in any order).
+  const std::size_t block = block_items(4096), blocks = (grid_.padded_size + block - 1) / block;
+  std::vector<double> block_rate(blocks, 0.0);
+  parallel_blocks_if(on_team(), blocks, [&](std::size_t b) {
+    double rate = 0.0;
+    for (std::size_t c = b * block; c < std::min(grid_.padded_size, (b + 1) * block); ++c) {
+      if (role_[c] != kFluid) continue;
+      const Vec3 u = velocity_m_per_s(c);
+      const double sound = gas_.sound_speed_m_per_s(density_[c], pressure_pa(c));
+      double cell_rate = 0.0;
+      for (int a = 0; a < 3; ++a) cell_rate += (std::abs(u[a]) + sound) / grid_.h_m[a];
+      cell_rate += diffusivity_factor * viscosity_pa_s_ / density_[c] * inverse_h2;
+      rate = std::max(rate, cell_rate);
+    }
+    block_rate[b] = rate;
+  });
+  const double rate = blocks > 0 ? *std::max_element(block_rate.begin(), block_rate.end()) : 0.0;
   return rate > 0.0 ? courant / rate : std::numeric_limits<double>::infinity();
 }
 
+bool CompressibleSolver::on_team() const {
+  return worth_threads(grid_.padded_size * kCellWeight);
+}
+
 void CompressibleSolver::compute_primitives() {
-  for (std::size_t c = 0; c < grid_.padded_size; ++c) {
-    if (role_[c] != kFluid) continue;
+  for_cells(grid_.padded_size, on_team(), [&](std::size_t c) {
+    if (role_[c] != kFluid) return;
     const double inverse = 1.0 / density_[c];
     primitive_[0][c] = density_[c];
     for (std::size_t a = 0; a < 3; ++a) primitive_[1 + a][c] = momentum_[a][c] * inverse;
     primitive_[4][c] = pressure_pa(c);
-  }
+  });
 }
 
 void CompressibleSolver::fill_ghosts() {
@@ -278,8 +306,8 @@ Vec3 CompressibleSolver::neighbour_velocity(std::size_t c, std::size_t n, int a)
 }
 
 void CompressibleSolver::compute_velocity_gradients() {
-  for (std::size_t c = 0; c < grid_.padded_size; ++c) {
-    if (role_[c] != kFluid) continue;
+  for_cells(grid_.padded_size, on_team(), [&](std::size_t c) {
+    if (role_[c] != kFluid) return;
     for (int d = 0; d < 3; ++d) {
       const std::size_t s = grid_.stride[std::size_t(d)];
       const Vec3 below = neighbour_velocity(c, c - s, d), above = neighbour_velocity(c, c + s, d);
@@ -287,7 +315,7 @@ void CompressibleSolver::compute_velocity_gradients() {
         velocity_gradient_[3 * b + std::size_t(d)][c] =
             (above[int(b)] - below[int(b)]) / (2.0 * grid_.h_m[d]);
     }
-  }
+  });
 }
 
 void CompressibleSolver::compute_residual(double stage_weight) {
@@ -329,12 +357,22 @@ void CompressibleSolver::compute_residual(double stage_weight) {
     }
     return w;
   };
+  // The faces normal to axis a, slab by slab across the third axis: a face writes only the two
+  // cells beside it, which lie in its slab, so the slabs run on the engine's threads and every
+  // cell receives its faces' fluxes in the order one thread adds them. A slab's inflows through
+  // open faces are kept in order and added to the patches' sums after, slab by slab.
+  const bool team = on_team();
   for (int a = 0; a < 3; ++a) {
     const std::size_t au = std::size_t(a), s = grid_.stride[au];
     const double inverse_h = 1.0 / grid_.h_m[a], area = grid_.face_area_m2(a);
     const int b_axis = (a + 1) % 3, c_axis = (a + 2) % 3;
     const int first = grid_.periodic[au] ? 1 : 0;
-    for (int kc = 1; kc <= grid_.n[std::size_t(c_axis)]; ++kc)
+    const std::size_t slabs = std::size_t(grid_.n[std::size_t(c_axis)]);
+    if (slab_inflow_.size() < slabs) slab_inflow_.resize(slabs);
+    parallel_blocks_if(team, slabs, [&](std::size_t slab) {
+      const int kc = int(slab) + 1;
+      std::vector<std::pair<int, double>>& inflow = slab_inflow_[slab];
+      inflow.clear();
       for (int kb = 1; kb <= grid_.n[std::size_t(b_axis)]; ++kb)
         for (int ka = first; ka <= grid_.n[au]; ++ka) {
           std::array<int, 3> ijk{};
@@ -367,8 +405,7 @@ void CompressibleSolver::compute_residual(double stage_weight) {
                            : central_upwind_flux(gas_, outside, reconstruct(right, a, -1.0), a);
             const int patch = grid_.ghost[ghost].patch;
             if (patch >= 0)
-              patch_inflow_[std::size_t(patch)] +=
-                  stage_weight * (fluid_l ? -flux[0] : flux[0]) * area;
+              inflow.emplace_back(patch, stage_weight * (fluid_l ? -flux[0] : flux[0]) * area);
           }
 
           if (viscous) {
@@ -412,21 +449,23 @@ void CompressibleSolver::compute_residual(double stage_weight) {
             if (fluid_r) residual_[v][right] += flux[v] * inverse_h;
           }
         }
+    });
+    for (std::size_t slab = 0; slab < slabs; ++slab)
+      for (const auto& [patch, mass_flow] : slab_inflow_[slab])
+        patch_inflow_[std::size_t(patch)] += mass_flow;
   }
 
-  if (norm2(gravity_m_per_s2_) > 0.0)
-    for (std::size_t c = 0; c < grid_.padded_size; ++c) {
-      if (role_[c] != kFluid) continue;
+  const bool gravity = norm2(gravity_m_per_s2_) > 0.0;
+  for_cells(grid_.padded_size, team, [&](std::size_t c) {
+    if (role_[c] != kFluid) return;
+    if (gravity)
       for (std::size_t a = 0; a < 3; ++a) {
         residual_[1 + a][c] += density_[c] * gravity_m_per_s2_[int(a)];
         residual_[4][c] += momentum_[a][c] * gravity_m_per_s2_[int(a)];
       }
-    }
-  for (std::size_t c = 0; c < grid_.padded_size; ++c) {
-    if (role_[c] != kFluid) continue;
     for (std::size_t a = 0; a < 3; ++a) residual_[1 + a][c] += source_[a][c];
     residual_[4][c] += energy_source_[c];
-  }
+  });
   add_jet_sources(stage_weight);
 }
 
@@ -470,8 +509,8 @@ void CompressibleSolver::add_jet_sources(double stage_weight) {
 // ∂p/∂x_a per fluid cell: central differences between fluid neighbours (periodic images
 // included), one-sided where one side is a wall or an open boundary, 0 where both are.
 void CompressibleSolver::update_pressure_gradient() {
-  for (std::size_t c = 0; c < grid_.padded_size; ++c) {
-    if (role_[c] != kFluid) continue;
+  for_cells(grid_.padded_size, on_team(), [&](std::size_t c) {
+    if (role_[c] != kFluid) return;
     const double own = pressure_pa(c);
     for (int a = 0; a < 3; ++a) {
       const std::size_t s = grid_.stride[std::size_t(a)];
@@ -485,7 +524,7 @@ void CompressibleSolver::update_pressure_gradient() {
       }
       gradient_[std::size_t(a)][c] = span > 0.0 ? sum / span : 0.0;
     }
-  }
+  });
 }
 
 // Σ w value_of(cell) over the fluid cells of x's trilinear stencil (a number or a vector).
@@ -527,11 +566,26 @@ Vec3 CompressibleSolver::vorticity_at(const Vec3& x) const {
 }
 
 std::optional<std::string> CompressibleSolver::check_state() const {
-  for (std::size_t c = 0; c < grid_.padded_size; ++c) {
-    if (role_[c] != kFluid) continue;
+  // The first cell with a bad state per block of cells, then the first of those: the cell a pass
+  // in cell order reports.
+  auto bad = [&](std::size_t c) {
+    if (role_[c] != kFluid) return false;
+    const double rho = density_[c], p = pressure_pa(c);
+    return !(rho > 0.0) || !std::isfinite(rho) || !(p > 0.0) || !std::isfinite(p);
+  };
+  const std::size_t n = grid_.padded_size, block = block_items(4096);
+  std::vector<std::size_t> first_bad((n + block - 1) / block, n);
+  parallel_blocks_if(on_team(), first_bad.size(), [&](std::size_t b) {
+    for (std::size_t c = b * block; c < std::min(n, (b + 1) * block); ++c)
+      if (bad(c)) {
+        first_bad[b] = c;
+        return;
+      }
+  });
+  for (const std::size_t c : first_bad) {
+    if (c == n) continue;
     const double rho = density_[c], p = pressure_pa(c);
     const bool density_bad = !(rho > 0.0) || !std::isfinite(rho);
-    if (!density_bad && p > 0.0 && std::isfinite(p)) continue;
     const std::array<int, 3> ijk = grid_.coords(c);
     const Vec3 x = grid_.cell_center(ijk[0], ijk[1], ijk[2]);
     std::ostringstream message;
@@ -561,15 +615,14 @@ std::optional<std::string> CompressibleSolver::advance(double dt) {
   // Heun: U1 = U0 + dt L(U0), U = (U0 + U1 + dt L(U1)) / 2.
   for (int stage = 0; stage < 2; ++stage) {
     compute_residual(0.5);
-    for (std::size_t v = 0; v < kVariables; ++v) {
-      std::vector<double>& u = *state[v];
-      const std::vector<double>& u0 = start_[v];
-      const std::vector<double>& r = residual_[v];
-      for (std::size_t c = 0; c < grid_.padded_size; ++c) {
-        if (role_[c] != kFluid) continue;
-        u[c] = stage == 0 ? u0[c] + dt * r[c] : 0.5 * (u0[c] + u[c] + dt * r[c]);
+    for_cells(grid_.padded_size, on_team(), [&](std::size_t c) {
+      if (role_[c] != kFluid) return;
+      for (std::size_t v = 0; v < kVariables; ++v) {
+        std::vector<double>& u = *state[v];
+        const double u0 = start_[v][c], r = residual_[v][c];
+        u[c] = stage == 0 ? u0 + dt * r : 0.5 * (u0 + u[c] + dt * r);
       }
-    }
+    });
     if (auto failure = check_state()) return failure;
   }
   time_s_ += dt;

@@ -31,6 +31,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/vec3.h"
@@ -119,6 +120,8 @@ class CompressibleSolver {
   static constexpr int kVariables = 5;
   using State = std::array<std::vector<double>, kVariables>;
 
+  // Whether the grid's passes run on the engine's threads (parallel/thread_team.h).
+  bool on_team() const;
   void compute_primitives();
   void fill_ghosts();
   // The velocity the viscous stress sees at padded cell n, a neighbour of fluid cell c along
@@ -151,6 +154,8 @@ class CompressibleSolver {
   std::array<std::vector<double>, 9> velocity_gradient_;
 
   std::vector<double> patch_inflow_;
+  std::vector<std::vector<std::pair<int, double>>>
+      slab_inflow_;  // per slab: (patch, kg/s) in order
   std::vector<GasJetConfig> jet_config_;
   std::vector<NozzleExit> jet_exit_;
   std::vector<double> jet_inflow_;
