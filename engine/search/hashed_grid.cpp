@@ -19,24 +19,49 @@ constexpr std::size_t kSearchPieceParticles = 8192;
 constexpr std::size_t kPiecesPerThreadWave = 8;
 
 // LSD radix sort of (key, value) by key, 16 bits per pass, only as many passes as the keys need.
-// The scratch arrays keep their capacity from call to call.
+// With `on_team` each pass is cut into one chunk of the input per thread: every chunk counts its
+// digits, the counts become where each chunk's keys of each digit go (digits in order, chunks in
+// order within one), and every chunk scatters its keys there. A stable sort's output is unique,
+// so the result is the one a single pass makes. The scratch arrays keep their capacity.
 void radix_sort(std::vector<std::uint64_t>& keys, std::vector<std::uint32_t>& values,
-                SortScratch& scratch) {
+                SortScratch& scratch, bool on_team) {
+  constexpr std::size_t kDigits = 65536;
   const std::size_t n = keys.size();
+  const std::size_t chunks = on_team ? std::size_t(thread_count()) : 1;
+  auto chunk_begin = [&](std::size_t c) { return n * c / chunks; };
+  std::vector<std::uint64_t> chunk_or(chunks, 0);
+  parallel_blocks_if(on_team, chunks, [&](std::size_t c) {
+    std::uint64_t bits = 0;
+    for (std::size_t i = chunk_begin(c); i < chunk_begin(c + 1); ++i) bits |= keys[i];
+    chunk_or[c] = bits;
+  });
   std::uint64_t max_key = 0;
-  for (std::uint64_t k : keys) max_key |= k;
+  for (const std::uint64_t bits : chunk_or) max_key |= bits;
   scratch.keys.resize(n);
   scratch.values.resize(n);
   for (int shift = 0; shift < 64 && (max_key >> shift) != 0; shift += 16) {
-    scratch.count.assign(65537, 0);
-    std::uint32_t* count = scratch.count.data();
-    for (std::uint64_t k : keys) ++count[((k >> shift) & 0xFFFF) + 1];
-    for (std::size_t d = 0; d < 65536; ++d) count[d + 1] += count[d];
-    for (std::size_t i = 0; i < n; ++i) {
-      const std::uint32_t pos = count[(keys[i] >> shift) & 0xFFFF]++;
-      scratch.keys[pos] = keys[i];
-      scratch.values[pos] = values[i];
-    }
+    scratch.count.assign(chunks * kDigits, 0);
+    parallel_blocks_if(on_team, chunks, [&](std::size_t c) {
+      std::uint32_t* count = scratch.count.data() + c * kDigits;
+      for (std::size_t i = chunk_begin(c); i < chunk_begin(c + 1); ++i)
+        ++count[(keys[i] >> shift) & 0xFFFF];
+    });
+    std::uint32_t placed = 0;
+    for (std::size_t d = 0; d < kDigits; ++d)
+      for (std::size_t c = 0; c < chunks; ++c) {
+        std::uint32_t& count = scratch.count[c * kDigits + d];
+        const std::uint32_t here = count;
+        count = placed;
+        placed += here;
+      }
+    parallel_blocks_if(on_team, chunks, [&](std::size_t c) {
+      std::uint32_t* at = scratch.count.data() + c * kDigits;
+      for (std::size_t i = chunk_begin(c); i < chunk_begin(c + 1); ++i) {
+        const std::uint32_t pos = at[(keys[i] >> shift) & 0xFFFF]++;
+        scratch.keys[pos] = keys[i];
+        scratch.values[pos] = values[i];
+      }
+    });
     keys.swap(scratch.keys);
     values.swap(scratch.values);
   }
@@ -425,7 +450,7 @@ void CellLevel::build(const std::vector<Vec3>& x, const std::vector<double>& r,
     return;
   }
   members_.assign(members.begin(), members.end());
-  radix_sort(keys, members_, scratch);
+  radix_sort(keys, members_, scratch, worth_threads(keys.size()));
   for (std::size_t k = 0; k < keys.size(); ++k)
     if (k == 0 || keys[k] != keys[k - 1])
       cell_key_.push_back(keys[k]), start_.push_back(std::uint32_t(k));
@@ -625,16 +650,19 @@ void spatial_order(const std::vector<Vec3>& x, const PeriodicBox& box,
   std::vector<std::uint64_t>& keys = scratch.input_keys;
   keys.resize(x.size());
   order.resize(x.size());
-  for (std::uint32_t i = 0; i < x.size(); ++i) {
-    std::uint64_t key = 0;
-    for (int a = 0; a < 3; ++a) {
-      const double c = std::clamp((x[i][a] - lo[a]) / edge, 0.0, double((1 << 21) - 1));
-      key |= spread(std::uint64_t(c)) << a;
-    }
-    keys[i] = key;
-    order[i] = i;
-  }
-  radix_sort(keys, order, scratch);
+  parallel_ranges(
+      x.size(), block_items(16384), [&](std::size_t begin, std::size_t end, std::size_t) {
+        for (std::size_t i = begin; i < end; ++i) {
+          std::uint64_t key = 0;
+          for (int a = 0; a < 3; ++a) {
+            const double c = std::clamp((x[i][a] - lo[a]) / edge, 0.0, double((1 << 21) - 1));
+            key |= spread(std::uint64_t(c)) << a;
+          }
+          keys[i] = key;
+          order[i] = std::uint32_t(i);
+        }
+      });
+  radix_sort(keys, order, scratch, worth_threads(keys.size()));
 }
 
 namespace {

@@ -572,8 +572,17 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
     if (max_speed2 > 0.0)
       next_skin_m_ = steer_skin(p, 1.0 / (2.0 * std::sqrt(max_speed2) * settings_.step_s));
   }
-  reference_position_m_ = p.position_m;
-  reference_id_ = p.id;
+  // The positions and ids of this build, copied in blocks on the engine's threads.
+  reference_position_m_.resize(p.size());
+  reference_id_.resize(p.size());
+  parallel_ranges(
+      p.size(), block_items(16384), [&](std::size_t begin, std::size_t end, std::size_t) {
+        std::copy(p.position_m.begin() + std::ptrdiff_t(begin),
+                  p.position_m.begin() + std::ptrdiff_t(end),
+                  reference_position_m_.begin() + std::ptrdiff_t(begin));
+        std::copy(p.id.begin() + std::ptrdiff_t(begin), p.id.begin() + std::ptrdiff_t(end),
+                  reference_id_.begin() + std::ptrdiff_t(begin));
+      });
   ++stats_.rebuilds;
 }
 
