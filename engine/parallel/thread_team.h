@@ -17,9 +17,11 @@
 // idle team costs nothing on a machine that is busy with other runs.
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <type_traits>
+#include <vector>
 
 namespace millsim {
 
@@ -85,19 +87,38 @@ void parallel_blocks_if(bool on_team, std::size_t blocks, Body&& body) {
 }
 
 // Runs body(begin, end, block) over [0, n) cut into blocks of `block_size` items (the last one
-// shorter); on the calling thread alone unless worth_threads(n).
+// shorter): on the team when `on_team` (a caller's worth_threads() of the population the loop
+// serves), else in order on the calling thread.
 template <class Body>
-void parallel_ranges(std::size_t n, std::size_t block_size, Body&& body) {
+void parallel_ranges_if(bool on_team, std::size_t n, std::size_t block_size, Body&& body) {
   const std::size_t blocks = (n + block_size - 1) / block_size;
-  if (!worth_threads(n)) {
-    for (std::size_t b = 0, begin = 0; b < blocks; ++b, begin += block_size)
-      body(begin, begin + block_size < n ? begin + block_size : n, b);
-    return;
-  }
-  parallel_blocks(blocks, [&](std::size_t b) {
+  parallel_blocks_if(on_team, blocks, [&](std::size_t b) {
     const std::size_t begin = b * block_size;
     body(begin, begin + block_size < n ? begin + block_size : n, b);
   });
+}
+
+// The same, on the team when worth_threads(n).
+template <class Body>
+void parallel_ranges(std::size_t n, std::size_t block_size, Body&& body) {
+  parallel_ranges_if(worth_threads(n), n, block_size, body);
+}
+
+// The lowest i in [0, n) with is_bad(i), or n when none: each block of `block_size` stops at its
+// first, and the lowest of the blocks' is what one pass in order finds.
+template <class Predicate>
+std::size_t first_index_where(bool on_team, std::size_t n, std::size_t block_size,
+                              const Predicate& is_bad) {
+  std::vector<std::size_t> first((n + block_size - 1) / block_size, n);
+  parallel_ranges_if(on_team, n, block_size,
+                     [&](std::size_t begin, std::size_t end, std::size_t b) {
+                       for (std::size_t i = begin; i < end; ++i)
+                         if (is_bad(i)) {
+                           first[b] = i;
+                           return;
+                         }
+                     });
+  return first.empty() ? n : *std::min_element(first.begin(), first.end());
 }
 
 }  // namespace millsim

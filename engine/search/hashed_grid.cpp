@@ -314,23 +314,20 @@ void cross_level_pairs(const CellLevel& from, const CellLevel& to, const Periodi
 }
 
 // Runs search(piece, sink) for pieces 0 .. pieces−1 and appends their candidates to `sink` in
-// piece order: the list one thread makes searching the pieces one after the other. With
-// `on_team`, waves of kPiecesPerThreadWave pieces per thread run on the engine's threads, each
-// piece into a list of its own, and each wave is joined before the next starts, so the lists
-// hold a bounded share of the candidates at any particle count.
+// piece order: the list one thread makes searching the pieces one after the other. One piece runs
+// straight into `sink`; more run on the engine's threads in waves of kPiecesPerThreadWave pieces
+// per thread, each piece into a list of its own, each wave joined before the next starts, so the
+// lists hold a bounded share of the candidates at any particle count.
 template <class Search>
-void search_in_pieces(std::size_t pieces, bool on_team, std::vector<SearchPart>& scratch,
-                      PairSink& sink, const Search& search) {
-  if (!on_team) {
-    for (std::size_t piece = 0; piece < pieces; ++piece) search(piece, sink);
-    return;
-  }
+void search_in_pieces(std::size_t pieces, std::vector<SearchPiece>& scratch, PairSink& sink,
+                      const Search& search) {
+  if (pieces == 1) return search(0, sink);
   const std::size_t wave = kPiecesPerThreadWave * std::size_t(thread_count());
   if (scratch.size() < wave) scratch.resize(wave);
   for (std::size_t first = 0; first < pieces; first += wave) {
     const std::size_t count = std::min(wave, pieces - first);
     parallel_blocks(count, [&](std::size_t q) {
-      SearchPart& own = scratch[q];
+      SearchPiece& own = scratch[q];
       own.pairs.clear();
       PairSink piece_sink{sink.box, sink.skin, own.pairs};
       search(first + q, piece_sink);
@@ -583,7 +580,7 @@ void HashedGrid::find_pairs(const std::vector<Vec3>& x, const std::vector<double
       small_box_pairs(level, sink);
     } else {
       const std::size_t members = level.slots().size(), pieces = piece_count(members);
-      search_in_pieces(pieces, on_team, pieces_, sink, [&](std::size_t q, PairSink& piece_sink) {
+      search_in_pieces(pieces, pieces_, sink, [&](std::size_t q, PairSink& piece_sink) {
         same_level_cells(level, box, reach_extra,
                          level.first_cell_at_member(share(members, q, pieces)),
                          level.first_cell_at_member(share(members, q + 1, pieces)), piece_sink);
@@ -611,7 +608,7 @@ void HashedGrid::find_pairs(const std::vector<Vec3>& x, const std::vector<double
                            visit_cost(summary[coarse], summary[fine], skin);
       const int from = upwards ? fine : coarse, to = upwards ? coarse : fine;
       const std::size_t visitors = level_[from].slots().size(), pieces = piece_count(visitors);
-      search_in_pieces(pieces, on_team, pieces_, sink, [&](std::size_t q, PairSink& piece_sink) {
+      search_in_pieces(pieces, pieces_, sink, [&](std::size_t q, PairSink& piece_sink) {
         cross_level_pairs(level_[from], level_[to], box, summary[to].r_max_m + skin,
                           share(visitors, q, pieces), share(visitors, q + 1, pieces), piece_sink);
       });

@@ -117,7 +117,7 @@ struct HashedGridStats {
 
 // One piece of a search run on the engine's threads: its candidates, in the order one thread
 // finds them, and its counts. The pieces' lists are joined in piece order.
-struct SearchPart {
+struct SearchPiece {
   PairList pairs;
   std::uint64_t tests = 0, lookups = 0;
 };
@@ -134,7 +134,7 @@ class HashedGrid {
   CellLevel level_[kMaxGridLevels];
   std::vector<std::uint32_t> members_[kMaxGridLevels];
   SortScratch scratch_;
-  std::vector<SearchPart> pieces_;  // one wave's pieces while the search runs on several threads
+  std::vector<SearchPiece> pieces_;  // one wave's pieces while the search runs on several threads
   HashedGridStats stats_;
 };
 

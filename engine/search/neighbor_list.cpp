@@ -120,9 +120,6 @@ void NeighborList::sort_pairs(const ParticleStore& p, const PeriodicBox& box) {
   }
   const std::size_t count = pairs.size();
   const bool threaded = worth_threads(p.size());
-  auto run = [threaded](std::size_t parts, const auto& body) {
-    parallel_blocks_if(threaded, parts, body);
-  };
   const std::size_t blocks = (p.size() + kSpeedBlockSlots - 1) / kSpeedBlockSlots;
   const std::size_t bucket_slots = threaded ? block_items(kSpeedBlockSlots) : kSpeedBlockSlots;
   const std::size_t buckets = (p.size() + bucket_slots - 1) / bucket_slots;
@@ -134,7 +131,7 @@ void NeighborList::sort_pairs(const ParticleStore& p, const PeriodicBox& box) {
   //    chunk's pairs of a bucket go (buckets in order, and within one the chunks in order).
   std::vector<std::uint32_t>& at = sort_positions_;  // [chunk][bucket]
   at.assign(chunks * buckets, 0);
-  run(chunks, [&](std::size_t c) {
+  parallel_blocks_if(threaded, chunks, [&](std::size_t c) {
     std::uint32_t* own = at.data() + c * buckets;
     for (std::size_t k = c * chunk_pairs; k < chunk_end(c); ++k) {
       if (pairs.first[k] < pairs.second[k]) std::swap(pairs.first[k], pairs.second[k]);
@@ -155,7 +152,7 @@ void NeighborList::sort_pairs(const ParticleStore& p, const PeriodicBox& box) {
   PairList& sorted = sorted_pairs_;
   sorted.first.resize(count);
   sorted.second.resize(count);
-  run(chunks, [&](std::size_t c) {
+  parallel_blocks_if(threaded, chunks, [&](std::size_t c) {
     std::uint32_t* own = at.data() + c * buckets;
     for (std::size_t k = c * chunk_pairs; k < chunk_end(c); ++k) {
       const std::uint32_t to = own[pairs.first[k] / bucket_slots]++;
@@ -172,7 +169,7 @@ void NeighborList::sort_pairs(const ParticleStore& p, const PeriodicBox& box) {
   band_scratch_.resize(count);
   bucket_band_pairs_.assign(buckets * kGapBands, 0);
   if (bucket_partner_blocks_.size() < buckets) bucket_partner_blocks_.resize(buckets);
-  run(buckets, [&](std::size_t b) {
+  parallel_blocks_if(threaded, buckets, [&](std::size_t b) {
     const std::size_t begin = bucket_start_[b], end = bucket_start_[b + 1];
     const std::uint32_t first_slot = std::uint32_t(b * bucket_slots);
     std::uint32_t start[kSpeedBlockSlots + 1];
@@ -243,7 +240,7 @@ void NeighborList::sort_pairs(const ParticleStore& p, const PeriodicBox& box) {
   // 4. Each bucket's pairs to their band's run, the overlapping ones noted.
   pair_image.resize(count);
   if (bucket_overlapping_.size() < buckets) bucket_overlapping_.resize(buckets);
-  run(buckets, [&](std::size_t b) {
+  parallel_blocks_if(threaded, buckets, [&](std::size_t b) {
     std::size_t* band_at = &bucket_band_pairs_[b * kGapBands];
     std::vector<std::uint32_t>& overlapping = bucket_overlapping_[b];
     overlapping.clear();

@@ -883,27 +883,14 @@ Vec3 Simulation::removed_momentum_kg_m_per_s() const {
 std::optional<StepFailure> Simulation::check_health() {
   const ParticleStore& p = particles_;
   const std::string dt_text = concat(time_.step_s, " s");
-  // The first slot with a non-finite state and the first outside the box, per block of slots on
-  // the engine's threads; the lowest of each over the blocks is what one pass in slot order finds.
+  // The first slot with a non-finite state, then the first outside the box: per block of slots
+  // on the engine's threads, the lowest over the blocks (what one pass in slot order finds).
   const std::size_t n = p.size(), block = block_items(16384);
-  std::vector<std::size_t> first_bad(2 * ((n + block - 1) / block), n);
-  parallel_ranges(n, block, [&](std::size_t begin, std::size_t end, std::size_t b) {
-    for (std::size_t i = begin; i < end; ++i) {
-      if (first_bad[2 * b] == n &&
-          !(is_finite(p.position_m[i]) && is_finite(p.motion[i].velocity_m_per_s) &&
-            is_finite(p.motion[i].angular_velocity_rad_per_s)))
-        first_bad[2 * b] = i;
-      for (int a = 0; a < 3 && first_bad[2 * b + 1] == n; ++a) {
-        const double x = p.position_m[i][a], r = p.radius_m[i];
-        if (!box_.periodic[a] && (x < box_.min_m[a] - r || x > box_.max_m[a] + r))
-          first_bad[2 * b + 1] = i;
-      }
-    }
+  const bool team = worth_threads(n);
+  const std::size_t non_finite = first_index_where(team, n, block, [&](std::size_t i) {
+    return !(is_finite(p.position_m[i]) && is_finite(p.motion[i].velocity_m_per_s) &&
+             is_finite(p.motion[i].angular_velocity_rad_per_s));
   });
-  std::size_t non_finite = n, escaped = n;
-  for (std::size_t b = 0; 2 * b < first_bad.size(); ++b)
-    non_finite = std::min(non_finite, first_bad[2 * b]),
-    escaped = std::min(escaped, first_bad[2 * b + 1]);
   if (non_finite < n) {
     const std::size_t i = non_finite;
     return StepFailure{step_index_, time_s(), p.id[i], "non_finite_state",
@@ -912,13 +899,18 @@ std::optional<StepFailure> Simulation::check_health() {
                               " is likely too large for its contacts: lower /time/step_s or "
                               "/time/safety_factor")};
   }
+  auto outside_on_axis = [&](std::size_t i, int a) {
+    const double x = p.position_m[i][a], r = p.radius_m[i];
+    return !box_.periodic[a] && (x < box_.min_m[a] - r || x > box_.max_m[a] + r);
+  };
+  const std::size_t escaped = first_index_where(team, n, block, [&](std::size_t i) {
+    return outside_on_axis(i, 0) || outside_on_axis(i, 1) || outside_on_axis(i, 2);
+  });
   if (const std::size_t i = escaped; i < n)
     for (int a = 0; a < 3; ++a) {
-      if (box_.periodic[a]) continue;
-      const double x = p.position_m[i][a], r = p.radius_m[i];
-      if (x < box_.min_m[a] - r || x > box_.max_m[a] + r)
+      if (outside_on_axis(i, a))
         return StepFailure{step_index_, time_s(), p.id[i], "particle_escaped",
-                           concat("particle ", p.id[i], " (d = ", 2 * r, " m, speed ",
+                           concat("particle ", p.id[i], " (d = ", 2 * p.radius_m[i], " m, speed ",
                                   norm(p.motion[i].velocity_m_per_s),
                                   " m/s) left the domain through a "
                                   "wall on axis ",

@@ -36,10 +36,10 @@ constexpr std::size_t kCellWeight = 8;
 // body(c) for every padded cell c, in blocks on the engine's threads when `on_team`.
 template <class Body>
 void for_cells(std::size_t cells, bool on_team, const Body& body) {
-  const std::size_t block = block_items(4096);
-  parallel_blocks_if(on_team, (cells + block - 1) / block, [&](std::size_t b) {
-    for (std::size_t c = b * block; c < std::min(cells, (b + 1) * block); ++c) body(c);
-  });
+  parallel_ranges_if(on_team, cells, block_items(4096),
+                     [&](std::size_t begin, std::size_t end, std::size_t) {
+                       for (std::size_t c = begin; c < end; ++c) body(c);
+                     });
 }
 
 // Primitive state of one face side: ρ, u, v, w, p.
@@ -219,19 +219,20 @@ double CompressibleSolver::stable_step_s(double courant) const {
   // The largest rate per block of cells, then over the blocks (a maximum: exact in any order).
   const std::size_t block = block_items(4096), blocks = (grid_.padded_size + block - 1) / block;
   std::vector<double> block_rate(blocks, 0.0);
-  parallel_blocks_if(on_team(), blocks, [&](std::size_t b) {
-    double rate = 0.0;
-    for (std::size_t c = b * block; c < std::min(grid_.padded_size, (b + 1) * block); ++c) {
-      if (role_[c] != kFluid) continue;
-      const Vec3 u = velocity_m_per_s(c);
-      const double sound = gas_.sound_speed_m_per_s(density_[c], pressure_pa(c));
-      double cell_rate = 0.0;
-      for (int a = 0; a < 3; ++a) cell_rate += (std::abs(u[a]) + sound) / grid_.h_m[a];
-      cell_rate += diffusivity_factor * viscosity_pa_s_ / density_[c] * inverse_h2;
-      rate = std::max(rate, cell_rate);
-    }
-    block_rate[b] = rate;
-  });
+  parallel_ranges_if(
+      on_team(), grid_.padded_size, block, [&](std::size_t begin, std::size_t end, std::size_t b) {
+        double rate = 0.0;
+        for (std::size_t c = begin; c < end; ++c) {
+          if (role_[c] != kFluid) continue;
+          const Vec3 u = velocity_m_per_s(c);
+          const double sound = gas_.sound_speed_m_per_s(density_[c], pressure_pa(c));
+          double cell_rate = 0.0;
+          for (int a = 0; a < 3; ++a) cell_rate += (std::abs(u[a]) + sound) / grid_.h_m[a];
+          cell_rate += diffusivity_factor * viscosity_pa_s_ / density_[c] * inverse_h2;
+          rate = std::max(rate, cell_rate);
+        }
+        block_rate[b] = rate;
+      });
   const double rate = blocks > 0 ? *std::max_element(block_rate.begin(), block_rate.end()) : 0.0;
   return rate > 0.0 ? courant / rate : std::numeric_limits<double>::infinity();
 }
@@ -568,22 +569,13 @@ Vec3 CompressibleSolver::vorticity_at(const Vec3& x) const {
 std::optional<std::string> CompressibleSolver::check_state() const {
   // The first cell with a bad state per block of cells, then the first of those: the cell a pass
   // in cell order reports.
-  auto bad = [&](std::size_t c) {
-    if (role_[c] != kFluid) return false;
-    const double rho = density_[c], p = pressure_pa(c);
+  const std::size_t n = grid_.padded_size;
+  const std::size_t c = first_index_where(on_team(), n, block_items(4096), [&](std::size_t cell) {
+    if (role_[cell] != kFluid) return false;
+    const double rho = density_[cell], p = pressure_pa(cell);
     return !(rho > 0.0) || !std::isfinite(rho) || !(p > 0.0) || !std::isfinite(p);
-  };
-  const std::size_t n = grid_.padded_size, block = block_items(4096);
-  std::vector<std::size_t> first_bad((n + block - 1) / block, n);
-  parallel_blocks_if(on_team(), first_bad.size(), [&](std::size_t b) {
-    for (std::size_t c = b * block; c < std::min(n, (b + 1) * block); ++c)
-      if (bad(c)) {
-        first_bad[b] = c;
-        return;
-      }
   });
-  for (const std::size_t c : first_bad) {
-    if (c == n) continue;
+  if (c < n) {
     const double rho = density_[c], p = pressure_pa(c);
     const bool density_bad = !(rho > 0.0) || !std::isfinite(rho);
     const std::array<int, 3> ijk = grid_.coords(c);
