@@ -7,6 +7,7 @@
 
 #include "gas/drag.h"
 #include "gas/gas_stencil.h"
+#include "gas/mach_drag.h"
 #include "parallel/thread_team.h"
 
 namespace millsim {
@@ -550,6 +551,8 @@ void GasCoupling::fluid_pass(ParticleStore& p, std::size_t count, SlotOf&& slot_
   const double threshold = config_.cache_threshold, threshold2 = threshold * threshold;
   const bool keep = p.has_multi_rate_state;  // the kept force of multi-rate stepping
   const bool slip_correction = config_.slip_correction;
+  const bool mach_correction = config_.mach_correction;
+  const double gamma = config_.compressible.gas.gamma;
   const GasView gas = view();
 
   auto apply = [&](std::size_t i, const FluidCellState& st, FluidPassTally& tally) {
@@ -572,13 +575,27 @@ void GasCoupling::fluid_pass(ParticleStore& p, std::size_t count, SlotOf&& slot_
                          st.viscosity_pa_s};
       const double slip_factor =
           slip_correction ? 1.0 / cunningham_correction(d, st.mean_free_path_m) : 1.0;
+      // The law's β, Cunningham's and Loth's corrections applied (the latter from the slip
+      // Mach number, which changes with the slip).
+      auto corrected_beta = [&](const DragInput& at) {
+        double beta = drag_coefficient_kg_per_s(config_.drag, at) * slip_factor;
+        if (mach_correction && st.sound_speed_m_per_s > 0.0)
+          beta *= loth_mach_factor(particle_reynolds(at),
+                                   at.slip_speed_m_per_s / st.sound_speed_m_per_s,
+                                   st.mean_free_path_m / d, gamma);
+        return beta;
+      };
       if (st.sound_speed_m_per_s > 0.0) {
         const double mach = in.slip_speed_m_per_s / st.sound_speed_m_per_s;
         tally.max_mach = std::max(tally.max_mach, mach);
         tally.max_knudsen = std::max(tally.max_knudsen, 2.0 * st.mean_free_path_m / d);
         tally.past_mach += mach > 0.3 ? 1 : 0;
+        if (mach_correction)
+          tally.max_mach_factor = std::max(
+              tally.max_mach_factor,
+              loth_mach_factor(particle_reynolds(in), mach, st.mean_free_path_m / d, gamma));
       }
-      const double beta = drag_coefficient_kg_per_s(config_.drag, in) * slip_factor;
+      const double beta = corrected_beta(in);
       // β's slope in the squared slip speed, so the cached β follows the slip to first order
       // between evaluations (a second evaluation at 0.1 % more slip; only when caching).
       double slope = 0.0;
@@ -586,7 +603,7 @@ void GasCoupling::fluid_pass(ParticleStore& p, std::size_t count, SlotOf&& slot_
         DragInput faster = in;
         faster.slip_speed_m_per_s *= 1.001;
         const double ds2 = norm2(slip) * (1.001 * 1.001 - 1.0);
-        slope = (drag_coefficient_kg_per_s(config_.drag, faster) * slip_factor - beta) / ds2;
+        slope = (corrected_beta(faster) - beta) / ds2;
       }
       p.fluid_coefficient_slope[i] = slope;
       const Vec3 lift_force = lift ? saffman_lift_n(d, slip, st.vorticity_per_s,
@@ -622,7 +639,8 @@ void GasCoupling::fluid_pass(ParticleStore& p, std::size_t count, SlotOf&& slot_
   const std::size_t blocks = (count + block_size - 1) / block_size;
   pass_tally_.assign(blocks, {});
   pass_missed_.resize(count);
-  const FluidPassTally start{0, 0, stats_.max_slip_mach, stats_.max_knudsen, {}, 0};
+  const FluidPassTally start{
+      0, 0, stats_.max_slip_mach, stats_.max_knudsen, stats_.max_mach_drag_factor, {}, 0};
   parallel_ranges(count, block_size, [&](std::size_t begin, std::size_t end, std::size_t block) {
     FluidPassTally tally = start;
     FluidCellRef last;
@@ -663,6 +681,7 @@ void GasCoupling::fluid_pass(ParticleStore& p, std::size_t count, SlotOf&& slot_
     stats_.drag_evaluations_past_mach_0_3 += t.past_mach;
     stats_.max_slip_mach = std::max(stats_.max_slip_mach, t.max_mach);
     stats_.max_knudsen = std::max(stats_.max_knudsen, t.max_knudsen);
+    stats_.max_mach_drag_factor = std::max(stats_.max_mach_drag_factor, t.max_mach_factor);
     stats_.particle_impulse_n_s += t.impulse_n_s;
   }
   stats_.drag_evaluations += evaluations;

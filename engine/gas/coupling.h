@@ -123,6 +123,8 @@ struct CouplingStats {
   // (where the incompressible drag laws start to under-predict: docs/gas.md).
   double max_slip_mach = 0.0, max_knudsen = 0.0;
   std::uint64_t drag_evaluations_past_mach_0_3 = 0;
+  // With gas.mach_correction: the largest factor Loth's correction put on an evaluated drag.
+  double max_mach_drag_factor = 1.0;
   double min_volume_fraction = 1.0;
   Vec3 particle_impulse_n_s;     // Σ (drag + lift) dt over all particles and steps
   Vec3 deposited_impulse_n_s;    // handed to the gas as its momentum source
@@ -214,7 +216,7 @@ class GasCoupling {
   // so the same for any thread count), and the particles whose DEM cell it found unfilled.
   struct FluidPassTally {
     std::uint64_t evaluations = 0, past_mach = 0;
-    double max_mach = 0.0, max_knudsen = 0.0;
+    double max_mach = 0.0, max_knudsen = 0.0, max_mach_factor = 1.0;
     Vec3 impulse_n_s;
     std::size_t missed = 0;
   };

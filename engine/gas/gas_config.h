@@ -175,6 +175,9 @@ struct GasConfig {
   // Cunningham's slip correction of the drag (gas/drag.h) from the local mean free path: the
   // compressible model only (the incompressible one has no absolute pressure); its default there.
   bool slip_correction = false;
+  // Loth's (2008) Mach correction of the drag (gas/mach_drag.h) from the slip Mach number: the
+  // compressible model only (the incompressible one has no sound speed); its default there.
+  bool mach_correction = false;
   double min_volume_fraction = 0.2;  // gas volume fraction floor (a random packing is ≈ 0.36–0.45)
   // pressure solve
   double pressure_tolerance = 1e-6;  // relative residual of the conjugate-gradient solve

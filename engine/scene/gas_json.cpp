@@ -269,6 +269,13 @@ GasConfig parse_gas(const json& v, const DomainConfig& domain, InputErrors& erro
     errors.push_back({"/gas/slip_correction", slip,
                       "Cunningham's correction needs the gas's absolute pressure: only with "
                       "/gas/model \"compressible\""});
+  const std::string mach =
+      r.string("mach_correction", compressible ? "loth" : "none", {"loth", "none"});
+  g.mach_correction = mach == "loth";
+  if (g.mach_correction && !compressible)
+    errors.push_back({"/gas/mach_correction", mach,
+                      "Loth's Mach correction needs the gas's sound speed: only with /gas/model "
+                      "\"compressible\""});
   g.density_kg_per_m3 =
       r.number("density_kg_per_m3", g.density_kg_per_m3, NumberRange::open_closed(0.0, 1e5));
   g.viscosity_pa_s = r.number("viscosity_pa_s", 1.8e-5, NumberRange::open_closed(0.0, 1e3));

@@ -416,6 +416,8 @@ void add_compressible_gas_summary(const Simulation& sim, nlohmann::ordered_json&
               {"max_slip_mach", c.max_slip_mach},
               {"max_knudsen", c.max_knudsen},
               {"drag_evaluations_past_mach_0_3", c.drag_evaluations_past_mach_0_3},
+              {"mach_correction", g.config().mach_correction ? "loth" : "none"},
+              {"max_mach_drag_factor", c.max_mach_drag_factor},
               {"gas_received_impulse_n_s", components(gas.received_impulse_n_s())}};
   s["gas"].update(coupling_summary(sim));
 }

@@ -2,7 +2,8 @@
 // nozzle against isentropic theory written out here and Birch et al.'s momentum balance; Newton's
 // third law for the momentum exchanged with the particles in a periodic box; a fine particle's
 // drag relaxation against Stokes' law with Cunningham's slip correction from the kinetic-theory
-// mean free path; and the scene keys of the model refused with the key named.
+// mean free path; a coarse particle's drag at high slip Mach against Loth's correction; and the
+// scene keys of the model refused with the key named.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -11,6 +12,7 @@
 
 #include "gas/compressible/notional_nozzle.h"
 #include "gas/coupling.h"
+#include "gas/mach_drag.h"
 #include "sim/simulation.h"
 #include "support/scenes.h"
 
@@ -116,14 +118,29 @@ TEST(CompressibleCoupling, MomentumExchangedWithTheParticlesBalancesToRounding) 
   EXPECT_GT(c.total_momentum_n_s().x - gas_before.x, 0.0);
 }
 
-// A particle of diameter d launched at v0 through still air, no gravity: the speed after time t.
-double fine_particle_speed_ratio(double d, double t_s, bool slip_correction) {
+// Still air at 1 atm and 20 °C, as the coupling sees it: density, sound speed, mean free path.
+struct StillAir {
+  double density_kg_per_m3, sound_speed_m_per_s, mean_free_path_m;
+};
+StillAir still_air(double viscosity_pa_s) {
+  const IdealGas air;
+  const double rho = 101325.0 / (air.gas_constant_j_per_kg_k * 293.15);
+  return {rho, std::sqrt(air.gamma * 101325.0 / rho),
+          viscosity_pa_s * std::sqrt(kPi / (2.0 * 101325.0 * rho))};
+}
+
+// A particle of diameter d launched at v0 through still air, no gravity, for time t; the drag
+// evaluated every step.
+struct Launch {
+  double speed_m_per_s;
+  CouplingStats stats;
+};
+Launch launch(double d, double v0, double t_s, bool slip_correction, bool mach_correction) {
   MaterialConfig salt = test::table1_material();
   salt.density_kg_per_m3 = 2165.0;
   salt.youngs_modulus_pa = 1e5;
   const double box = 1e-3;
   SceneConfig scene = test::empty_scene({0, 0, 0}, {box, box, box}, salt, {true, true, true});
-  const double v0 = 1e-3;  // Re = 7e-5: Stokes flow
   test::add_particle(scene, {0.5 * box, 0.5 * box, 0.5 * box}, {v0, 0, 0}, d);
   scene.gravity_m_per_s2 = {0, 0, 0};
   scene.time.end_s = t_s;
@@ -131,20 +148,28 @@ double fine_particle_speed_ratio(double d, double t_s, bool slip_correction) {
   gas.two_way = false;
   gas.cache_threshold = 0.0;
   gas.slip_correction = slip_correction;
+  gas.mach_correction = mach_correction;
   scene.gas = gas;
   Simulation sim(scene);
   while (sim.step_index() < sim.total_steps()) EXPECT_FALSE(sim.step());
+  return {norm(sim.particles().motion[0].velocity_m_per_s), sim.gas()->stats()};
+}
+
+// The fine particle's decay rate −1/τ as measured, launched at 1 mm/s (Re = 7e-5: Stokes flow).
+double fine_particle_speed_ratio(double d, double t_s, bool slip_correction) {
+  const double v0 = 1e-3;
+  const Launch run = launch(d, v0, t_s, slip_correction, true);
   // The run's record of the drag's range: the first evaluation's slip Mach number v0 / c and the
   // Knudsen number 2λ/d of still air at 1 atm, 20 °C.
-  const IdealGas air;
-  const double rho = 101325.0 / (air.gas_constant_j_per_kg_k * 293.15);
-  const double c = std::sqrt(air.gamma * 101325.0 / rho);
-  const double lambda = gas.viscosity_pa_s * std::sqrt(kPi / (2.0 * 101325.0 * rho));
-  EXPECT_NEAR(sim.gas()->stats().max_slip_mach, v0 / c, 1e-9 * v0 / c);
-  EXPECT_NEAR(sim.gas()->stats().max_knudsen, 2.0 * lambda / d, 1e-9 * lambda / d);
-  EXPECT_EQ(sim.gas()->stats().drag_evaluations_past_mach_0_3, 0u);
-  const double v = norm(sim.particles().motion[0].velocity_m_per_s);
-  return std::log(v / v0) / sim.time_s();  // −1/τ as measured
+  const StillAir air = still_air(1.8e-5);
+  const double mach = v0 / air.sound_speed_m_per_s;
+  EXPECT_NEAR(run.stats.max_slip_mach, mach, 1e-9 * mach);
+  EXPECT_NEAR(run.stats.max_knudsen, 2.0 * air.mean_free_path_m / d,
+              1e-9 * air.mean_free_path_m / d);
+  EXPECT_EQ(run.stats.drag_evaluations_past_mach_0_3, 0u);
+  // At Mach 3e-6 Loth's correction leaves the Stokes drag as it is.
+  EXPECT_NEAR(run.stats.max_mach_drag_factor, 1.0, 1e-12);
+  return std::log(run.speed_m_per_s / v0) / t_s;
 }
 
 TEST(CompressibleCoupling, AFineParticleRelaxesAtTheSlipCorrectedStokesRate) {
@@ -168,6 +193,29 @@ TEST(CompressibleCoupling, AFineParticleRelaxesAtTheSlipCorrectedStokesRate) {
     EXPECT_NEAR(-with * stokes_tau * c, 1.0, 0.005) << "d = " << d;
     EXPECT_NEAR(-without * stokes_tau, 1.0, 0.005) << "d = " << d;
   }
+}
+
+TEST(CompressibleCoupling, ACoarseParticleCrossingAtHighSlipMachTakesLothsDrag) {
+  // A 200 µm particle at 300 m/s through still air: slip Mach 0.87, Re 4 000 (Schiller–Naumann's
+  // Newton regime). Over 0.5 µs its speed falls by about 0.02 %, so the drag stays at its initial
+  // value to 5e-4: the speed lost with Loth's correction over the speed lost without it is
+  // Loth's C_D(Re, M) / C_D(Re, 0) at the launch, with Re, M and λ/d from the still air here.
+  const double d = 200e-6, v0 = 300.0, t = 0.5e-6, mu = 1.8e-5;
+  const StillAir air = still_air(mu);
+  const double re = air.density_kg_per_m3 * v0 * d / mu, mach = v0 / air.sound_speed_m_per_s;
+  const double expected = loth_mach_factor(re, mach, air.mean_free_path_m / d, IdealGas{}.gamma);
+  ASSERT_GT(expected, 1.5);  // the transonic drag rise (tests/gas/mach_drag_test.cpp)
+  const Launch with = launch(d, v0, t, true, true), without = launch(d, v0, t, true, false);
+  const double lost_with = v0 - with.speed_m_per_s, lost_without = v0 - without.speed_m_per_s;
+  ASSERT_GT(lost_without, 1e-5 * v0);
+  std::printf(
+      "slip Mach %.3f, Re %.0f: speed lost %.6g m/s with Loth's correction, %.6g without "
+      "(ratio %.5f, factor at launch %.5f)\n",
+      mach, re, lost_with, lost_without, lost_with / lost_without, expected);
+  EXPECT_NEAR(lost_with / lost_without, expected, 5e-4 * expected);
+  EXPECT_NEAR(with.stats.max_mach_drag_factor, expected, 1e-9 * expected);
+  EXPECT_EQ(without.stats.max_mach_drag_factor, 1.0);
+  EXPECT_GT(with.stats.drag_evaluations_past_mach_0_3, 0u);
 }
 
 nlohmann::json compressible_mill_scene() {
@@ -232,6 +280,21 @@ TEST(CompressibleCoupling, SceneErrorsNameTheKey) {
                        "above the chamber's (101325 Pa"),
               std::string::npos)
         << all;
+  }
+  {  // the compressible model's drag corrections on the incompressible gas
+    nlohmann::json doc = compressible_mill_scene();
+    doc["gas"] = {{"cells", {32, 32, 5}}, {"mach_correction", "loth"}};
+    doc["mill"]["nozzles"][0].erase("supply_pressure_pa");
+    doc["mill"]["nozzles"][0]["speed_m_per_s"] = 120;
+    const std::string all = error_text(doc);
+    EXPECT_NE(all.find("/gas/mach_correction | loth | Loth's Mach correction needs the gas's "
+                       "sound speed: only with /gas/model \"compressible\""),
+              std::string::npos)
+        << all;
+    doc["gas"] = {{"model", "compressible"}, {"cells", {32, 32, 5}}, {"mach_correction", "parmar"}};
+    EXPECT_NE(error_text(doc).find("/gas/mach_correction | \"parmar\" | expected one of loth none"),
+              std::string::npos)
+        << error_text(doc);
   }
   {  // the compressible section on an incompressible gas
     nlohmann::json doc = compressible_mill_scene();
