@@ -544,7 +544,14 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
   if (const json* v = top.child("search")) {
     JsonObjectReader r(*v, "/search", errors);
     scene.search.conventional_nbs = r.string("method", "hashed", {"hashed", "nbs"}) == "nbs";
-    scene.search.skin_m = r.optional_number("skin_m", NumberRange::non_negative());
+    // "auto" (or absent): steered; 0: no skin, the list is searched again every step.
+    if (const json* skin = r.child("skin_m")) {
+      if (skin->is_number() && skin->get<double>() >= 0.0)
+        scene.search.skin_m = skin->get<double>();
+      else if (!(skin->is_string() && *skin == "auto"))
+        errors.push_back({"/search/skin_m", json_value_text(*skin),
+                          "expected \"auto\" or a number >= 0 (0: search every step)"});
+    }
     scene.search.cell_size_m = r.optional_number("cell_size_m", NumberRange::positive());
     if (const json* k = r.child("subcells")) {
       if (!(k->is_string() && k->get<std::string>() == "auto")) {

@@ -103,6 +103,24 @@ TEST(SceneJson, GridDivisionIsAutoOrInRange) {
   EXPECT_EQ(bad[0].allowed, "expected \"auto\" or an integer in [1, 4]");
 }
 
+TEST(SceneJson, SkinIsAutoOrANonNegativeLength) {
+  json doc = valid_scene();
+  InputErrors errors;
+  doc["search"] = {{"skin_m", 0}};
+  EXPECT_EQ(parse_scene(doc, ".", errors).search.skin_m, 0.0);
+  doc["search"] = {{"skin_m", "auto"}};
+  EXPECT_FALSE(parse_scene(doc, ".", errors).search.skin_m.has_value());
+  EXPECT_TRUE(errors.empty()) << format_input_errors("scene", errors);
+  for (const json& bad_value : {json("fast"), json(-1e-6), json(true)}) {
+    doc["search"] = {{"skin_m", bad_value}};
+    const InputErrors bad = errors_of(doc);
+    ASSERT_EQ(bad.size(), 1u) << bad_value;
+    EXPECT_EQ(bad[0].path, "/search/skin_m");
+    EXPECT_EQ(bad[0].value, bad_value.dump());
+    EXPECT_EQ(bad[0].allowed, "expected \"auto\" or a number >= 0 (0: search every step)");
+  }
+}
+
 TEST(SceneJson, WrongTypeIsRejected) {
   json doc = valid_scene();
   doc["time"]["end_s"] = "ten";
