@@ -129,6 +129,13 @@ std::uint64_t gas_spin_up_key(Simulation& sim, const std::string& scene_text) {
   if (scene.is_object())
     for (const char* key : {"gas", "mill", "domain", "gravity_m_per_s2"})
       if (scene.contains(key)) inputs[key] = scene[key];
+  // The gas spins up alone: how it will exchange momentum with particles is not among its
+  // inputs, so a study over the drag law, its cache or its corrections shares one spin-up.
+  if (inputs.contains("gas") && inputs["gas"].is_object())
+    for (const char* key :
+         {"coupling", "drag", "drag_cache", "drag_courant", "pressure_gradient_force",
+          "saffman_lift", "slip_correction", "mach_correction"})
+      inputs["gas"].erase(key);
   std::string text = inputs.dump();  // keys sorted: spacing and key order do not matter
   auto append = [&text](const void* data, std::size_t bytes) {
     if (bytes > 0) text.append(static_cast<const char*>(data), bytes);  // data may be null at 0

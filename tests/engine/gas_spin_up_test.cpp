@@ -147,9 +147,12 @@ TEST(GasSpinUp, RunsWithTheSameGasShareOneSpinUpAndEndTheSameAsSpinningUpAlone) 
   test::TempDir dir;
   const std::filesystem::path cache = dir.path() / "cache";
   const json scene = mill_scene();
-  // Another dust threshold: the study's parameter, which the gas does not see.
+  // Another dust threshold, drag law and drag cache: a study's parameters, which the gas alone
+  // does not see while it spins up.
   json other = scene;
   other["dust"]["threshold_diameter_m"] = 4e-5;
+  other["gas"]["drag"] = "di_felice";
+  other["gas"]["drag_cache"] = {{"threshold", 0.0}};
   json other_gas = scene;
   other_gas["gas"]["viscosity_pa_s"] = 1.9e-5;
 
@@ -185,6 +188,13 @@ TEST(GasSpinUp, TheCacheKeyChangesWithEveryGasInputAndWithNothingElse) {
   same["time"]["end_s"] = 1e-5;
   same["seed"] = 99;
   same["name"] = "renamed";
+  // ... nor how it will exchange momentum with particles.
+  same["gas"]["drag"] = "beetstra";
+  same["gas"]["drag_cache"] = {{"threshold", 0.0}};
+  same["gas"]["coupling"] = "one_way";
+  same["gas"]["saffman_lift"] = true;
+  same["gas"]["pressure_gradient_force"] = false;
+  same["gas"]["drag_courant"] = 5.0;
   EXPECT_EQ(key_of(same), k);
   // One change each in the sections the gas is built from: another key.
   json viscosity = base, spin_up = base, nozzles = base, cells = base, gravity = base;
