@@ -7,6 +7,11 @@ generations, the product's d10/d50/d90 (outlet + dust), the study's error agains
 reference, and the speed-up against the reference run and against the run before.
 
     python3 bench/study_stages.py OUT/studies/SXXXXXX [--labels "a,b,c"] [--markdown]
+
+With --factors the time is the time stepping alone (the sum of the phases: no gas spin-up, no
+output), given per simulated microsecond, and each run's speed-up against the reference splits
+exactly into its three factors: steps (the time step), mean particles per step (particle-steps
+over steps), and cost per particle-step.
 """
 import argparse
 import json
@@ -19,7 +24,11 @@ def main():
     ap.add_argument("--labels", default="")
     ap.add_argument("--markdown", action="store_true")
     ap.add_argument("--reverse", action="store_true", help="list the runs last to first")
+    ap.add_argument("--factors", action="store_true",
+                    help="time stepping per simulated us, and the speed-up's three factors")
     args = ap.parse_args()
+    if args.factors:
+        return print_factors(args)
     table = json.load(open(os.path.join(args.study_dir, "results.json")))
     labels = [s for s in args.labels.split(",") if s]
     rows = []
@@ -72,6 +81,43 @@ def main():
         print("  ".join(h.ljust(w) for h, w in zip(head, widths)))
         for line in out:
             print("  ".join(c.ljust(w) for c, w in zip(line, widths)))
+
+
+def print_factors(args):
+    table = json.load(open(os.path.join(args.study_dir, "results.json")))
+    labels = [s for s in args.labels.split(",") if s]
+    rows = []
+    for k, run in enumerate(table["runs"]):
+        path = os.path.join(args.study_dir, run["run"], "result.json")
+        if not os.path.exists(path):
+            continue
+        r = json.load(open(path))
+        stepping = sum(r["phase_seconds"].values())
+        psteps = r["particle_steps_per_second"] * stepping
+        rows.append({
+            "label": labels[k] if k < len(labels) else run["run"], "reference": run.get("reference"),
+            "us": r["simulated_time_s"] * 1e6, "stepping": stepping, "steps": r["steps"],
+            "dt": r["time_step_s"], "mean_particles": psteps / r["steps"],
+            "final": r["particles"]["final"], "ns_per_pstep": 1e9 * stepping / psteps,
+            "error": run.get("error"),
+        })
+    if args.reverse:
+        rows.reverse()
+    ref = next((row for row in rows if row["reference"]), rows[0])
+    head = ["stage", "s per sim. us", "steps", "dt ns", "mean particles", "particles at end",
+            "ns per particle-step", "speed-up", "= steps", "x particles", "x cost", "error"]
+    print("| " + " | ".join(head) + " |")
+    print("| " + " | ".join("---" for _ in head) + " |")
+    for row in rows:
+        steps_f = ref["steps"] / row["steps"]
+        particles_f = ref["mean_particles"] / row["mean_particles"]
+        cost_f = ref["ns_per_pstep"] / row["ns_per_pstep"]
+        cells = [row["label"], f"{row['stepping'] / row['us']:.4g}", str(row["steps"]),
+                 f"{row['dt'] * 1e9:.3g}", f"{row['mean_particles']:.0f}", str(row["final"]),
+                 f"{row['ns_per_pstep']:.1f}", f"{steps_f * particles_f * cost_f:.1f}",
+                 f"{steps_f:.2f}", f"{particles_f:.2f}", f"{cost_f:.2f}",
+                 "" if row["error"] is None else f"{row['error']:.4f}"]
+        print("| " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":
