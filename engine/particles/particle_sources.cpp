@@ -198,14 +198,22 @@ std::vector<ParticleSpec> random_packing(const SourceConfig& source, const Perio
     bool placed = false;
     for (int attempt = 0; attempt < 2000 && !placed; ++attempt) {
       Vec3 x;
-      bool fits = true;
+      int too_narrow = -1;  // an axis along which the region cannot hold the particle whole
       for (int a = 0; a < 3; ++a) {
         const double margin = wraps[a] ? 0.0 : r;
         const double lo = source.region_min_m[a] + margin, hi = source.region_max_m[a] - margin;
-        if (hi < lo) fits = false;
+        if (hi < lo) too_narrow = a;
         x[a] = lo + (hi - lo) * uniform01(rng);
       }
-      if (!fits) break;
+      if (too_narrow >= 0) {
+        errors.push_back(
+            {path, std::to_string(source.count),
+             concat("placed ", out.size(), " particles; the next (d = ", d,
+                    " m) does not fit the region whole along ", "xyz"[too_narrow], " (extent ",
+                    source.region_max_m[too_narrow] - source.region_min_m[too_narrow],
+                    " m); enlarge the region")});
+        return out;
+      }
       if (overlaps(x, r)) continue;
       ParticleSpec p;
       p.position_m = x;

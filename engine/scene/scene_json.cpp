@@ -341,6 +341,34 @@ std::vector<SourceConfig> parse_sources(JsonObjectReader& top,
   return out;
 }
 
+// The smallest diameter a size distribution can draw (0 when it has no lower bound).
+double smallest_diameter_m(const SizeDistribution& s) {
+  return s.kind == SizeDistributionKind::Fixed ? s.diameter_m : s.min_m;
+}
+
+// A random source places each particle whole inside its region, except along a periodic axis
+// the region spans: a region narrower than its smallest particle along another axis can hold
+// none, found here rather than when the run starts (a study's runs are all checked before any
+// is queued).
+void check_random_regions(const SceneConfig& scene, InputErrors& errors) {
+  for (std::size_t k = 0; k < scene.sources.size(); ++k) {
+    const SourceConfig& s = scene.sources[k];
+    if (s.kind != SourceKind::Random) continue;
+    const double d = smallest_diameter_m(s.sizes);
+    for (int a = 0; a < 3; ++a) {
+      const bool wraps = scene.domain.periodic[std::size_t(a)] &&
+                         s.region_min_m[a] <= scene.domain.min_m[a] &&
+                         s.region_max_m[a] >= scene.domain.max_m[a];
+      const double extent = s.region_max_m[a] - s.region_min_m[a];
+      if (!wraps && extent >= 0.0 && extent < d)
+        errors.push_back({concat("/sources/", k, "/region"), "",
+                          concat("its extent along ", "xyz"[a], " (", extent,
+                                 " m) is below the smallest particle's diameter (", d,
+                                 " m); each particle is placed whole inside it")});
+    }
+  }
+}
+
 TimeConfig parse_time(JsonObjectReader& top, InputErrors& errors) {
   TimeConfig t;
   const json* v = top.child("time");
@@ -537,6 +565,7 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
   scene.domain = parse_domain(top, scene.materials, errors);
   scene.walls = parse_walls(top, scene.materials, errors);
   scene.sources = parse_sources(top, scene.materials, base_dir, errors);
+  check_random_regions(scene, errors);
   scene.gravity_m_per_s2 = top.vec3("gravity_m_per_s2", {}, NumberRange::closed(-1e6, 1e6));
   scene.time = parse_time(top, errors);
 

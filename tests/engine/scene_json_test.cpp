@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "core/json_reader.h"
+#include "particles/particle_sources.h"
 #include "scene/scene_json.h"
 #include "support/scenes.h"
 
@@ -210,6 +211,37 @@ TEST(SceneJson, RandomRegionOutsideDomainIsRejected) {
       "region": {"min_m": [0,0,0], "max_m": [2e-3,1e-3,1e-3]},
       "sizes": {"distribution": "fixed", "diameter_m": 1e-4}})");
   EXPECT_NE(find_error(errors_of(doc), "/sources/0/region"), nullptr);
+}
+
+TEST(SceneJson, RandomRegionNarrowerThanItsSmallestParticleIsRejected) {
+  // Each particle is placed whole inside the region: 50 um along y cannot hold 80-100 um spheres.
+  json doc = valid_scene();
+  doc["sources"][0] = json::parse(R"({"type": "random", "material": "m", "count": 3,
+      "region": {"min_m": [0,4e-4,0], "max_m": [1e-3,4.5e-4,1e-3]},
+      "sizes": {"distribution": "uniform", "min_m": 8e-5, "max_m": 1e-4}})");
+  const InputErrors errors = errors_of(doc);
+  ASSERT_EQ(errors.size(), 1u) << format_input_errors("scene", errors);
+  EXPECT_EQ(errors[0].path, "/sources/0/region");
+  EXPECT_EQ(errors[0].allowed,
+            "its extent along y (5e-05 m) is below the smallest particle's diameter (8e-05 m); "
+            "each particle is placed whole inside it");
+  // Between the smallest and the largest size the scene loads, and the placement names the axis
+  // when the first particle too wide for it comes.
+  SourceConfig source;
+  source.kind = SourceKind::Random;
+  source.count = 20;
+  source.region_min_m = {0, 4e-4, 0};
+  source.region_max_m = {1e-3, 4.9e-4, 1e-3};
+  source.sizes = {SizeDistributionKind::Uniform, 0.0, 8e-5, 1e-4, 0.0, 1.0, -2.5};
+  Rng rng(5);
+  InputErrors placing;
+  const PeriodicBox box{{0, 0, 0}, {1e-3, 1e-3, 1e-3}, {false, false, false}};
+  EXPECT_TRUE(random_packing(source, box, {}, rng, "/sources/0/count", placing).empty());
+  ASSERT_EQ(placing.size(), 1u);
+  EXPECT_NE(placing[0].allowed.find("placed 0 particles; the next (d = "), std::string::npos);
+  EXPECT_NE(placing[0].allowed.find("m) does not fit the region whole along y (extent 9e-05 m)"),
+            std::string::npos)
+      << placing[0].allowed;
 }
 
 TEST(NumberRange, DescribesBoundsAsWritten) {
