@@ -7,9 +7,9 @@
 #    (bench/study_stages.py --factors);
 #  - the fines-to-tracked ratio of the reference run's last snapshot (needs python3-h5py);
 #  - stage (a0) with millsim's dense NBS array instead of the hashed uniform grid, both searched
-#    every step over the first 1 us only (the dense array sweeps every cell of the chamber's box
-#    at each search, about 3 h for the whole 4 us on this machine).
-#   bash bench/fines_chain.sh [OUT_DIR]        # about 20 minutes
+#    every step, over the first 1 us (DENSE_END_S=4e-6 for the whole span: the dense array sweeps
+#    every cell of the chamber's box at each search, about 50 minutes more on this machine).
+#   [DENSE_END_S=4e-6] bash bench/fines_chain.sh [OUT_DIR]        # about 25 minutes
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-/tmp/millsim-fines-chain}
@@ -34,25 +34,27 @@ print(f"reference's last snapshot ({last}): {d.size} particles, {fines} of 1-10 
       f"of 10 um or more: fines to tracked {fines / max(tracked, 1):.1f} : 1")
 PY
 
-# (a0) with the dense array against the hashed grid, both searched every step, over 1 us.
+# (a0) with the dense array against the hashed grid, both searched every step.
+end_s=${DENSE_END_S:-1e-6}
 for method in nbs hashed; do
-  python3 - "$reference/scene.json" "$out/a0_${method}_1us.json" "$method" <<'PY'
+  python3 - "$reference/scene.json" "$out/a0_$method.json" "$method" "$end_s" <<'PY'
 import json, sys
 scene = json.load(open(sys.argv[1]))
 scene["search"]["method"] = sys.argv[3]
-scene["time"]["end_s"] = 1e-6
+scene["time"]["end_s"] = float(sys.argv[4])
 scene["output"]["h5"] = False
 json.dump(scene, open(sys.argv[2], "w"))
 PY
-  ./build/cli/millsim run "$out/a0_${method}_1us.json" --out "$out/a0_${method}_1us" --quiet \
-    --spin-up-cache "$study/spin-up-cache" --threads 1 > /dev/null
+  ./build/cli/millsim run "$out/a0_$method.json" --out "$out/a0_$method" --quiet \
+    --spin-up-cache "$study/spin-up-cache" --threads 1 > /dev/null 2>&1
 done
-python3 - "$out/a0_nbs_1us/result.json" "$out/a0_hashed_1us/result.json" <<'PY'
+python3 - "$out/a0_nbs/result.json" "$out/a0_hashed/result.json" <<'PY'
 import json, sys
 for path in sys.argv[1:]:
     r = json.load(open(path))
     stepping = sum(r["phase_seconds"].values())
-    print(f"{r['search']['method']:6s} searched every step, 1 us: {stepping:.1f} s stepping "
-          f"({r['phase_seconds']['neighbors']:.1f} s searching), {r['steps']} steps, "
-          f"{r['search']['distance_tests']:.3g} distance tests, {r['search']['occupied_cells']} cells")
+    print(f"{r['search']['method']:6s} searched every step, {r['simulated_time_s'] * 1e6:.2f} us: "
+          f"{stepping:.1f} s stepping ({r['phase_seconds']['neighbors']:.1f} s searching), "
+          f"{r['steps']} steps, {r['search']['distance_tests']:.3g} distance tests, "
+          f"{r['search']['occupied_cells']} cells")
 PY
