@@ -18,6 +18,18 @@ import json
 import os
 
 
+def study_runs(args):
+    """Each run of the study in order: its label, its row of results.json and its result.json
+    (None while it has none)."""
+    table = json.load(open(os.path.join(args.study_dir, "results.json")))
+    labels = [s for s in args.labels.split(",") if s]
+    for k, run in enumerate(table["runs"]):
+        path = os.path.join(args.study_dir, run["run"], "result.json")
+        label = labels[k] if k < len(labels) else " ".join(
+            f"{p.split('.')[-1]}={v}" for p, v in run["params"].items())
+        yield label, run, json.load(open(path)) if os.path.exists(path) else None
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("study_dir")
@@ -29,15 +41,10 @@ def main():
     args = ap.parse_args()
     if args.factors:
         return print_factors(args)
-    table = json.load(open(os.path.join(args.study_dir, "results.json")))
-    labels = [s for s in args.labels.split(",") if s]
     rows = []
-    for k, run in enumerate(table["runs"]):
-        path = os.path.join(args.study_dir, run["run"], "result.json")
-        r = json.load(open(path)) if os.path.exists(path) else None
-        label = labels[k] if k < len(labels) else " ".join(f"{p.split('.')[-1]}={v}" for p, v in run["params"].items())
+    for label, run, r in study_runs(args):
         if r is None:
-            rows.append({"label": label, "state": run["state"]})
+            rows.append({"label": label, "state": run["state"], "reference": run.get("reference")})
             continue
         b = r.get("breakage", {})
         rows.append({
@@ -48,12 +55,11 @@ def main():
             "generations": len(b.get("events_by_generation", [])),
             "d10": r["outlet_psd"]["d10_m"] * 1e6, "d50": r["outlet_psd"]["d50_m"] * 1e6,
             "d90": r["outlet_psd"]["d90_m"] * 1e6, "error": run.get("error"),
+            "reference": run.get("reference"),
         })
-    runs = table["runs"]
     if args.reverse:
         rows.reverse()
-        runs = list(reversed(runs))
-    ref = next((i for i, run in enumerate(runs) if run.get("reference")), 0)
+    ref = next((i for i, row in enumerate(rows) if row["reference"]), 0)
     head = ["stage", "wall s", "steps", "dt s", "particle-steps", "particles", "events", "gen",
             "d10 um", "d50 um", "d90 um", "error", "x vs ref", "x vs prev"]  # speed-ups: wall time of the reference / previous row over this row's
     out = []
@@ -84,18 +90,14 @@ def main():
 
 
 def print_factors(args):
-    table = json.load(open(os.path.join(args.study_dir, "results.json")))
-    labels = [s for s in args.labels.split(",") if s]
     rows = []
-    for k, run in enumerate(table["runs"]):
-        path = os.path.join(args.study_dir, run["run"], "result.json")
-        if not os.path.exists(path):
+    for label, run, r in study_runs(args):
+        if r is None:
             continue
-        r = json.load(open(path))
         stepping = sum(r["phase_seconds"].values())
         psteps = r["particle_steps_per_second"] * stepping
         rows.append({
-            "label": labels[k] if k < len(labels) else run["run"], "reference": run.get("reference"),
+            "label": label, "reference": run.get("reference"),
             "us": r["simulated_time_s"] * 1e6, "stepping": stepping, "steps": r["steps"],
             "dt": r["time_step_s"], "mean_particles": psteps / r["steps"],
             "final": r["particles"]["final"], "ns_per_pstep": 1e9 * stepping / psteps,

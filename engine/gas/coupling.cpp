@@ -575,27 +575,23 @@ void GasCoupling::fluid_pass(ParticleStore& p, std::size_t count, SlotOf&& slot_
                          st.viscosity_pa_s};
       const double slip_factor =
           slip_correction ? 1.0 / cunningham_correction(d, st.mean_free_path_m) : 1.0;
-      // The law's β, Cunningham's and Loth's corrections applied (the latter from the slip
-      // Mach number, which changes with the slip).
-      auto corrected_beta = [&](const DragInput& at) {
-        double beta = drag_coefficient_kg_per_s(config_.drag, at) * slip_factor;
-        if (mach_correction && st.sound_speed_m_per_s > 0.0)
-          beta *= loth_mach_factor(particle_reynolds(at),
-                                   at.slip_speed_m_per_s / st.sound_speed_m_per_s,
-                                   st.mean_free_path_m / d, gamma);
-        return beta;
+      // Loth's correction from the slip Mach number (it changes with the slip: the slope below).
+      auto mach_factor = [&](const DragInput& at) {
+        return mach_correction && st.sound_speed_m_per_s > 0.0
+                   ? loth_mach_factor(particle_reynolds(at),
+                                      at.slip_speed_m_per_s / st.sound_speed_m_per_s,
+                                      st.mean_free_path_m / d, gamma)
+                   : 1.0;
       };
+      const double factor = mach_factor(in);
       if (st.sound_speed_m_per_s > 0.0) {
         const double mach = in.slip_speed_m_per_s / st.sound_speed_m_per_s;
         tally.max_mach = std::max(tally.max_mach, mach);
         tally.max_knudsen = std::max(tally.max_knudsen, 2.0 * st.mean_free_path_m / d);
         tally.past_mach += mach > 0.3 ? 1 : 0;
-        if (mach_correction)
-          tally.max_mach_factor = std::max(
-              tally.max_mach_factor,
-              loth_mach_factor(particle_reynolds(in), mach, st.mean_free_path_m / d, gamma));
+        tally.max_mach_factor = std::max(tally.max_mach_factor, factor);
       }
-      const double beta = corrected_beta(in);
+      const double beta = drag_coefficient_kg_per_s(config_.drag, in) * slip_factor * factor;
       // β's slope in the squared slip speed, so the cached β follows the slip to first order
       // between evaluations (a second evaluation at 0.1 % more slip; only when caching).
       double slope = 0.0;
@@ -603,7 +599,9 @@ void GasCoupling::fluid_pass(ParticleStore& p, std::size_t count, SlotOf&& slot_
         DragInput faster = in;
         faster.slip_speed_m_per_s *= 1.001;
         const double ds2 = norm2(slip) * (1.001 * 1.001 - 1.0);
-        slope = (corrected_beta(faster) - beta) / ds2;
+        const double faster_beta =
+            drag_coefficient_kg_per_s(config_.drag, faster) * slip_factor * mach_factor(faster);
+        slope = (faster_beta - beta) / ds2;
       }
       p.fluid_coefficient_slope[i] = slope;
       const Vec3 lift_force = lift ? saffman_lift_n(d, slip, st.vorticity_per_s,

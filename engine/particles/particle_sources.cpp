@@ -142,6 +142,15 @@ double sample_diameter(const SizeDistribution& s, Rng& rng) {
   return s.diameter_m;
 }
 
+double smallest_diameter_m(const SizeDistribution& s) {
+  return s.kind == SizeDistributionKind::Fixed ? s.diameter_m : s.min_m;
+}
+
+bool region_wraps(const SourceConfig& source, const PeriodicBox& box, int axis) {
+  return box.periodic[std::size_t(axis)] && source.region_min_m[axis] <= box.min_m[axis] &&
+         source.region_max_m[axis] >= box.max_m[axis];
+}
+
 std::vector<ParticleSpec> random_packing(const SourceConfig& source, const PeriodicBox& box,
                                          const std::vector<ParticleSpec>& existing, Rng& rng,
                                          const std::string& path, InputErrors& errors) {
@@ -157,8 +166,7 @@ std::vector<ParticleSpec> random_packing(const SourceConfig& source, const Perio
   long long wrap_count[3];
   double cell[3];
   for (int a = 0; a < 3; ++a) {
-    wraps[a] = box.periodic[a] && source.region_min_m[a] <= box.min_m[a] &&
-               source.region_max_m[a] >= box.max_m[a];
+    wraps[a] = region_wraps(source, box, a);
     wrap_count[a] = wraps[a] ? std::max(1LL, (long long)(box.length(a) / d_max)) : 0;
     cell[a] = wraps[a] ? box.length(a) / double(wrap_count[a]) : d_max;
   }

@@ -33,6 +33,12 @@ SceneConfig scene_from_particle_file(const std::filesystem::path& path, std::int
 
 // Draws one diameter from the distribution.
 double sample_diameter(const SizeDistribution& sizes, Rng& rng);
+// The smallest diameter the distribution can draw (0 when it has no lower bound).
+double smallest_diameter_m(const SizeDistribution& sizes);
+
+// Whether a random source's region spans the whole of periodic axis `axis` of the box: centres
+// then fill its length; along any other axis each sphere lies wholly inside the region.
+bool region_wraps(const SourceConfig& source, const PeriodicBox& box, int axis);
 
 // Random sequential addition: `count` spheres inside the region, overlapping neither each other
 // nor `existing` (under the periodic box's minimum image). On an axis where the region spans a

@@ -7,6 +7,7 @@
 
 #include "core/json_reader.h"
 #include "io/input_file.h"
+#include "particles/particle_sources.h"
 #include "scene/gas_json.h"
 #include "scene/mill_json.h"
 #include "search/hashed_grid.h"
@@ -341,11 +342,6 @@ std::vector<SourceConfig> parse_sources(JsonObjectReader& top,
   return out;
 }
 
-// The smallest diameter a size distribution can draw (0 when it has no lower bound).
-double smallest_diameter_m(const SizeDistribution& s) {
-  return s.kind == SizeDistributionKind::Fixed ? s.diameter_m : s.min_m;
-}
-
 // A random source places each particle whole inside its region, except along a periodic axis
 // the region spans: a region narrower than its smallest particle along another axis can hold
 // none, found here rather than when the run starts (a study's runs are all checked before any
@@ -355,12 +351,10 @@ void check_random_regions(const SceneConfig& scene, InputErrors& errors) {
     const SourceConfig& s = scene.sources[k];
     if (s.kind != SourceKind::Random) continue;
     const double d = smallest_diameter_m(s.sizes);
+    const PeriodicBox box{scene.domain.min_m, scene.domain.max_m, scene.domain.periodic};
     for (int a = 0; a < 3; ++a) {
-      const bool wraps = scene.domain.periodic[std::size_t(a)] &&
-                         s.region_min_m[a] <= scene.domain.min_m[a] &&
-                         s.region_max_m[a] >= scene.domain.max_m[a];
       const double extent = s.region_max_m[a] - s.region_min_m[a];
-      if (!wraps && extent >= 0.0 && extent < d)
+      if (!region_wraps(s, box, a) && extent >= 0.0 && extent < d)
         errors.push_back({concat("/sources/", k, "/region"), "",
                           concat("its extent along ", "xyz"[a], " (", extent,
                                  " m) is below the smallest particle's diameter (", d,
