@@ -19,8 +19,9 @@
 
 namespace millsim {
 
-// 2: multi-rate stepping state; 3: the impact spectrum and the breakage event log.
-inline constexpr std::uint32_t kCheckpointFormat = 3;
+// 2: multi-rate stepping state; 3: the impact spectrum and the breakage event log; 4: the run
+// loop's hold-up history.
+inline constexpr std::uint32_t kCheckpointFormat = 4;
 
 struct CheckpointHeader {
   std::string millsim_version;

@@ -16,6 +16,7 @@
 #include "io/text_file.h"
 #include "parallel/thread_team.h"
 #include "process/classification.h"
+#include "process/holdup_history.h"
 #include "process/impact_spectrum_plot.h"
 #include "sim/run_eta.h"
 
@@ -96,6 +97,43 @@ struct TimeSeries {
     for (std::size_t k = 0; k < names.size(); ++k) columns[k].push_back(row[k]);
   }
 };
+
+// The hold-up and what left, now (process/holdup_history.h).
+HoldupRow holdup_row(const Simulation& sim) {
+  const MassBalance m = sim.mass_balance();
+  HoldupRow r;
+  r.time_s = sim.time_s();
+  r.fed_kg = m.initial_kg + m.fed_kg;
+  r.particles_kg = m.particles_kg;
+  r.outlet_kg = m.outlet_kg;
+  r.dust_made_kg = m.dust_kg;
+  if (const DustLedger* dust = sim.dust_ledger()) {
+    r.dust_out_kg = dust->outflow_kg();
+    r.dust_held_kg = dust->held_kg();
+  }
+  if (const Breakage* b = sim.breakage()) r.events_by_generation = b->stats().events_by_generation;
+  PsdTally held(sim.outlet_tally().edges_m);
+  const ParticleStore& p = sim.particles();
+  for (std::size_t i = 0; i < p.size(); ++i) held.add(2.0 * p.radius_m[i], p.mass_kg[i]);
+  r.holdup_by_class_kg.push_back(held.under_mass_kg);
+  r.holdup_by_class_kg.insert(r.holdup_by_class_kg.end(), held.mass_kg.begin(), held.mass_kg.end());
+  r.holdup_by_class_kg.push_back(held.over_mass_kg);
+  return r;
+}
+
+// Whether the run ended steady, over the product window or else its last third.
+nlohmann::ordered_json steady_state_json(const Simulation& sim, const SceneConfig& scene,
+                                         const std::vector<HoldupRow>& rows) {
+  const auto& window = sim.product_window_s();
+  const double start_s = window ? (*window)[0] : scene.time.end_s * (2.0 / 3.0);
+  const double end_s = window ? (*window)[1] : scene.time.end_s;
+  const std::optional<SteadyWindow> w =
+      steady_window(rows, start_s, end_s, sim.dust_ledger() != nullptr);
+  if (!w) return nullptr;
+  nlohmann::ordered_json j = steady_window_json(*w);
+  j["window_from"] = window ? "product_window_s" : "last third";
+  return j;
+}
 
 // The product (outlet particles + dust table) and where the mass went, for result.json.
 void add_product_summary(const Simulation& sim, nlohmann::ordered_json& s) {
@@ -633,9 +671,10 @@ std::int64_t steps_per_interval(std::optional<double> interval_s, double fallbac
 struct LoopState {
   std::size_t initial_particles = 0;
   EnergyReport initial_energy;
+  std::vector<HoldupRow> holdup;  // at the snapshot interval, in runs with a product
   template <class A>
   void checkpoint_io(A& a, TimeSeries& series) {
-    io_all(a, initial_particles, initial_energy, series.columns);
+    io_all(a, initial_particles, initial_energy, series.columns, holdup);
   }
 };
 
@@ -795,7 +834,7 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
           : 0;
   const bool write_h5 = write_files && scene.output.write_h5;
   const std::uint64_t hash = options.scene_text.empty() ? 0 : scene_hash(options.scene_text);
-  LoopState loop{sim.particles().size(), sim.energy()};
+  LoopState loop{sim.particles().size(), sim.energy(), {}};
   TimeSeries series(has_product(sim), sim);
   const std::optional<ResumePoint> resumed =
       options.resume && write_files ? resume_from(checkpoint_dir, hash, sim, loop, series)
@@ -846,8 +885,10 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
         scene_geometry(scene, sim.walls(), sim.box(), sim.gas() ? &sim.gas()->config() : nullptr));
   }
 
+  const bool with_holdup = has_product(sim);
   if (!resumed) {
     series.record(sim);
+    if (with_holdup) loop.holdup.push_back(holdup_row(sim));
     if (h5) write_snapshot(*h5, sim);
   }
   if (h5) h5->flush();  // readable from the start, should this attempt be killed too
@@ -901,7 +942,7 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
     // (checked between advances) stays timely.
     const std::int64_t now = sim.step_index();
     std::int64_t next = std::min({total, now + 256, (now / series_every + 1) * series_every});
-    if (h5 || sim.impact_spectrum())
+    if (h5 || sim.impact_spectrum() || with_holdup)
       next = std::min(next, (now / snapshot_every + 1) * snapshot_every);
     if (checkpoint_every > 0)
       next = std::min(next, (now / checkpoint_every + 1) * checkpoint_every);
@@ -914,6 +955,9 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
       sim.profile().time(Phase::Output, [&] { series.record(sim); });
     if (h5 && (step % snapshot_every == 0 || last))
       sim.profile().time(Phase::Output, [&] { write_snapshot(*h5, sim); });
+    // Not at a stop: the resumed run goes on to the same rows as one that never stopped.
+    if (with_holdup && (step % snapshot_every == 0 || step == total || outcome.failure))
+      sim.profile().time(Phase::Output, [&] { loop.holdup.push_back(holdup_row(sim)); });
     // The impact spectrum's intervals end on the snapshot schedule and at the run's end (not at
     // a stop, whose resumed run carries on the same interval).
     if (step % snapshot_every == 0 || step == total) sim.close_impact_interval();
@@ -1042,7 +1086,11 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
   s["energy"] = {{"initial", energy_json(initial_energy)},
                  {"final", energy_json(final_energy)},
                  {"dissipated_j", initial_energy.total_j() - final_energy.total_j()}};
-  if (has_product(sim)) add_product_summary(sim, s);
+  if (has_product(sim)) {
+    add_product_summary(sim, s);
+    s["holdup_history"] = holdup_history_json(loop.holdup);
+    s["steady_state"] = steady_state_json(sim, scene, loop.holdup);
+  }
   if (sim.gas()) add_gas_summary(sim, s);
   if (const DustLedger* dust = sim.dust_ledger()) {
     // Hold-up and outflow by class over time, at the time series' interval.

@@ -1,0 +1,166 @@
+// The hold-up history and the steady-state window (process/holdup_history.h, issue 31).
+//
+// Expectations from first principles:
+// - a system whose outflow lags its constant feed F by a first-order delay τ (hold-up
+//   F τ (1 − e^{−t/τ})) leaves, over [a, b], F (b − a) − F τ (e^{−a/τ} − e^{−b/τ}): the window's
+//   ratio to the feed follows to rounding, and the flag turns at 10 %;
+// - a stream fed at a constant rate and falling freely through an outlet plane leaves nothing
+//   until its fall time t_f (from h = v0 t + g t²/2), then leaves at the feed rate: its run's
+//   last third is steady with an outflow equal to the feed within a particle per window, its
+//   hold-up is F t_f, and a product window before t_f is not steady (nothing left).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <numbers>
+
+#include "process/holdup_history.h"
+#include "scene/scene_json.h"
+#include "sim/run.h"
+#include "sim/simulation.h"
+#include "support/scenes.h"
+
+namespace millsim {
+namespace {
+
+std::vector<HoldupRow> lagged_rows(double feed_kg_per_s, double tau_s, double end_s, int rows,
+                                   bool ledger) {
+  std::vector<HoldupRow> out;
+  for (int i = 0; i <= rows; ++i) {
+    HoldupRow r;
+    r.time_s = end_s * i / rows;
+    r.fed_kg = feed_kg_per_s * r.time_s;
+    r.particles_kg = feed_kg_per_s * tau_s * (1.0 - std::exp(-r.time_s / tau_s));
+    const double left = r.fed_kg - r.particles_kg;
+    // With the ledger, what left is the dust carried out; half as much again was made and
+    // still sits in the gas (held), which the table would have counted as product at once.
+    if (ledger) {
+      r.dust_out_kg = left;
+      r.dust_held_kg = 0.5 * left;
+      r.dust_made_kg = 1.5 * left;
+      r.particles_kg -= 0.5 * left;
+    } else {
+      r.dust_made_kg = left;
+    }
+    out.push_back(r);
+  }
+  return out;
+}
+
+TEST(SteadyWindow, AFirstOrderLagLeavesTheAnalyticShareOfItsFeed) {
+  const double F = 2e-4, tau = 5e-3, end = 0.06;
+  for (bool ledger : {false, true}) {
+    const std::vector<HoldupRow> rows = lagged_rows(F, tau, end, 60, ledger);
+    for (double a : {0.0, 0.005, 0.01, 0.02, 0.04}) {
+      const std::optional<SteadyWindow> w = steady_window(rows, a, end, ledger);
+      ASSERT_TRUE(w) << a;
+      const double expected = 1.0 - tau * (std::exp(-a / tau) - std::exp(-end / tau)) / (end - a);
+      EXPECT_NEAR(w->outflow_to_feed, expected, 1e-12) << "window from " << a;
+      EXPECT_EQ(w->steady, std::abs(expected - 1.0) <= 0.1) << a;
+      EXPECT_NEAR(w->fed_kg, F * (end - a), 1e-15);
+      EXPECT_NEAR(w->particles_change_kg + w->dust_held_change_kg + w->outflow_kg, w->fed_kg, 1e-15)
+          << "what was fed stayed or left";
+      EXPECT_NEAR(w->made_to_feed, ledger ? 1.5 * expected : expected, 1e-12);
+    }
+  }
+  // τ = 10 ms: over the whole 60 ms the outflow is 1 − τ/60 ms = 0.83 of the feed (not steady);
+  // over the last 20 ms it is 1 − (τ/20 ms)(e^{-4} − e^{-6}) = 0.992 (steady).
+  const std::vector<HoldupRow> rows = lagged_rows(F, 0.01, end, 60, false);
+  EXPECT_FALSE(steady_window(rows, 0.0, end, false)->steady);
+  EXPECT_TRUE(steady_window(rows, 0.04, end, false)->steady);
+}
+
+TEST(SteadyWindow, AWindowWithoutTwoRowsOrWithoutFeedHasNoAnswer) {
+  const std::vector<HoldupRow> rows = lagged_rows(2e-4, 5e-3, 0.06, 6, false);
+  EXPECT_FALSE(steady_window(rows, 0.031, 0.039, false)) << "no row inside";
+  EXPECT_FALSE(steady_window(rows, 0.07, 0.08, false)) << "past the rows";
+  std::vector<HoldupRow> stopped = rows;
+  for (HoldupRow& r : stopped) r.fed_kg = 1e-6;
+  EXPECT_FALSE(steady_window(stopped, 0.0, 0.06, false)) << "nothing fed";
+}
+
+// Monodisperse 1 mm beads fed at a constant rate 50 mm above an outlet plane at 1 m/s downwards,
+// through still space under gravity: they never touch (each is inserted where it overlaps
+// nothing and they all fall alike).
+nlohmann::json falling_stream_scene(double end_s) {
+  return {{"name", "falling_stream"},
+          {"seed", 5},
+          {"domain",
+           {{"min_m", {0, 0, -0.01}}, {"max_m", {0.02, 0.02, 0.06}}, {"wall_material", "glass"}}},
+          {"materials",
+           {{{"name", "glass"},
+             {"youngs_modulus_pa", 1e7},
+             {"poisson_ratio", 0.25},
+             {"density_kg_per_m3", 2500},
+             {"restitution", 0.5},
+             {"friction", 0.3}}}},
+          {"sources", nlohmann::json::array()},
+          {"feeds",
+           {{{"name", "top"},
+             {"material", "glass"},
+             {"mass_rate_kg_per_s", 2e-3},
+             {"region", {{"min_m", {0.002, 0.002, 0.049}}, {"max_m", {0.018, 0.018, 0.051}}}},
+             {"sizes", {{"distribution", "uniform"}, {"min_m", 1e-3}, {"max_m", 1e-3}}},
+             {"velocity_m_per_s", {0, 0, -1}}}}},
+          {"outlets",
+           {{{"name", "floor"}, {"type", "plane"}, {"point_m", {0, 0, 0}}, {"normal", {0, 0, 1}}}}},
+          {"gravity_m_per_s2", {0, 0, -9.81}},
+          {"time", {{"end_s", end_s}, {"step_s", 2e-5}}},
+          {"output", {{"h5", false}, {"snapshot_interval_s", 0.01}}}};
+}
+
+TEST(HoldupHistory, AStreamFallingThroughAnOutletIsSteadyAfterItsFallTime) {
+  const double end_s = 0.3, g = 9.81, h = 0.05, v0 = 1.0, rate = 2e-3;
+  const double fall_s = (-v0 + std::sqrt(v0 * v0 + 2.0 * g * h)) / g;  // 41.5 ms
+  const double bead_kg = 2500.0 * std::numbers::pi / 6.0 * 1e-9;
+  test::TempDir dir;
+  InputErrors errors;
+  const SceneConfig scene = parse_scene(falling_stream_scene(end_s), ".", errors);
+  ASSERT_TRUE(errors.empty()) << errors.front().path << " " << errors.front().allowed;
+  Simulation sim(scene);
+  RunOptions options;
+  options.out_dir = dir.path();
+  ASSERT_FALSE(run_simulation(sim, scene, options).failure);
+  std::ifstream in(dir.path() / "result.json");
+  const nlohmann::json result = nlohmann::json::parse(in);
+  ASSERT_TRUE(result.contains("steady_state"));
+  const nlohmann::json& steady = result["steady_state"];
+  ASSERT_TRUE(steady.is_object());
+  EXPECT_EQ(steady["window_from"], "last third");
+  EXPECT_NEAR(steady["window_s"][0].get<double>(), 0.2, 1e-9);
+  EXPECT_NEAR(steady["window_s"][1].get<double>(), end_s, 1e-9);
+  // A bead is fed when the accrued mass covers it and leaves at a population update (at most 64
+  // steps late): the counts in a 0.1 s window may differ by one bead each way.
+  const double fed = steady["fed_kg"].get<double>();
+  EXPECT_NEAR(fed, rate * 0.1, 1.01 * bead_kg);
+  EXPECT_NEAR(steady["outflow_kg"].get<double>(), fed, 2.01 * bead_kg);
+  EXPECT_TRUE(steady["steady"].get<bool>());
+  EXPECT_NEAR(steady["particles_change_kg"].get<double>(), 0.0, 2.01 * bead_kg);
+  // The hold-up is what the feed brings in one fall time.
+  const nlohmann::json& history = result["holdup_history"];
+  ASSERT_TRUE(history.is_object());
+  const nlohmann::json& held = history["particles_kg"];
+  ASSERT_EQ(held.size(), 31u) << "a row every 10 ms and one at the start";
+  EXPECT_NEAR(held.back().get<double>(), rate * fall_s, 2.01 * bead_kg);
+  EXPECT_NEAR(history["time_s"][3].get<double>(), 0.03, 1e-9);
+  EXPECT_EQ(history["outlet_kg"][3].get<double>(), 0.0) << "nothing left before its fall time";
+  // A product window before the fall time: nothing left, nothing steady.
+  nlohmann::json early = falling_stream_scene(0.1);
+  early["psd"] = {{"product_window_s", {0.0, 0.04}}};
+  const SceneConfig early_scene = parse_scene(early, ".", errors);
+  ASSERT_TRUE(errors.empty());
+  Simulation early_sim(early_scene);
+  test::TempDir early_dir;
+  options.out_dir = early_dir.path();
+  ASSERT_FALSE(run_simulation(early_sim, early_scene, options).failure);
+  std::ifstream early_in(early_dir.path() / "result.json");
+  const nlohmann::json early_result = nlohmann::json::parse(early_in);
+  const nlohmann::json& w = early_result["steady_state"];
+  ASSERT_TRUE(w.is_object());
+  EXPECT_EQ(w["window_from"], "product_window_s");
+  EXPECT_EQ(w["outflow_kg"].get<double>(), 0.0);
+  EXPECT_FALSE(w["steady"].get<bool>());
+}
+
+}  // namespace
+}  // namespace millsim
