@@ -36,7 +36,7 @@ std::optional<SteadyWindow> steady_window(const std::vector<HoldupRow>& rows, do
 nlohmann::ordered_json holdup_history_json(const std::vector<HoldupRow>& rows) {
   nlohmann::ordered_json time = nlohmann::ordered_json::array(), fed = time, particles = time,
                          outlet = time, made = time, out = time, held = time, events = time,
-                         by_class = time;
+                         by_class = time, made_by_class = time;
   for (const HoldupRow& r : rows) {
     time.push_back(r.time_s);
     fed.push_back(r.fed_kg);
@@ -47,6 +47,7 @@ nlohmann::ordered_json holdup_history_json(const std::vector<HoldupRow>& rows) {
     held.push_back(r.dust_held_kg);
     events.push_back(r.events_by_generation);
     by_class.push_back(r.holdup_by_class_kg);
+    made_by_class.push_back(r.dust_made_by_class_kg);
   }
   return {{"time_s", time},
           {"fed_kg", fed},
@@ -56,7 +57,8 @@ nlohmann::ordered_json holdup_history_json(const std::vector<HoldupRow>& rows) {
           {"dust_out_kg", out},
           {"dust_held_kg", held},
           {"events_by_generation", events},
-          {"particles_by_class_kg", by_class}};
+          {"particles_by_class_kg", by_class},
+          {"dust_made_by_class_kg", made_by_class}};
 }
 
 nlohmann::ordered_json steady_window_json(const SteadyWindow& w) {

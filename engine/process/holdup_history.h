@@ -30,13 +30,15 @@ struct HoldupRow {
   double dust_made_kg = 0.0;  // cumulative: the breakage's dust
   double dust_out_kg = 0.0;   // cumulative: the ledger's dust out of the gas outlets (table: 0)
   double dust_held_kg = 0.0;  // the ledger's dust in the gas now (table: 0)
-  std::vector<std::uint64_t>
-      events_by_generation;                // cumulative, by the broken particle's generation
-  std::vector<double> holdup_by_class_kg;  // tracked, by PSD class: under, classes…, over
+  // Cumulative, by the broken particle's generation.
+  std::vector<std::uint64_t> events_by_generation;
+  // By PSD class (underflow, the classes, overflow): the tracked hold-up now, and the dust made
+  // so far.
+  std::vector<double> holdup_by_class_kg, dust_made_by_class_kg;
   template <class A>
   void checkpoint_io(A& a) {
     io_all(a, time_s, fed_kg, particles_kg, outlet_kg, dust_made_kg, dust_out_kg, dust_held_kg,
-           events_by_generation, holdup_by_class_kg);
+           events_by_generation, holdup_by_class_kg, dust_made_by_class_kg);
   }
 };
 

@@ -112,12 +112,18 @@ HoldupRow holdup_row(const Simulation& sim) {
     r.dust_held_kg = dust->held_kg();
   }
   if (const Breakage* b = sim.breakage()) r.events_by_generation = b->stats().events_by_generation;
+  // Under, classes, over: every kilogram in one list.
+  auto by_class = [](const PsdTally& t) {
+    std::vector<double> v{t.under_mass_kg};
+    v.insert(v.end(), t.mass_kg.begin(), t.mass_kg.end());
+    v.push_back(t.over_mass_kg);
+    return v;
+  };
   PsdTally held(sim.outlet_tally().edges_m);
   const ParticleStore& p = sim.particles();
   for (std::size_t i = 0; i < p.size(); ++i) held.add(2.0 * p.radius_m[i], p.mass_kg[i]);
-  r.holdup_by_class_kg.push_back(held.under_mass_kg);
-  r.holdup_by_class_kg.insert(r.holdup_by_class_kg.end(), held.mass_kg.begin(), held.mass_kg.end());
-  r.holdup_by_class_kg.push_back(held.over_mass_kg);
+  r.holdup_by_class_kg = by_class(held);
+  if (const Breakage* b = sim.breakage()) r.dust_made_by_class_kg = by_class(b->dust());
   return r;
 }
 

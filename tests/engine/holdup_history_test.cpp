@@ -162,5 +162,50 @@ TEST(HoldupHistory, AStreamFallingThroughAnOutletIsSteadyAfterItsFallTime) {
   EXPECT_FALSE(w["steady"].get<bool>());
 }
 
+// The last row of a breakage run's history against the run's own tallies: the hold-up by class
+// sums to the particles' mass, the dust made by class to the dust table's, the events by
+// generation to the events; every row's fed = particles + outlet + dust made (to rounding).
+TEST(HoldupHistory, ItsRowsAddUpToTheRunsTallies) {
+  std::ifstream file(std::string(MILLSIM_SOURCE_DIR) + "/cases/attrition_target.json");
+  nlohmann::json doc = nlohmann::json::parse(file);
+  doc["time"]["end_s"] = 0.0012;
+  doc["dust"]["threshold_diameter_m"] = 6e-5;  // a coarser threshold: a larger step
+  doc["output"] = {{"h5", false}, {"snapshot_interval_s", 3e-4}};
+  InputErrors errors;
+  const SceneConfig scene = parse_scene(doc, ".", errors);
+  ASSERT_TRUE(errors.empty());
+  test::TempDir dir;
+  Simulation sim(scene);
+  RunOptions options;
+  options.out_dir = dir.path();
+  ASSERT_FALSE(run_simulation(sim, scene, options).failure);
+  std::ifstream in(dir.path() / "result.json");
+  const nlohmann::json h = nlohmann::json::parse(in)["holdup_history"];
+  ASSERT_TRUE(h.is_object());
+  ASSERT_GE(h["time_s"].size(), 5u) << "rows at 0, 0.3, 0.6, 0.9 ms and at the end";
+  EXPECT_EQ(h["time_s"].back().get<double>(), sim.time_s());
+  auto sum = [](const nlohmann::json& v) {
+    double s = 0.0;
+    for (const auto& x : v) s += x.get<double>();
+    return s;
+  };
+  const MassBalance m = sim.mass_balance();
+  ASSERT_GT(m.dust_kg, 0.0);
+  EXPECT_NEAR(sum(h["particles_by_class_kg"].back()), m.particles_kg, 1e-12 * m.fed_kg);
+  EXPECT_NEAR(h["particles_kg"].back().get<double>(), m.particles_kg, 1e-12 * m.fed_kg);
+  EXPECT_NEAR(sum(h["dust_made_by_class_kg"].back()), m.dust_kg, 1e-12 * m.fed_kg);
+  const BreakageStats& b = sim.breakage()->stats();
+  double events = 0.0;
+  for (const auto& e : h["events_by_generation"].back()) events += e.get<double>();
+  EXPECT_EQ(events, double(b.events));
+  for (std::size_t i = 0; i < h["time_s"].size(); ++i) {
+    const double fed = h["fed_kg"][i].get<double>();
+    EXPECT_NEAR(h["particles_kg"][i].get<double>() + h["outlet_kg"][i].get<double>() +
+                    h["dust_made_kg"][i].get<double>(),
+                fed, 1e-12 * m.fed_kg)
+        << "row " << i;
+  }
+}
+
 }  // namespace
 }  // namespace millsim
