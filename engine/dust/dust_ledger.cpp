@@ -119,6 +119,13 @@ void DustLedger::deposit(const Vec3& x, int k, double mass_kg) {
   mass_[std::size_t(k)][c] += mass_kg;
 }
 
+void DustLedger::move_between_classes(std::size_t c, int k, double kg,
+                                      const std::vector<double>& shares) {
+  mass_[std::size_t(k)][c] -= kg;
+  for (std::size_t j = 0; j < shares.size(); ++j)
+    if (shares[j] > 0.0) mass_[j][c] += kg * shares[j];
+}
+
 void DustLedger::update_acceleration(const GasView& gas, double now_s) {
   const GasGrid& g = *grid_;
   for (std::size_t c = 0; c < g.padded_size; ++c)

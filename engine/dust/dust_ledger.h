@@ -87,6 +87,12 @@ class DustLedger {
   // The slip w of a class of relaxation time τ in fluid cell c, from the gas as of the last
   // advance.
   Vec3 slip_m_per_s(std::size_t c, double tau) const;
+  // The padded cell x lies in (clamped into the grid; it may be a solid one).
+  std::size_t cell_of(const Vec3& x) const { return containing_cell(x); }
+  // The gas velocity in fluid cell c as of the last advance.
+  const Vec3& gas_velocity_m_per_s(std::size_t c) const { return velocity_[c]; }
+  // Moves `kg` of class k's mass in cell c to the classes j by shares[j] (Σ = 1): grinding.
+  void move_between_classes(std::size_t c, int k, double kg, const std::vector<double>& shares);
 
   template <class A>
   void checkpoint_io(A& a) {

@@ -200,6 +200,7 @@ enum class DustModel { Table, Ledger };
 struct DustConfig {
   double threshold_diameter_m = 0.0;
   DustModel model = DustModel::Table;
+  bool grinding = false;  // "sweep": the ledger's dust is ground by the particles (dust_grinding.h)
 };
 
 // Size classes of the outlet PSD: explicit edges, or `bins` log-spaced edges on [min, max].

@@ -622,6 +622,7 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
     d.threshold_diameter_m =
         r.required_number("threshold_diameter_m", NumberRange::open_closed(0.0, 10.0));
     if (r.string("model", "table", {"table", "ledger"}) == "ledger") d.model = DustModel::Ledger;
+    d.grinding = r.string("grinding", "none", {"none", "sweep"}) == "sweep";
     scene.dust = d;
     r.finish();
   }
@@ -656,6 +657,19 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
                       "missing; a breakable material needs the dust threshold (fragments smaller "
                       "than it go to the dust table; it is also the smallest particle the time "
                       "step must resolve)"});
+  if (scene.dust && scene.dust->grinding) {
+    int breakable_materials = 0;
+    for (const MaterialConfig& m : scene.materials) breakable_materials += m.breakage ? 1 : 0;
+    if (scene.dust->model != DustModel::Ledger)
+      errors.push_back({"/dust/grinding", "\"sweep\"",
+                        "grinds the dust ledger's dust: set /dust/model to \"ledger\", or use "
+                        "\"none\""});
+    else if (breakable_materials != 1)
+      errors.push_back({"/dust/grinding", "\"sweep\"",
+                        concat("the ground dust takes the strength and breakage function of the "
+                               "one breakable material; the scene has ",
+                               breakable_materials, ": use \"none\"")});
+  }
   if (scene.dust && scene.dust->model == DustModel::Ledger) {
     if (!scene.gas)
       errors.push_back({"/dust/model", "\"ledger\"",

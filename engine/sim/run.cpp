@@ -194,6 +194,14 @@ void add_product_summary(const Simulation& sim, nlohmann::ordered_json& s) {
         {"advances", dust->stats().advances},
         {"substeps", dust->stats().substeps},
         {"classes", classes}};
+    if (const DustGrinding* grinding = sim.dust_grinding()) {
+      double ground = 0.0;
+      for (double kg : grinding->stats().ground_kg) ground += kg;
+      s["dust_ledger"]["grinding"] = {{"model", "sweep"},
+                                      {"passes", grinding->stats().passes},
+                                      {"ground_kg", ground},
+                                      {"ground_by_class_kg", grinding->stats().ground_kg}};
+    }
   }
   if (const auto& window = sim.product_window_s()) s["product_window_s"] = *window;
   s["outlet_psd"] = psd_json(summarize(sim.product_tally()));

@@ -294,6 +294,11 @@ Simulation::Simulation(const SceneConfig& scene, SimulationStart start)
         dust_classes(dust_edges_m_, scene.dust->threshold_diameter_m, dust_density_kg_per_m3_,
                      gas.viscosity_pa_s, dust_mean_free_path_m(gas)),
         gravity_m_per_s2_);
+    if (scene.dust->grinding)
+      for (const MaterialConfig& m : scene.materials)
+        if (m.breakage)
+          dust_grinding_.emplace(*dust_ledger_, dust_edges_m_, m, scene.materials,
+                                 scene.breakage->equivalence);
     breakage_->record_dust(true);
     window_dust_out_kg_.assign(std::size_t(dust_ledger_->class_count()), 0.0);
     dust_out_seen_kg_ = window_dust_out_kg_;
@@ -712,7 +717,9 @@ std::optional<StepFailure> Simulation::advance_gas() {
   if (dust_ledger_) {
     // The dust rides the gas just solved over the DEM time since it was last carried.
     profile_.time(Phase::Gas, [&] {
-      dust_ledger_->advance(gas_->view(), double(step_index_ - dust_advanced_step_) * time_.step_s);
+      const double dt = double(step_index_ - dust_advanced_step_) * time_.step_s;
+      dust_ledger_->advance(gas_->view(), dt);
+      if (dust_grinding_) dust_grinding_->grind(*dust_ledger_, particles_, dt);
     });
     dust_advanced_step_ = step_index_;
     const bool counted = in_product_window();

@@ -14,6 +14,7 @@
 #include "core/errors.h"
 #include "dem/box.h"
 #include "dem/time_step.h"
+#include "dust/dust_grinding.h"
 #include "dust/dust_ledger.h"
 #include "gas/coupling.h"
 #include "particles/materials.h"
@@ -140,6 +141,8 @@ class Simulation {
   const GasCoupling* gas() const { return gas_ ? &*gas_ : nullptr; }
   // The dust ledger (absent unless the scene's dust model is "ledger").
   const DustLedger* dust_ledger() const { return dust_ledger_ ? &*dust_ledger_ : nullptr; }
+  // The ledger's grinding by the particles (absent unless the scene's dust.grinding is "sweep").
+  const DustGrinding* dust_grinding() const { return dust_grinding_ ? &*dust_grinding_ : nullptr; }
   GasCoupling* gas() { return gas_ ? &*gas_ : nullptr; }
   const std::vector<Feeder>& feeders() const { return feeders_; }
   const std::optional<MillConfig>& mill() const { return mill_; }
@@ -263,6 +266,7 @@ class Simulation {
   bool start_pending_ = false;  // AfterSpinUp, until finish_start()
   std::optional<ImpactSpectrum> impact_spectrum_;
   std::optional<DustLedger> dust_ledger_;
+  std::optional<DustGrinding> dust_grinding_;
   std::vector<double> dust_edges_m_;     // the dust table's PSD edges (the ledger's classes)
   double dust_density_kg_per_m3_ = 0.0;  // the breakable material's: the ledger's dust
   std::int64_t dust_advanced_step_ = 0;  // the step the ledger was last carried to
@@ -291,6 +295,7 @@ void Simulation::checkpoint_io(A& a) {
   if (breakage_) io(a, *breakage_);
   if (gas_) io(a, *gas_);
   if (dust_ledger_) io_all(a, *dust_ledger_, dust_advanced_step_);
+  if (dust_grinding_) io(a, *dust_grinding_);
   io_all(a, window_outlet_, window_dust_table_, window_dust_out_kg_, dust_out_seen_kg_);
   for (Feeder& f : feeders_) io(a, f);
   io_all(a, outlet_, outlet_mass_kg_, outlet_momentum_, initial_mass_kg_, fed_mass_kg_,

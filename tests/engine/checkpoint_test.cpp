@@ -32,7 +32,8 @@ struct Case {
   bool dust_ledger = false;   // a downward gas flow and the dust ledger (dust/dust_ledger.h)
 };
 
-// The attrition target under air blown down at 8 m/s, its dust in the ledger.
+// The attrition target under air blown down at 8 m/s, its dust in the ledger, ground by the
+// particles that sweep it.
 void add_gas_and_dust_ledger(SceneConfig& scene) {
   GasConfig gas;
   gas.cells = {8, 4, 10};
@@ -43,6 +44,7 @@ void add_gas_and_dust_ledger(SceneConfig& scene) {
   gas.boundaries = {top, bottom};
   scene.gas = gas;
   scene.dust->model = DustModel::Ledger;
+  scene.dust->grinding = true;
   scene.dust->threshold_diameter_m = 6e-5;  // a coarser threshold: a larger step
 }
 
@@ -103,6 +105,11 @@ TEST(Checkpoint, RestoredRunContinuesBitForBit) {
     }
     if (std::string(c.file) == "attrition_target.json") {
       EXPECT_GT(whole.breakage()->stats().events, 0u) << "the case must break something";
+    }
+    if (c.dust_ledger) {
+      double ground = 0.0;
+      for (double kg : whole.dust_grinding()->stats().ground_kg) ground += kg;
+      EXPECT_GT(ground, 0.0) << "the case must grind dust";
     }
   }
 }

@@ -55,6 +55,11 @@ void expect_identical(Simulation& a, Simulation& b) {
       EXPECT_EQ(da.outflow_kg(k), db.outflow_kg(k)) << "dust class " << k;
     }
   }
+  if (a.dust_grinding()) {
+    ASSERT_NE(b.dust_grinding(), nullptr);
+    EXPECT_TRUE(same_bytes(a.dust_grinding()->stats().ground_kg,
+                           b.dust_grinding()->stats().ground_kg));
+  }
   if (a.gas() && a.gas()->compressible()) {
     const CompressibleSolver &ga = *a.gas()->compressible(), &gb = *b.gas()->compressible();
     std::vector<double> state_a, state_b;  // density, velocity and pressure of every cell

@@ -1,0 +1,142 @@
+// Dust ground by sweeping particles (dust/dust_grinding.h).
+#include "dust/dust_grinding.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "comminution/strength.h"
+
+namespace millsim {
+
+double impaction_efficiency(double stokes) {
+  if (!(stokes > 0.0)) return 0.0;
+  const double f = stokes / (stokes + 0.25);
+  return f * f;
+}
+
+double swept_selection_probability(const StrengthConfig& strength, double diameter_m,
+                                   double w0_j_per_kg) {
+  const double w_min = threshold_energy_j_per_kg(strength, diameter_m);
+  if (!(w0_j_per_kg > w_min)) return 0.0;
+  if (strength.model == StrengthModel::VogelPeukert) {
+    const double a = strength.f_mat_kg_per_j_m * diameter_m;
+    const double u0 = w_min / w0_j_per_kg;
+    // ∫_{u0}^{1} (1 − e^{−a (W0 u − W_min)}) du; expm1 keeps it exact for small a W0.
+    return (1.0 - u0) + std::expm1(-a * (w0_j_per_kg - w_min)) / (a * w0_j_per_kg);
+  }
+  // Any other strength: the midpoint rule over u in 64 strips.
+  constexpr int kStrips = 64;
+  double sum = 0.0;
+  for (int s = 0; s < kStrips; ++s)
+    sum += selection_probability(strength, diameter_m, w0_j_per_kg * (s + 0.5) / kStrips);
+  return sum / kStrips;
+}
+
+std::vector<std::vector<double>> dust_fragment_shares(const std::vector<double>& edges_m,
+                                                      const std::vector<DustClass>& classes,
+                                                      const FragmentSizeSampler& fragments) {
+  const std::size_t n = classes.size();
+  std::vector<std::vector<double>> shares(n, std::vector<double>(n, 0.0));
+  shares[0][0] = 1.0;  // below the first edge: not ground
+  for (std::size_t k = 1; k < n; ++k) {
+    const double x = classes[k].diameter_m;
+    double below = 0.0;  // B at the lower edge of class j
+    for (std::size_t j = 0; j < k; ++j) {
+      const double upper = std::min(1.0, edges_m[j] / x);  // class j ends at edges[j]
+      const double b = fragments.mass_cumulative(upper, x);
+      shares[k][j] = std::max(0.0, b - below);
+      below = std::max(below, b);
+    }
+    shares[k][k] = std::max(0.0, 1.0 - below);  // what stays in its own class
+  }
+  return shares;
+}
+
+namespace {
+
+double compliance(const MaterialConfig& m) {
+  return (1.0 - m.poisson_ratio * m.poisson_ratio) / m.youngs_modulus_pa;
+}
+
+}  // namespace
+
+DustGrinding::DustGrinding(const DustLedger& ledger, const std::vector<double>& edges_m,
+                           const MaterialConfig& dust, const std::vector<MaterialConfig>& materials,
+                           ImpactEquivalence equivalence)
+    : strength_(dust.breakage->strength),
+      equivalence_(equivalence),
+      dust_compliance_(compliance(dust)),
+      shares_(dust_fragment_shares(edges_m, ledger.classes(),
+                                   FragmentSizeSampler(dust.breakage->fragments))) {
+  for (const MaterialConfig& m : materials) material_compliance_.push_back(compliance(m));
+  for (const DustClass& c : ledger.classes())
+    class_mass_kg_.push_back(dust.density_kg_per_m3 * std::numbers::pi / 6.0 * c.diameter_m *
+                             c.diameter_m * c.diameter_m);
+  stats_.ground_kg.assign(ledger.classes().size(), 0.0);
+}
+
+void DustGrinding::grind(DustLedger& ledger, const ParticleStore& p, double dt_s) {
+  if (!(dt_s > 0.0)) return;
+  const GasGrid& g = ledger.grid();
+  const std::vector<DustClass>& classes = ledger.classes();
+  const std::size_t n_classes = classes.size(), cells = g.padded_size;
+  rate_.assign(n_classes * cells, 0.0);
+  dust_velocity_.resize(n_classes * cells);
+  have_velocity_.assign(n_classes * cells, 0);
+  bool any = false;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const std::size_t c = ledger.cell_of(p.position_m[i]);
+    if (!g.fluid[c]) continue;
+    const Vec3& u_i = p.motion[i].velocity_m_per_s;
+    const double r_i = p.radius_m[i], m_i = p.mass_kg[i];
+    const double c_i = material_compliance_[p.material[i]];
+    for (std::size_t k = 1; k < n_classes; ++k) {  // class 0 is not ground
+      if (!(ledger.cell_mass_kg(int(k))[c] > 0.0)) continue;
+      const std::size_t kc = k * cells + c;
+      if (!have_velocity_[kc]) {
+        dust_velocity_[kc] =
+            ledger.gas_velocity_m_per_s(c) + ledger.slip_m_per_s(c, classes[k].relaxation_time_s);
+        have_velocity_[kc] = 1;
+      }
+      const double s = norm(u_i - dust_velocity_[kc]);
+      const double r_k = 0.5 * classes[k].diameter_m;
+      const double v_eq = equivalent_speed_pair(equivalence_, class_mass_kg_[k], r_k,
+                                                dust_compliance_, m_i, r_i, c_i, s);
+      const double breaks =
+          swept_selection_probability(strength_, classes[k].diameter_m, 0.5 * v_eq * v_eq);
+      if (breaks <= 0.0) continue;
+      const double eta = impaction_efficiency(classes[k].relaxation_time_s * s / r_i);
+      const double reach = r_i + r_k;
+      rate_[kc] += std::numbers::pi * reach * reach * s * eta * breaks;
+      any = true;
+    }
+  }
+  ++stats_.passes;
+  if (!any) return;
+  // Every class loses its share of what it held at the start; then the fragments land.
+  const double volume = g.cell_volume_m3();
+  std::vector<double> broken(n_classes * cells, 0.0);
+  for (std::size_t k = 1; k < n_classes; ++k)
+    for (std::size_t c = 0; c < cells; ++c) {
+      const double lambda = rate_[k * cells + c] / volume;
+      if (lambda > 0.0)
+        broken[k * cells + c] = -std::expm1(-lambda * dt_s) * ledger.cell_mass_kg(int(k))[c];
+    }
+  for (std::size_t k = 1; k < n_classes; ++k) {
+    // Only the finer classes receive: the share that stays in class k is not moved at all.
+    const double stays = shares_[k][k];
+    if (!(stays < 1.0)) continue;
+    std::vector<double> to = shares_[k];
+    to[k] = 0.0;
+    for (double& x : to) x /= 1.0 - stays;
+    for (std::size_t c = 0; c < cells; ++c) {
+      const double kg = broken[k * cells + c] * (1.0 - stays);
+      if (!(kg > 0.0)) continue;
+      ledger.move_between_classes(c, int(k), kg, to);
+      stats_.ground_kg[k] += kg;
+    }
+  }
+}
+
+}  // namespace millsim
