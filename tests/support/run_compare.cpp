@@ -57,8 +57,8 @@ void expect_identical(Simulation& a, Simulation& b) {
   }
   if (a.dust_grinding()) {
     ASSERT_NE(b.dust_grinding(), nullptr);
-    EXPECT_TRUE(same_bytes(a.dust_grinding()->stats().ground_kg,
-                           b.dust_grinding()->stats().ground_kg));
+    EXPECT_TRUE(
+        same_bytes(a.dust_grinding()->stats().ground_kg, b.dust_grinding()->stats().ground_kg));
   }
   if (a.gas() && a.gas()->compressible()) {
     const CompressibleSolver &ga = *a.gas()->compressible(), &gb = *b.gas()->compressible();
