@@ -12,6 +12,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <memory>
 #include <numbers>
 
 #include "process/holdup_history.h"
@@ -113,16 +114,7 @@ TEST(HoldupHistory, AStreamFallingThroughAnOutletIsSteadyAfterItsFallTime) {
   const double end_s = 0.3, g = 9.81, h = 0.05, v0 = 1.0, rate = 2e-3;
   const double fall_s = (-v0 + std::sqrt(v0 * v0 + 2.0 * g * h)) / g;  // 41.5 ms
   const double bead_kg = 2500.0 * std::numbers::pi / 6.0 * 1e-9;
-  test::TempDir dir;
-  InputErrors errors;
-  const SceneConfig scene = parse_scene(falling_stream_scene(end_s), ".", errors);
-  ASSERT_TRUE(errors.empty()) << errors.front().path << " " << errors.front().allowed;
-  Simulation sim(scene);
-  RunOptions options;
-  options.out_dir = dir.path();
-  ASSERT_FALSE(run_simulation(sim, scene, options).failure);
-  std::ifstream in(dir.path() / "result.json");
-  const nlohmann::json result = nlohmann::json::parse(in);
+  const nlohmann::json result = test::run_scene_document(falling_stream_scene(end_s));
   ASSERT_TRUE(result.contains("steady_state"));
   const nlohmann::json& steady = result["steady_state"];
   ASSERT_TRUE(steady.is_object());
@@ -147,14 +139,7 @@ TEST(HoldupHistory, AStreamFallingThroughAnOutletIsSteadyAfterItsFallTime) {
   // A product window before the fall time: nothing left, nothing steady.
   nlohmann::json early = falling_stream_scene(0.1);
   early["psd"] = {{"product_window_s", {0.0, 0.04}}};
-  const SceneConfig early_scene = parse_scene(early, ".", errors);
-  ASSERT_TRUE(errors.empty());
-  Simulation early_sim(early_scene);
-  test::TempDir early_dir;
-  options.out_dir = early_dir.path();
-  ASSERT_FALSE(run_simulation(early_sim, early_scene, options).failure);
-  std::ifstream early_in(early_dir.path() / "result.json");
-  const nlohmann::json early_result = nlohmann::json::parse(early_in);
+  const nlohmann::json early_result = test::run_scene_document(early);
   const nlohmann::json& w = early_result["steady_state"];
   ASSERT_TRUE(w.is_object());
   EXPECT_EQ(w["window_from"], "product_window_s");
@@ -171,16 +156,10 @@ TEST(HoldupHistory, ItsRowsAddUpToTheRunsTallies) {
   doc["time"]["end_s"] = 0.0012;
   doc["dust"]["threshold_diameter_m"] = 6e-5;  // a coarser threshold: a larger step
   doc["output"] = {{"h5", false}, {"snapshot_interval_s", 3e-4}};
-  InputErrors errors;
-  const SceneConfig scene = parse_scene(doc, ".", errors);
-  ASSERT_TRUE(errors.empty());
-  test::TempDir dir;
-  Simulation sim(scene);
-  RunOptions options;
-  options.out_dir = dir.path();
-  ASSERT_FALSE(run_simulation(sim, scene, options).failure);
-  std::ifstream in(dir.path() / "result.json");
-  const nlohmann::json h = nlohmann::json::parse(in)["holdup_history"];
+  std::unique_ptr<Simulation> run;
+  const nlohmann::json h = test::run_scene_document(doc, &run)["holdup_history"];
+  ASSERT_TRUE(run);
+  const Simulation& sim = *run;
   ASSERT_TRUE(h.is_object());
   ASSERT_GE(h["time_s"].size(), 5u) << "rows at 0, 0.3, 0.6, 0.9 ms and at the end";
   EXPECT_EQ(h["time_s"].back().get<double>(), sim.time_s());

@@ -213,15 +213,10 @@ TEST(SpiralJetMill, ItsOutletCarriesTrackedParticlesAndLedgerDustWithEveryKilogr
        {"sizes", {{"distribution", "uniform"}, {"min_m", 1e-4}, {"max_m", 1e-4}}},
        {"velocity_m_per_s", {0, 0, -60}},
        {"end_s", 0.0015}}};
-  InputErrors errors;
-  const SceneConfig scene = parse_scene(doc, ".", errors);
-  for (const InputError& e : errors) ADD_FAILURE() << e.path << " " << e.value << ": " << e.allowed;
-  ASSERT_TRUE(errors.empty());
-  test::TempDir dir;
-  Simulation sim(scene);
-  RunOptions options;
-  options.out_dir = dir.path();
-  ASSERT_FALSE(run_simulation(sim, scene, options).failure);
+  std::unique_ptr<Simulation> run;
+  const nlohmann::json result = test::run_scene_document(doc, &run);
+  ASSERT_TRUE(run);
+  const Simulation& sim = *run;
   const DustLedger* dust = sim.dust_ledger();
   ASSERT_NE(dust, nullptr);
   const double made = sim.breakage()->dust().total_mass_kg();
@@ -243,8 +238,6 @@ TEST(SpiralJetMill, ItsOutletCarriesTrackedParticlesAndLedgerDustWithEveryKilogr
               sim.outlet_tally().total_mass_kg() + dust->outflow_kg(), 1e-12 * m.fed_kg);
   // result.json's steady-state window (the last third: nothing fed then) has no answer, and its
   // history's last row holds the ledger's dust out.
-  std::ifstream result_in(dir.path() / "result.json");
-  const nlohmann::json result = nlohmann::json::parse(result_in);
   EXPECT_TRUE(result["steady_state"].is_null());
   EXPECT_EQ(result["holdup_history"]["dust_out_kg"].back().get<double>(), dust->outflow_kg());
 }

@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <fstream>
+#include <memory>
 #include <random>
 
 #include "scene/scene_json.h"
@@ -21,17 +22,18 @@ FragmentConfig power_law_fragments(double exponent, double min_ratio, double max
   return f;
 }
 
-nlohmann::json run_scene_document(const nlohmann::json& doc) {
+nlohmann::json run_scene_document(const nlohmann::json& doc, std::unique_ptr<Simulation>* kept) {
   InputErrors errors;
   const SceneConfig scene = parse_scene(doc, ".", errors);
   EXPECT_TRUE(errors.empty()) << errors.front().path << ": " << errors.front().allowed;
   if (!errors.empty()) return nlohmann::json::object();
-  Simulation sim(scene);
+  auto sim = std::make_unique<Simulation>(scene);
   TempDir dir;
   RunOptions options;
   options.out_dir = dir.path();
-  const bool failed = bool(run_simulation(sim, scene, options).failure);
+  const bool failed = bool(run_simulation(*sim, scene, options).failure);
   EXPECT_FALSE(failed);
+  if (kept) *kept = std::move(sim);
   std::ifstream in(dir.path() / "result.json");
   if (failed || !in) return nlohmann::json::object();
   return nlohmann::json::parse(in);

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <filesystem>
+#include <memory>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -10,6 +11,10 @@
 #include "core/errors.h"
 #include "particles/particle_store.h"
 #include "scene/scene_config.h"
+
+namespace millsim {
+class Simulation;
+}
 
 namespace millsim::test {
 
@@ -36,8 +41,9 @@ InputErrors scene_errors(const nlohmann::json& doc);
 
 // Parses a scene document (base directory "."), runs it to its end in a fresh directory and
 // returns its result.json; a test failure and an empty object when the scene is refused or the
-// run fails.
-nlohmann::json run_scene_document(const nlohmann::json& doc);
+// run fails. With `kept`, the run's Simulation is handed over there for its final state.
+nlohmann::json run_scene_document(const nlohmann::json& doc,
+                                  std::unique_ptr<Simulation>* kept = nullptr);
 
 // A run's result.json without what depends on the wall clock, on the run having been resumed or
 // on how its gas got its spin-up (and the pressure matrix's builds: it is factorised again after
