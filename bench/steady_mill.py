@@ -49,6 +49,41 @@ def quantiles(edges_m, masses):
     return out
 
 
+def selection_rates(run_dir, names):
+    """Breakage events per particle and second by size (run.h5: the event log against the
+    particles in each size group, integrated over the snapshots): 1/S is a particle's mean
+    time before it breaks, which sets how long the hold-up takes to settle."""
+    try:
+        import h5py
+        import numpy as np
+        f = h5py.File(f"{run_dir}/run.h5", "r")
+    except (ImportError, OSError):
+        return
+    edges = [x * 1e-6 for x in SIZE_GROUPS_UM]
+    snaps = sorted(f["snapshots"].keys())
+    times = [f["snapshots"][s].attrs["time_s"] for s in snaps]
+    counts = [np.histogram(f["snapshots"][s]["diameter"][:], bins=edges)[0] for s in snaps]
+    exposure = np.zeros(len(edges) - 1)  # particle-seconds per group
+    for k in range(1, len(snaps)):
+        exposure += 0.5 * (counts[k] + counts[k - 1]) * (times[k] - times[k - 1])
+    if "breakage_events" not in f:
+        return
+    ev = f["breakage_events"]
+    t_end = times[-1]
+    parents = ev["parent_diameter_m"][:][ev["time_s"][:] <= t_end]
+    events = np.histogram(parents, bins=edges)[0]
+    print()
+    print("Breakage rate by size over the snapshots (events, particle-seconds, S = events per "
+          "particle-second, 1/S):")
+    print()
+    print("| size (µm) | events | particle-s | S (1/s) | 1/S (ms) |")
+    print("| --- | --- | --- | --- | --- |")
+    for n, e, x in zip(names, events, exposure):
+        rate = e / x if x > 0 else None
+        print(f"| {n} | {e} | {x:.3g} | {fmt(rate, 1, 1)} | "
+              f"{fmt(1e3 / rate if rate else None, 1, 1)} |")
+
+
 def fmt(x, scale=1.0, digits=1):
     return "—" if x is None else f"{x * scale:.{digits}f}"
 
@@ -111,6 +146,7 @@ def main():
             out = hist["outflow_by_class_kg"][k][-1]
             if held > 0 or out > 0:
                 print(f"| {c['diameter_m'] * 1e6:.2f} | {held * 1e9:.3f} | {out * 1e9:.3f} |")
+    selection_rates(a.run_dir, names)
     s = r.get("steady_state")
     print()
     print("Steady state:", json.dumps(s))
