@@ -53,44 +53,45 @@ std::vector<std::vector<double>> dust_fragment_shares(const std::vector<double>&
   return shares;
 }
 
-namespace {
-
-double compliance(const MaterialConfig& m) {
-  return (1.0 - m.poisson_ratio * m.poisson_ratio) / m.youngs_modulus_pa;
-}
-
-}  // namespace
-
 DustGrinding::DustGrinding(const DustLedger& ledger, const std::vector<double>& edges_m,
-                           const MaterialConfig& dust, const std::vector<MaterialConfig>& materials,
+                           const MaterialConfig& dust, int dust_material,
                            ImpactEquivalence equivalence)
     : strength_(dust.breakage->strength),
       equivalence_(equivalence),
-      dust_compliance_(compliance(dust)),
+      dust_material_(dust_material),
       shares_(dust_fragment_shares(edges_m, ledger.classes(),
                                    FragmentSizeSampler(dust.breakage->fragments))) {
-  for (const MaterialConfig& m : materials) material_compliance_.push_back(compliance(m));
   for (const DustClass& c : ledger.classes())
     class_mass_kg_.push_back(dust.density_kg_per_m3 * std::numbers::pi / 6.0 * c.diameter_m *
                              c.diameter_m * c.diameter_m);
+  for (std::size_t k = 0; k < shares_.size(); ++k) {
+    moved_share_.push_back(k == 0 ? 0.0 : 1.0 - shares_[k][k]);
+    std::vector<double> to = shares_[k];
+    to[k] = 0.0;
+    if (moved_share_[k] > 0.0)
+      for (double& x : to) x /= moved_share_[k];
+    moved_to_.push_back(std::move(to));
+  }
+  const std::size_t entries = ledger.classes().size() * ledger.grid().padded_size;
+  rate_.assign(entries, 0.0);
+  dust_velocity_.resize(entries);
+  have_velocity_.assign(entries, 0);
   stats_.ground_kg.assign(ledger.classes().size(), 0.0);
 }
 
-void DustGrinding::grind(DustLedger& ledger, const ParticleStore& p, double dt_s) {
+void DustGrinding::grind(DustLedger& ledger, const ParticleStore& p, const MaterialTable& materials,
+                         double dt_s) {
   if (!(dt_s > 0.0)) return;
   const GasGrid& g = ledger.grid();
   const std::vector<DustClass>& classes = ledger.classes();
   const std::size_t n_classes = classes.size(), cells = g.padded_size;
-  rate_.assign(n_classes * cells, 0.0);
-  dust_velocity_.resize(n_classes * cells);
-  have_velocity_.assign(n_classes * cells, 0);
-  bool any = false;
+  const double c_dust = materials.material(dust_material_).normal_compliance;
   for (std::size_t i = 0; i < p.size(); ++i) {
     const std::size_t c = ledger.cell_of(p.position_m[i]);
     if (!g.fluid[c]) continue;
     const Vec3& u_i = p.motion[i].velocity_m_per_s;
     const double r_i = p.radius_m[i], m_i = p.mass_kg[i];
-    const double c_i = material_compliance_[p.material[i]];
+    const double c_i = materials.material(p.material[i]).normal_compliance;
     for (std::size_t k = 1; k < n_classes; ++k) {  // class 0 is not ground
       if (!(ledger.cell_mass_kg(int(k))[c] > 0.0)) continue;
       const std::size_t kc = k * cells + c;
@@ -98,45 +99,42 @@ void DustGrinding::grind(DustLedger& ledger, const ParticleStore& p, double dt_s
         dust_velocity_[kc] =
             ledger.gas_velocity_m_per_s(c) + ledger.slip_m_per_s(c, classes[k].relaxation_time_s);
         have_velocity_[kc] = 1;
+        touched_.push_back(kc);
       }
       const double s = norm(u_i - dust_velocity_[kc]);
       const double r_k = 0.5 * classes[k].diameter_m;
-      const double v_eq = equivalent_speed_pair(equivalence_, class_mass_kg_[k], r_k,
-                                                dust_compliance_, m_i, r_i, c_i, s);
+      const double v_eq =
+          equivalent_speed_pair(equivalence_, class_mass_kg_[k], r_k, c_dust, m_i, r_i, c_i, s);
       const double breaks =
           swept_selection_probability(strength_, classes[k].diameter_m, 0.5 * v_eq * v_eq);
       if (breaks <= 0.0) continue;
       const double eta = impaction_efficiency(classes[k].relaxation_time_s * s / r_i);
       const double reach = r_i + r_k;
       rate_[kc] += std::numbers::pi * reach * reach * s * eta * breaks;
-      any = true;
     }
   }
   ++stats_.passes;
-  if (!any) return;
-  // Every class loses its share of what it held at the start; then the fragments land.
+  // Class by class, cell by cell: every class loses its share of what it held at the start,
+  // then the fragments land.
+  std::sort(touched_.begin(), touched_.end());
   const double volume = g.cell_volume_m3();
-  std::vector<double> broken(n_classes * cells, 0.0);
-  for (std::size_t k = 1; k < n_classes; ++k)
-    for (std::size_t c = 0; c < cells; ++c) {
-      const double lambda = rate_[k * cells + c] / volume;
-      if (lambda > 0.0)
-        broken[k * cells + c] = -std::expm1(-lambda * dt_s) * ledger.cell_mass_kg(int(k))[c];
-    }
-  for (std::size_t k = 1; k < n_classes; ++k) {
-    // Only the finer classes receive: the share that stays in class k is not moved at all.
-    const double stays = shares_[k][k];
-    if (!(stays < 1.0)) continue;
-    std::vector<double> to = shares_[k];
-    to[k] = 0.0;
-    for (double& x : to) x /= 1.0 - stays;
-    for (std::size_t c = 0; c < cells; ++c) {
-      const double kg = broken[k * cells + c] * (1.0 - stays);
-      if (!(kg > 0.0)) continue;
-      ledger.move_between_classes(c, int(k), kg, to);
-      stats_.ground_kg[k] += kg;
-    }
+  broken_.assign(touched_.size(), 0.0);
+  for (std::size_t t = 0; t < touched_.size(); ++t) {
+    const std::size_t kc = touched_[t], k = kc / cells, c = kc % cells;
+    const double lambda = rate_[kc] / volume;
+    if (lambda > 0.0)
+      broken_[t] = -std::expm1(-lambda * dt_s) * ledger.cell_mass_kg(int(k))[c] * moved_share_[k];
   }
+  for (std::size_t t = 0; t < touched_.size(); ++t) {
+    const std::size_t kc = touched_[t], k = kc / cells;
+    if (broken_[t] > 0.0) {
+      ledger.move_between_classes(kc % cells, int(k), broken_[t], moved_to_[k]);
+      stats_.ground_kg[k] += broken_[t];
+    }
+    rate_[kc] = 0.0;
+    have_velocity_[kc] = 0;
+  }
+  touched_.clear();
 }
 
 }  // namespace millsim

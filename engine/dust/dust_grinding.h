@@ -30,6 +30,7 @@
 #include "checkpoint/archive.h"
 #include "comminution/fragment_sizes.h"
 #include "dust/dust_ledger.h"
+#include "particles/materials.h"
 #include "particles/particle_store.h"
 #include "scene/scene_config.h"
 
@@ -60,15 +61,16 @@ struct DustGrindingStats {
 
 class DustGrinding {
  public:
-  // `dust` is the ledger's material (the one breakable material); `materials` every material,
-  // for the partners' compliances (force equivalence).
+  // `dust` is the ledger's material (the one breakable material), `dust_material` its index in
+  // the run's material table.
   DustGrinding(const DustLedger& ledger, const std::vector<double>& edges_m,
-               const MaterialConfig& dust, const std::vector<MaterialConfig>& materials,
-               ImpactEquivalence equivalence);
+               const MaterialConfig& dust, int dust_material, ImpactEquivalence equivalence);
 
   // Grinds the ledger's dust over dt_s with the particles as they are now; call after the
-  // ledger's advance (its gas velocities and slips are those of the same gas).
-  void grind(DustLedger& ledger, const ParticleStore& particles, double dt_s);
+  // ledger's advance (its gas velocities and slips are those of the same gas). `materials`
+  // gives the partners' compliances (force equivalence).
+  void grind(DustLedger& ledger, const ParticleStore& particles, const MaterialTable& materials,
+             double dt_s);
 
   const DustGrindingStats& stats() const { return stats_; }
   const std::vector<std::vector<double>>& shares() const { return shares_; }
@@ -80,13 +82,21 @@ class DustGrinding {
  private:
   StrengthConfig strength_;
   ImpactEquivalence equivalence_;
-  double dust_compliance_ = 0.0;             // (1 − ν²)/E of the dust's material
-  std::vector<double> material_compliance_;  // per material
-  std::vector<double> class_mass_kg_;        // a grain's mass per class
+  int dust_material_ = 0;
+  std::vector<double> class_mass_kg_;  // a grain's mass per class
   std::vector<std::vector<double>> shares_;
-  std::vector<double> rate_;         // per class × padded cell, this pass
-  std::vector<Vec3> dust_velocity_;  // per class × padded cell, computed when first needed
+  // Per class: the share of its broken mass that leaves it (1 − shares[k][k]), and how that
+  // part spreads over the finer classes (Σ = 1).
+  std::vector<double> moved_share_;
+  std::vector<std::vector<double>> moved_to_;
+  // Per class × padded cell, this pass: the rate λ V_cell, the dust's velocity (computed when
+  // first needed) and whether it was; `touched` lists the entries set, so a pass clears only
+  // those, and `broken` holds their mass to move.
+  std::vector<double> rate_;
+  std::vector<Vec3> dust_velocity_;
   std::vector<std::uint8_t> have_velocity_;
+  std::vector<std::size_t> touched_;
+  std::vector<double> broken_;
   DustGrindingStats stats_;
 };
 

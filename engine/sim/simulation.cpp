@@ -295,9 +295,9 @@ Simulation::Simulation(const SceneConfig& scene, SimulationStart start)
                      gas.viscosity_pa_s, dust_mean_free_path_m(gas)),
         gravity_m_per_s2_);
     if (scene.dust->grinding)
-      for (const MaterialConfig& m : scene.materials)
-        if (m.breakage)
-          dust_grinding_.emplace(*dust_ledger_, dust_edges_m_, m, scene.materials,
+      for (std::size_t m = 0; m < scene.materials.size(); ++m)
+        if (scene.materials[m].breakage)
+          dust_grinding_.emplace(*dust_ledger_, dust_edges_m_, scene.materials[m], int(m),
                                  scene.breakage->equivalence);
     breakage_->record_dust(true);
     window_dust_out_kg_.assign(std::size_t(dust_ledger_->class_count()), 0.0);
@@ -719,7 +719,7 @@ std::optional<StepFailure> Simulation::advance_gas() {
     profile_.time(Phase::Gas, [&] {
       const double dt = double(step_index_ - dust_advanced_step_) * time_.step_s;
       dust_ledger_->advance(gas_->view(), dt);
-      if (dust_grinding_) dust_grinding_->grind(*dust_ledger_, particles_, dt);
+      if (dust_grinding_) dust_grinding_->grind(*dust_ledger_, particles_, materials_, dt);
     });
     dust_advanced_step_ = step_index_;
     const bool counted = in_product_window();

@@ -160,7 +160,7 @@ TEST(DustGrinding, AParticleCrossingUniformDustGrindsItAtTheAnalyticRate) {
     const double D = 2e-4;
     p.add(table, 0, 1, x, {speed, 0, 0}, {}, D);
     const std::size_t c = ledger.cell_of(x);
-    DustGrinding grinding(ledger, test_edges(), salt(), {salt()}, ImpactEquivalence::Energy);
+    DustGrinding grinding(ledger, test_edges(), salt(), 0, ImpactEquivalence::Energy);
     // The rate from its parts, computed here: η from τ s / R, P̄ from the disc average, the
     // energy equivalence's speed v m_p / (m_d + m_p).
     const DustClass& k4 = ledger.classes()[4];
@@ -176,7 +176,7 @@ TEST(DustGrinding, AParticleCrossingUniformDustGrindsItAtTheAnalyticRate) {
     const double dt = 2e-5;
     const int passes = 10;
     // One pass: the finer classes, empty before it, receive their shares of what broke.
-    grinding.grind(ledger, p, dt);
+    grinding.grind(ledger, p, table, dt);
     const double first = 1e-9 - ledger.cell_mass_kg(4)[c];
     EXPECT_NEAR(first, 1e-9 * (1.0 - std::exp(-lambda * dt)) * (1.0 - stays), 1e-6 * first);
     for (int j = 0; j < 4; ++j)
@@ -184,7 +184,7 @@ TEST(DustGrinding, AParticleCrossingUniformDustGrindsItAtTheAnalyticRate) {
                   first * grinding.shares()[4][std::size_t(j)] / (1.0 - stays), 1e-12 * 1e-9)
           << "class " << j;
     // More passes: the class decays geometrically (the fragments are ground further in turn).
-    for (int n = 1; n < passes; ++n) grinding.grind(ledger, p, dt);
+    for (int n = 1; n < passes; ++n) grinding.grind(ledger, p, table, dt);
     const double expected =
         1e-9 * std::pow(1.0 - (1.0 - std::exp(-lambda * dt)) * (1.0 - stays), passes);
     std::printf("s = %g m/s: P = %.4f, eta = %.4f, lambda = %.4g 1/s, left %.4g of 1e-9 kg\n",
@@ -208,8 +208,8 @@ TEST(DustGrinding, AParticleCrossingUniformDustGrindsItAtTheAnalyticRate) {
   Cell box = dusty_box();
   ParticleStore slow;
   slow.add(table, 0, 1, {1.5e-3, 1.5e-3, 1.5e-3}, {5, 0, 0}, {}, 2e-4);
-  DustGrinding grinding(*box.ledger, test_edges(), salt(), {salt()}, ImpactEquivalence::Energy);
-  grinding.grind(*box.ledger, slow, 1e-3);
+  DustGrinding grinding(*box.ledger, test_edges(), salt(), 0, ImpactEquivalence::Energy);
+  grinding.grind(*box.ledger, slow, table, 1e-3);
   EXPECT_EQ(box.ledger->cell_mass_kg(4)[box.ledger->cell_of({1.5e-3, 1.5e-3, 1.5e-3})], 1e-9);
 }
 
