@@ -238,8 +238,11 @@ TEST(SpiralJetMill, ItsOutletCarriesTrackedParticlesAndLedgerDustWithEveryKilogr
               sim.outlet_tally().total_mass_kg() + dust->outflow_kg(), 1e-12 * m.fed_kg);
   // result.json's steady-state window (the last third: nothing fed then) has no answer, and its
   // history's last row holds the ledger's dust out.
+  ASSERT_TRUE(result.contains("steady_state") && result.contains("holdup_history"));
   EXPECT_TRUE(result["steady_state"].is_null());
-  EXPECT_EQ(result["holdup_history"]["dust_out_kg"].back().get<double>(), dust->outflow_kg());
+  const nlohmann::json& out = result["holdup_history"]["dust_out_kg"];
+  ASSERT_TRUE(out.is_array() && !out.empty());
+  EXPECT_EQ(out.back().get<double>(), dust->outflow_kg());
 }
 
 }  // namespace
