@@ -20,8 +20,8 @@
 namespace millsim {
 
 // 2: multi-rate stepping state; 3: the impact spectrum and the breakage event log; 4: the run
-// loop's hold-up history.
-inline constexpr std::uint32_t kCheckpointFormat = 4;
+// loop's hold-up history; 5: the mass flows by size class (process/mass_flows.h).
+inline constexpr std::uint32_t kCheckpointFormat = 5;
 
 struct CheckpointHeader {
   std::string millsim_version;

@@ -64,10 +64,12 @@ std::uint64_t Breakage::process(const std::vector<Impact>& impacts,
                                 const ParticleHook& after_addition) {
   std::vector<std::uint32_t> broken;
   std::vector<double> breaking_energy;  // per broken slot: its impact's, 0 when crushed
+  std::vector<std::uint8_t> by_wall;    // per broken slot: its impact was on a wall
   for (std::uint32_t slot : crushed)
     if (material_[p.material[slot]] &&
         std::find(broken.begin(), broken.end(), slot) == broken.end())
-      broken.push_back(slot), breaking_energy.push_back(0.0), ++stats_.crush_events;
+      broken.push_back(slot), breaking_energy.push_back(0.0), by_wall.push_back(0),
+          ++stats_.crush_events;
   for (const Impact& impact : impacts) {
     for (int side = 0; side < (impact.with_wall ? 1 : 2); ++side) {
       const std::uint32_t slot = side ? impact.partner : impact.particle;
@@ -78,7 +80,7 @@ std::uint64_t Breakage::process(const std::vector<Impact>& impacts,
       if (w <= threshold_energy_j_per_kg(m->config.strength, d)) continue;
       ++stats_.impacts;
       if (apply_impact(m->config, d, w, p.remaining_capacity_j_per_kg[slot]))
-        broken.push_back(slot), breaking_energy.push_back(w);
+        broken.push_back(slot), breaking_energy.push_back(w), by_wall.push_back(impact.with_wall);
       else
         ++stats_.fatigue_impacts;
     }
@@ -101,6 +103,7 @@ std::uint64_t Breakage::process(const std::vector<Impact>& impacts,
     event.time_s = time_s;
     event.specific_energy_j_per_kg = breaking_energy[k];
     event.crushed = breaking_energy[k] == 0.0;
+    event.by_wall = by_wall[k];
     break_particle(broken[k], dt_s, event, p, next_id, newborn, after_addition);
   }
   // Remove the parents from the highest slot down: each swap then moves in a particle that is
@@ -147,6 +150,9 @@ void Breakage::complete_impact(const Impact& impact, const std::vector<Wall>& wa
 
 void Breakage::add_dust(const Vec3& x, double d, double mass, double number) {
   dust_.add(d, mass, number);
+  if (flows_)
+    flows_->moved(flows_parent_slot_, MassFlows::dust(psd_slot(dust_.edges_m, d), flows_->slots)) +=
+        mass;
   if (record_dust_) fresh_dust_.push_back({x, d, mass, number});
 }
 
@@ -204,6 +210,11 @@ void Breakage::break_particle(std::size_t slot, double dt_s, BreakageEvent event
   const double parent_mass = p.mass_kg[slot];
   const ParticleId parent_id = p.id[slot];
   const std::uint64_t family = ++stats_.events;
+  if (flows_) {
+    flows_parent_slot_ = psd_slot(dust_.edges_m, parent_d);
+    flows_->events[std::size_t(flows_parent_slot_)] += 1.0;
+    if (event.by_wall) flows_->wall_events[std::size_t(flows_parent_slot_)] += 1.0;
+  }
   stats_.broken_mass_kg += parent_mass;
   const int parent_generation = p.generation[slot];
   if (stats_.events_by_generation.size() <= std::size_t(parent_generation))
@@ -250,6 +261,8 @@ void Breakage::break_particle(std::size_t slot, double dt_s, BreakageEvent event
     draw_strength(p, s);
     newborn.push_back({id, family, parent_id});
     after_addition(p, s);
+    if (flows_)
+      flows_->moved(flows_parent_slot_, psd_slot(dust_.edges_m, kept_d[k])) += p.mass_kg[s];
     ++stats_.fragments;
   }
   if (event_log_.size() < kMaxLoggedEvents) {

@@ -20,6 +20,7 @@
 #include "core/rng.h"
 #include "particles/materials.h"
 #include "particles/particle_store.h"
+#include "process/mass_flows.h"
 #include "process/psd.h"
 #include "scene/scene_config.h"
 #include "search/neighbor_list.h"
@@ -59,6 +60,7 @@ struct BreakageEvent {
   std::uint32_t fragments = 0;  // kept as particles
   std::uint8_t generation = 0;  // of the parent (0: fed or initial)
   std::uint8_t crushed = 0;
+  std::uint8_t by_wall = 0;  // the impact that broke it was on a wall
 };
 
 class Breakage {
@@ -112,6 +114,10 @@ class Breakage {
   void record_dust(bool on) { record_dust_ = on; }
   std::vector<DustDeposit>& fresh_dust() { return fresh_dust_; }
   const Vec3& dust_momentum_kg_m_per_s() const { return dust_momentum_; }
+  // Where breakage moves mass, into `flows` (process/mass_flows.h) from now on, on the dust
+  // table's edges: each event of a parent in slot j, its fragments' mass from particles j to
+  // particles of their slots, its dust's to dust of theirs. The flows outlive the breakage.
+  void record_flows(MassFlows* flows) { flows_ = flows; }
 
   // Checkpoints: the generator, the fragment pools, the dust table and the counters (the rest is
   // the scene's).
@@ -156,6 +162,8 @@ class Breakage {
   Vec3 dust_momentum_;
   bool record_dust_ = false;
   std::vector<DustDeposit> fresh_dust_;  // emptied by the caller after each process()
+  MassFlows* flows_ = nullptr;
+  int flows_parent_slot_ = 0;  // of the parent break_particle is breaking
   BreakageStats stats_;
   std::vector<BreakageEvent> event_log_;
 };

@@ -74,6 +74,8 @@ class DustGrinding {
 
   const DustGrindingStats& stats() const { return stats_; }
   const std::vector<std::vector<double>>& shares() const { return shares_; }
+  // Where mass ground out of class k lands: a share per class (0 for k itself), summing to 1.
+  const std::vector<double>& moved_to(int k) const { return moved_to_[std::size_t(k)]; }
   template <class A>
   void checkpoint_io(A& a) {
     io(a, stats_);

@@ -6,9 +6,8 @@
 namespace millsim {
 
 std::optional<SteadyWindow> steady_window(const std::vector<HoldupRow>& rows, double start_s,
-                                          double end_s, bool ledger) {
-  // Rows sit on the step grid: allow a step's rounding when matching the window's ends.
-  const double slack = 1e-9 * std::max(std::abs(start_s), std::abs(end_s));
+                                          double end_s, bool ledger, double step_s) {
+  const double slack = std::max(step_s, 1e-9 * std::max(std::abs(start_s), std::abs(end_s)));
   const HoldupRow* a = nullptr;
   const HoldupRow* b = nullptr;
   for (const HoldupRow& r : rows) {

@@ -59,9 +59,10 @@ struct SteadyWindow {
 
 // The window from the first row at or after `start_s` to the last row at or before `end_s`; none
 // when fewer than two rows lie in it or nothing was fed there. `ledger`: the dust leaves only
-// when carried out, not when made.
+// when carried out, not when made. `step_s`: the run's step; rows sit on the step grid, so a row
+// within a step of either end counts as on it (a run's last row lies up to a step past its end).
 std::optional<SteadyWindow> steady_window(const std::vector<HoldupRow>& rows, double start_s,
-                                          double end_s, bool ledger);
+                                          double end_s, bool ledger, double step_s = 0.0);
 
 // result.json's `holdup_history`: one array per quantity, a row per time.
 nlohmann::ordered_json holdup_history_json(const std::vector<HoldupRow>& rows);

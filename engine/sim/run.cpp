@@ -18,6 +18,8 @@
 #include "process/classification.h"
 #include "process/holdup_history.h"
 #include "process/impact_spectrum_plot.h"
+#include "process/mass_flows.h"
+#include "process/steady_projection.h"
 #include "sim/run_eta.h"
 
 namespace millsim {
@@ -98,6 +100,12 @@ struct TimeSeries {
   }
 };
 
+// The window the steady state is judged over: the product window, or the run's last third.
+std::array<double, 2> steady_window_s(const Simulation& sim, const SceneConfig& scene) {
+  if (const auto& window = sim.product_window_s()) return *window;
+  return {scene.time.end_s * (2.0 / 3.0), scene.time.end_s};
+}
+
 // The hold-up and what left, now (process/holdup_history.h).
 HoldupRow holdup_row(const Simulation& sim) {
   const MassBalance m = sim.mass_balance();
@@ -130,14 +138,12 @@ HoldupRow holdup_row(const Simulation& sim) {
 // Whether the run ended steady, over the product window or else its last third.
 nlohmann::ordered_json steady_state_json(const Simulation& sim, const SceneConfig& scene,
                                          const std::vector<HoldupRow>& rows) {
-  const auto& window = sim.product_window_s();
-  const double start_s = window ? (*window)[0] : scene.time.end_s * (2.0 / 3.0);
-  const double end_s = window ? (*window)[1] : scene.time.end_s;
-  const std::optional<SteadyWindow> w =
-      steady_window(rows, start_s, end_s, sim.dust_ledger() != nullptr);
+  const std::array<double, 2> window = steady_window_s(sim, scene);
+  const std::optional<SteadyWindow> w = steady_window(
+      rows, window[0], window[1], sim.dust_ledger() != nullptr, sim.time_step().step_s);
   if (!w) return nullptr;
   nlohmann::ordered_json j = steady_window_json(*w);
-  j["window_from"] = window ? "product_window_s" : "last third";
+  j["window_from"] = sim.product_window_s() ? "product_window_s" : "last third";
   return j;
 }
 
@@ -686,11 +692,54 @@ struct LoopState {
   std::size_t initial_particles = 0;
   EnergyReport initial_energy;
   std::vector<HoldupRow> holdup;  // at the snapshot interval, in runs with a product
+  // The mass flows at the rows that bound the steady window (the first at or after its start,
+  // the last at or before its end), for the steady-state projection.
+  std::optional<MassFlows> window_start_flows, window_end_flows;
+  double window_start_s = 0.0, window_end_s = 0.0;
   template <class A>
   void checkpoint_io(A& a, TimeSeries& series) {
     io_all(a, initial_particles, initial_energy, series.columns, holdup);
+    io_all(a, window_start_flows, window_end_flows, window_start_s, window_end_s);
   }
 };
+
+// A hold-up row now, and the mass flows when the row bounds the steady window.
+void record_holdup(const Simulation& sim, const SceneConfig& scene, LoopState& loop) {
+  loop.holdup.push_back(holdup_row(sim));
+  const double t = loop.holdup.back().time_s;
+  const std::array<double, 2> window = steady_window_s(sim, scene);
+  // As steady_window matches rows: within a step of either end.
+  const double slack = sim.time_step().step_s;
+  if (t > window[1] + slack) return;
+  const std::optional<MassFlows> flows = sim.mass_flows();
+  if (!flows) return;
+  if (t >= window[0] - slack && !loop.window_start_flows)
+    loop.window_start_flows = flows, loop.window_start_s = t;
+  if (loop.window_start_flows) loop.window_end_flows = flows, loop.window_end_s = t;
+}
+
+// The steady state projected from the window's rates (process/steady_projection.h); null before
+// the window has two rows.
+nlohmann::ordered_json projection_json(const Simulation& sim, const SceneConfig& scene,
+                                       const LoopState& loop) {
+  if (!loop.window_start_flows || !loop.window_end_flows ||
+      !(loop.window_end_s > loop.window_start_s))
+    return nullptr;
+  const MassFlows window = flows_between(*loop.window_start_flows, *loop.window_end_flows);
+  const CompartmentRates rates = fit_rates(window, loop.window_end_s - loop.window_start_s);
+  const std::vector<double> held = sim.holdup_by_compartment_kg();
+  const std::vector<double>& edges = sim.outlet_tally().edges_m;
+  const SteadyProjection projection = project_steady(rates, held);
+  const ProjectionSpread spread =
+      projection_spread(rates, held, edges, kProjectionDraws, scene.seed);
+  nlohmann::ordered_json j;
+  j["window_s"] = {loop.window_start_s, loop.window_end_s};
+  j["window_from"] = sim.product_window_s() ? "product_window_s" : "last third";
+  j["from_time_s"] = sim.time_s();
+  const nlohmann::ordered_json body = steady_projection_json(rates, projection, spread, edges);
+  for (auto it = body.begin(); it != body.end(); ++it) j[it.key()] = it.value();
+  return j;
+}
 
 struct ResumePoint {
   std::filesystem::path checkpoint;
@@ -848,7 +897,9 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
           : 0;
   const bool write_h5 = write_files && scene.output.write_h5;
   const std::uint64_t hash = options.scene_text.empty() ? 0 : scene_hash(options.scene_text);
-  LoopState loop{sim.particles().size(), sim.energy(), {}};
+  LoopState loop;
+  loop.initial_particles = sim.particles().size();
+  loop.initial_energy = sim.energy();
   TimeSeries series(has_product(sim), sim);
   const std::optional<ResumePoint> resumed =
       options.resume && write_files ? resume_from(checkpoint_dir, hash, sim, loop, series)
@@ -902,7 +953,7 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
   const bool with_holdup = has_product(sim);
   if (!resumed) {
     series.record(sim);
-    if (with_holdup) loop.holdup.push_back(holdup_row(sim));
+    if (with_holdup) record_holdup(sim, scene, loop);
     if (h5) write_snapshot(*h5, sim);
   }
   if (h5) h5->flush();  // readable from the start, should this attempt be killed too
@@ -971,7 +1022,7 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
       sim.profile().time(Phase::Output, [&] { write_snapshot(*h5, sim); });
     // Not at a stop: the resumed run goes on to the same rows as one that never stopped.
     if (with_holdup && (step % snapshot_every == 0 || step == total || outcome.failure))
-      sim.profile().time(Phase::Output, [&] { loop.holdup.push_back(holdup_row(sim)); });
+      sim.profile().time(Phase::Output, [&] { record_holdup(sim, scene, loop); });
     // The impact spectrum's intervals end on the snapshot schedule and at the run's end (not at
     // a stop, whose resumed run carries on the same interval).
     if (step % snapshot_every == 0 || step == total) sim.close_impact_interval();
@@ -1104,6 +1155,7 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
     add_product_summary(sim, s);
     s["holdup_history"] = holdup_history_json(loop.holdup);
     s["steady_state"] = steady_state_json(sim, scene, loop.holdup);
+    s["steady_projection"] = projection_json(sim, scene, loop);
   }
   if (sim.gas()) add_gas_summary(sim, s);
   if (const DustLedger* dust = sim.dust_ledger()) {

@@ -238,6 +238,13 @@ Simulation::Simulation(const SceneConfig& scene, SimulationStart start)
                        s.velocity_m_per_s, s.angular_velocity_rad_per_s, s.diameter_m, scale);
     if (breakage_) breakage_->draw_strength(particles_, slot);
   }
+  if (breakage_ || !outlets_.empty() || !feeders_.empty()) {
+    flows_ = make_mass_flows(psd_edges);
+    for (std::size_t i = 0; i < particles_.size(); ++i)
+      add_tracked(*flows_, psd_slot(psd_edges, 2.0 * particles_.radius_m[i]), particles_.mass_kg[i],
+                  cross_section_m2(particles_.radius_m[i]));
+    if (breakage_) breakage_->record_flows(&*flows_);
+  }
   check_inside_domain(scene, particles_, box_, errors);
   // Particles the run may create later (id 0 in the bounds): the smallest fragment and the
   // smallest and largest fed particles, with the stiffness they will get.
@@ -720,6 +727,15 @@ std::optional<StepFailure> Simulation::advance_gas() {
       const double dt = double(step_index_ - dust_advanced_step_) * time_.step_s;
       dust_ledger_->advance(gas_->view(), dt);
       if (dust_grinding_) dust_grinding_->grind(*dust_ledger_, particles_, materials_, dt);
+      if (flows_) {
+        const double area = tracked_area_m2(*flows_);
+        for (int k = 0; k < dust_ledger_->class_count(); ++k) {
+          const std::size_t c = std::size_t(MassFlows::dust(k, flows_->slots));
+          const double held = dust_ledger_->held_kg(k);
+          flows_->held_kg_s[c] += held * dt;
+          flows_->exposure_kg_m2_s[c] += held * area * dt;
+        }
+      }
     });
     dust_advanced_step_ = step_index_;
     const bool counted = in_product_window();
@@ -742,12 +758,19 @@ double Simulation::particle_energy_j(std::size_t i) const {
 void Simulation::process_population() {
   const std::uint64_t version = particles_.population_version;
   std::vector<Newborn> newborn;
+  if (flows_) integrate_tracked(*flows_, time_s());  // the hold-up until now, before it changes
   const auto removed = [this](const ParticleStore& store, std::size_t i) {
     energy_added_j_ -= particle_energy_j(i);
     if (gas_) gas_->release(store, i);
+    if (flows_)
+      add_tracked(*flows_, psd_slot(outlet_.edges_m, 2.0 * store.radius_m[i]), -store.mass_kg[i],
+                  -cross_section_m2(store.radius_m[i]));
   };
-  const auto added = [this](const ParticleStore&, std::size_t i) {
+  const auto added = [this](const ParticleStore& store, std::size_t i) {
     energy_added_j_ += particle_energy_j(i);
+    if (flows_)
+      add_tracked(*flows_, psd_slot(outlet_.edges_m, 2.0 * store.radius_m[i]), store.mass_kg[i],
+                  cross_section_m2(store.radius_m[i]));
   };
   const ContactStepStats& c = contact_stats_;
   if (breakage_ && !(c.impacts.empty() && c.pairs_over_limit.empty() && c.walls_over_limit.empty()))
@@ -788,6 +811,12 @@ void Simulation::process_population() {
         outlet_.add(2.0 * particles_.radius_m[i], m);
         if (in_product_window()) window_outlet_.add(2.0 * particles_.radius_m[i], m);
         outlet_mass_kg_[std::size_t(outlet)] += m;
+        if (flows_) {
+          const std::size_t slot =
+              std::size_t(psd_slot(outlet_.edges_m, 2.0 * particles_.radius_m[i]));
+          flows_->left_kg[slot] += m;
+          flows_->left_count[slot] += 1.0;
+        }
         // With its force in flight (the next half-kick), as the breakage module does for dust.
         outlet_momentum_ += particles_.motion[i].velocity_m_per_s * m +
                             particles_.load[i].force_n * (0.5 * time_.step_s);
@@ -804,6 +833,9 @@ void Simulation::process_population() {
                                                 spec.velocity_m_per_s, {}, spec.diameter_m, scale);
         if (breakage_) breakage_->draw_strength(particles_, slot);
         fed_mass_kg_ += particles_.mass_kg[slot];
+        if (flows_)
+          flows_->fed_kg[std::size_t(psd_slot(outlet_.edges_m, spec.diameter_m))] +=
+              particles_.mass_kg[slot];
         fed_momentum_ += particles_.motion[slot].velocity_m_per_s * particles_.mass_kg[slot];
         added(particles_, slot);
         newborn.push_back({id, 0, 0});
@@ -851,6 +883,36 @@ PsdTally Simulation::product_tally() const {
     product.add(product_window_s_ ? window_dust_table_ : breakage_->dust());
   }
   return product;
+}
+
+std::optional<MassFlows> Simulation::mass_flows() const {
+  if (!flows_) return std::nullopt;
+  MassFlows f = *flows_;
+  integrate_tracked(f, time_s());
+  if (dust_ledger_)
+    for (int k = 0; k < dust_ledger_->class_count(); ++k) {
+      const int from = MassFlows::dust(k, f.slots);
+      f.left_kg[std::size_t(from)] = dust_ledger_->outflow_kg(k);
+      if (!dust_grinding_) continue;
+      // Each class's ground mass lands by the same shares every time (dust/dust_grinding.h).
+      const double ground = dust_grinding_->stats().ground_kg[std::size_t(k)];
+      const std::vector<double>& to = dust_grinding_->moved_to(k);
+      for (std::size_t l = 0; l < to.size(); ++l)
+        if (int(l) != k) f.moved(from, MassFlows::dust(int(l), f.slots)) = ground * to[l];
+    }
+  return f;
+}
+
+std::vector<double> Simulation::holdup_by_compartment_kg() const {
+  const int slots = int(outlet_.edges_m.size()) + 1;
+  std::vector<double> held(2 * std::size_t(slots), 0.0);
+  for (std::size_t i = 0; i < particles_.size(); ++i)
+    held[std::size_t(psd_slot(outlet_.edges_m, 2.0 * particles_.radius_m[i]))] +=
+        particles_.mass_kg[i];
+  if (dust_ledger_)
+    for (int k = 0; k < dust_ledger_->class_count(); ++k)
+      held[std::size_t(MassFlows::dust(k, slots))] = dust_ledger_->held_kg(k);
+  return held;
 }
 
 MassBalance Simulation::mass_balance() const {

@@ -152,6 +152,10 @@ class Simulation {
   // particles + the dust that left through the gas's outlets.
   PsdTally product_tally() const;
   const std::optional<std::array<double, 2>>& product_window_s() const { return product_window_s_; }
+  // Where the mass went, by PSD slot and phase, cumulative up to now (process/mass_flows.h; absent
+  // in scenes without outlets, feeds or breakage), and the hold-up now by compartment.
+  std::optional<MassFlows> mass_flows() const;
+  std::vector<double> holdup_by_compartment_kg() const;
   MassBalance mass_balance() const;
   // Momentum that left the run with outlet particles and dust.
   Vec3 removed_momentum_kg_m_per_s() const;
@@ -275,6 +279,7 @@ class Simulation {
   std::optional<std::array<double, 2>> product_window_s_;
   PsdTally window_outlet_, window_dust_table_;
   std::vector<double> window_dust_out_kg_, dust_out_seen_kg_;
+  std::optional<MassFlows> flows_;  // breakage records into it (Breakage::record_flows)
   bool in_product_window() const {
     return !product_window_s_ ||
            (time_s() >= (*product_window_s_)[0] && time_s() < (*product_window_s_)[1]);
@@ -296,7 +301,7 @@ void Simulation::checkpoint_io(A& a) {
   if (gas_) io(a, *gas_);
   if (dust_ledger_) io_all(a, *dust_ledger_, dust_advanced_step_);
   if (dust_grinding_) io(a, *dust_grinding_);
-  io_all(a, window_outlet_, window_dust_table_, window_dust_out_kg_, dust_out_seen_kg_);
+  io_all(a, window_outlet_, window_dust_table_, window_dust_out_kg_, dust_out_seen_kg_, flows_);
   for (Feeder& f : feeders_) io(a, f);
   io_all(a, outlet_, outlet_mass_kg_, outlet_momentum_, initial_mass_kg_, fed_mass_kg_,
          last_population_step_, feed_mass_bound_kg_, feed_kinetic_bound_j_, drag_relaxation_s_,

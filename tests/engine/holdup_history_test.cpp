@@ -16,6 +16,7 @@
 #include <numbers>
 
 #include "process/holdup_history.h"
+#include "process/mass_flows.h"
 #include "scene/scene_json.h"
 #include "sim/run.h"
 #include "sim/simulation.h"
@@ -80,6 +81,19 @@ TEST(SteadyWindow, AWindowWithoutTwoRowsOrWithoutFeedHasNoAnswer) {
   EXPECT_FALSE(steady_window(stopped, 0.0, 0.06, false)) << "nothing fed";
 }
 
+// A run's last row lies up to a step past its end (steps = ⌈end / step⌉): within a step of the
+// window's end it bounds the window, beyond it not.
+TEST(SteadyWindow, ARowWithinAStepOfTheEndBoundsIt) {
+  std::vector<HoldupRow> rows = lagged_rows(2e-4, 5e-3, 0.06, 6, false);
+  const double step = 1e-5;
+  rows.back().time_s = 0.06 + 0.5 * step;
+  ASSERT_TRUE(steady_window(rows, 0.0, 0.06, false, step));
+  EXPECT_EQ(steady_window(rows, 0.0, 0.06, false, step)->end_s, rows.back().time_s);
+  EXPECT_EQ(steady_window(rows, 0.0, 0.06, false)->end_s, rows[rows.size() - 2].time_s);
+  rows.back().time_s = 0.06 + 1.5 * step;
+  EXPECT_EQ(steady_window(rows, 0.0, 0.06, false, step)->end_s, rows[rows.size() - 2].time_s);
+}
+
 // Monodisperse 1 mm beads fed at a constant rate 50 mm above an outlet plane at 1 m/s downwards,
 // through still space under gravity: they never touch (each is inserted where it overlaps
 // nothing and they all fall alike).
@@ -136,7 +150,17 @@ TEST(HoldupHistory, AStreamFallingThroughAnOutletIsSteadyAfterItsFallTime) {
   EXPECT_NEAR(held.back().get<double>(), rate * fall_s, 2.01 * bead_kg);
   EXPECT_NEAR(history["time_s"][3].get<double>(), 0.03, 1e-9);
   EXPECT_EQ(history["outlet_kg"][3].get<double>(), 0.0) << "nothing left before its fall time";
-  // A product window before the fall time: nothing left, nothing steady.
+  // Projected from the same window (process/steady_projection.h): the stream is steady already,
+  // holds F t_f, and its product is the feed's beads at the feed rate.
+  const nlohmann::json& projection = result["steady_projection"];
+  ASSERT_TRUE(projection.is_object());
+  EXPECT_TRUE(projection["steady_state_exists"].get<bool>());
+  EXPECT_NEAR(projection["holdup_kg"]["particles"].get<double>(), rate * fall_s, 2.01 * bead_kg);
+  EXPECT_NEAR(projection["product"]["kg_per_s"].get<double>(), fed / 0.1, 2.01 * bead_kg / 0.1);
+  EXPECT_NEAR(projection["product"]["d50_m"].get<double>(), 1e-3, 0.3e-3) << "the beads' class";
+  EXPECT_EQ(projection["time_to_steady_s"].get<double>(), 0.0);
+  // A product window before the fall time: nothing left, nothing steady; and with nothing seen
+  // leaving, the projection finds the beads accumulating.
   nlohmann::json early = falling_stream_scene(0.1);
   early["psd"] = {{"product_window_s", {0.0, 0.04}}};
   const nlohmann::json early_result = test::run_scene_document(early);
@@ -145,6 +169,12 @@ TEST(HoldupHistory, AStreamFallingThroughAnOutletIsSteadyAfterItsFallTime) {
   EXPECT_EQ(w["window_from"], "product_window_s");
   EXPECT_EQ(w["outflow_kg"].get<double>(), 0.0);
   EXPECT_FALSE(w["steady"].get<bool>());
+  const nlohmann::json& early_projection = early_result["steady_projection"];
+  ASSERT_TRUE(early_projection.is_object());
+  EXPECT_FALSE(early_projection["steady_state_exists"].get<bool>());
+  ASSERT_EQ(early_projection["accumulating"].size(), 1u);
+  EXPECT_EQ(early_projection["accumulating"][0]["phase"], "particles");
+  EXPECT_TRUE(early_projection["time_to_steady_s"].is_null());
 }
 
 // The last row of a breakage run's history against the run's own tallies: the hold-up by class
@@ -177,6 +207,24 @@ TEST(HoldupHistory, ItsRowsAddUpToTheRunsTallies) {
   double events = 0.0;
   for (const auto& e : h["events_by_generation"].back()) events += e.get<double>();
   EXPECT_EQ(events, double(b.events));
+  // The mass flows by slot (process/mass_flows.h): what breakage moved out of the particles is
+  // the broken mass, what it moved into dust is the table's, its events are the run's, and the
+  // particles' hold-up by slot is the store's.
+  const std::optional<MassFlows> flows = sim.mass_flows();
+  ASSERT_TRUE(flows);
+  double moved_out = 0.0, moved_to_dust = 0.0, flow_events = 0.0, held = 0.0;
+  for (int from = 0; from < flows->slots; ++from) {
+    flow_events += flows->events[std::size_t(from)];
+    held += flows->tracked_now_kg[std::size_t(from)];
+    for (int to = 0; to < flows->compartments(); ++to) {
+      moved_out += flows->moved(from, to);
+      if (to >= flows->slots) moved_to_dust += flows->moved(from, to);
+    }
+  }
+  EXPECT_NEAR(moved_out, b.broken_mass_kg, 1e-12 * m.fed_kg);
+  EXPECT_NEAR(moved_to_dust, m.dust_kg, 1e-12 * m.fed_kg);
+  EXPECT_EQ(flow_events, double(b.events));
+  EXPECT_NEAR(held, m.particles_kg, 1e-12 * m.fed_kg);
   for (std::size_t i = 0; i < h["time_s"].size(); ++i) {
     const double fed = h["fed_kg"][i].get<double>();
     EXPECT_NEAR(h["particles_kg"][i].get<double>() + h["outlet_kg"][i].get<double>() +

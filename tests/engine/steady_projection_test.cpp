@@ -1,0 +1,206 @@
+// The steady-state projection (process/steady_projection.h, issue 31) on compartments whose
+// balance has a closed form.
+//
+// - A chain: feed F into A, A breaks at k into B, B leaves at E. Steady: M_A = F/k, M_B = F/E,
+//   the product F at B's size. From empty, the outflow is
+//   F [1 − (k e^{−E t} − E e^{−k t}) / (k − E)], which first reaches 90 % of the feed at the root
+//   found here by bisection.
+// - The same with E = 0: B receives mass and never loses it; no steady state, and B is named.
+// - Dust counted when made (the table's): B holds nothing and passes what it receives, so the
+//   outflow is F (1 − e^{−k t}), 90 % at ln 10 / k.
+// - Two ways out of B (the outlet at E, breakage into dust at k_B): the product's share at B's
+//   size is E / (E + k_B), known only as well as the counts of outlet particles and events; the
+//   spread of d50 over redrawn rates narrows as the counts grow.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "process/mass_flows.h"
+#include "process/steady_projection.h"
+
+namespace millsim {
+namespace {
+
+// Edges of 3 classes: slots 0 (under), 1–3, 4 (over).
+const std::vector<double> kEdges = {1e-6, 2e-6, 4e-6, 8e-6};
+
+// Flows over a window of `window_s` in which compartment `c` held `held_kg` throughout.
+void hold(MassFlows& f, int c, double held_kg, double window_s) {
+  f.held_kg_s[std::size_t(c)] += held_kg * window_s;
+}
+
+// Feed F into A (particles, slot 3), A → B at k, B leaves at E: a window of one second.
+MassFlows chain_flows(double feed, double k, double leave, int b, double window_s = 1.0) {
+  MassFlows f = make_mass_flows(kEdges);
+  const int a = 3;
+  const double held_a = feed / k, held_b = leave > 0.0 ? feed / leave : 1e-7;
+  f.fed_kg[std::size_t(a)] = feed * window_s;
+  hold(f, a, held_a, window_s);
+  f.moved(a, b) = k * held_a * window_s;
+  f.events[std::size_t(a)] = 1000.0;
+  hold(f, b, held_b, window_s);
+  f.left_kg[std::size_t(b)] = leave * held_b * window_s;
+  return f;
+}
+
+double chain_outflow_share(double k, double e, double t) {
+  return 1.0 - (k * std::exp(-e * t) - e * std::exp(-k * t)) / (k - e);
+}
+
+TEST(SteadyProjection, AChainOfTwoCompartmentsReachesItsAnalyticSteadyState) {
+  const double feed = 2e-6, k = 50.0, e = 5.0;
+  const int b = MassFlows::dust(2, make_mass_flows(kEdges).slots);  // dust of slot 2
+  // The window's flows as a run accumulates them: a later state less an earlier one.
+  const MassFlows earlier = make_mass_flows(kEdges);
+  MassFlows later = chain_flows(feed, k, e, b, 0.5);
+  const CompartmentRates r = fit_rates(flows_between(earlier, later), 0.5);
+  EXPECT_NEAR(r.out_per_s(3, 0.0), k, 1e-12 * k);
+  EXPECT_NEAR(r.leave_per_s[std::size_t(b)], e, 1e-12 * e);
+  const std::vector<double> empty(std::size_t(r.compartments()), 0.0);
+  const SteadyProjection p = project_steady(r, empty);
+  ASSERT_TRUE(p.exists);
+  EXPECT_NEAR(p.held_kg[3], feed / k, 1e-12 * feed / k);
+  EXPECT_NEAR(p.held_kg[std::size_t(b)], feed / e, 1e-12 * feed / e);
+  EXPECT_NEAR(p.product_kg_per_s[2], feed, 1e-12 * feed);
+  // 90 % of the feed: bisection on the closed form.
+  double lo = 0.0, hi = 10.0;
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (chain_outflow_share(k, e, mid) < 1.0 - kProjectionSteadyTolerance ? lo : hi) = mid;
+  }
+  ASSERT_GT(p.horizon_s, 0.0);
+  const double resolution = p.horizon_s / 4000.0;
+  EXPECT_GE(p.time_to_steady_s, hi - 1e-9);
+  EXPECT_LE(p.time_to_steady_s, hi + resolution + 1e-9);
+  // The course follows the closed form at every kept point.
+  ASSERT_GT(p.course_time_s.size(), 10u);
+  for (std::size_t i = 0; i < p.course_time_s.size(); ++i)
+    EXPECT_NEAR(p.course_outflow_to_feed[i], chain_outflow_share(k, e, p.course_time_s[i]), 1e-9)
+        << "t = " << p.course_time_s[i];
+}
+
+TEST(SteadyProjection, ACompartmentThatNeitherBreaksNorLeavesAccumulates) {
+  const int b = MassFlows::dust(2, make_mass_flows(kEdges).slots);
+  const CompartmentRates r = fit_rates(chain_flows(2e-6, 50.0, 0.0, b), 1.0);
+  const SteadyProjection p =
+      project_steady(r, std::vector<double>(std::size_t(r.compartments()), 0.0));
+  EXPECT_FALSE(p.exists);
+  ASSERT_EQ(p.accumulating.size(), 1u);
+  EXPECT_EQ(p.accumulating[0], b);
+  EXPECT_LT(p.time_to_steady_s, 0.0);
+}
+
+TEST(SteadyProjection, DustCountedWhenMadePassesStraightToTheProduct) {
+  const double feed = 2e-6, k = 50.0;
+  MassFlows f = make_mass_flows(kEdges);
+  const int b = MassFlows::dust(2, f.slots);
+  f.fed_kg[3] = feed;
+  hold(f, 3, feed / k, 1.0);
+  f.moved(3, b) = feed;  // into the table: held by nobody
+  const CompartmentRates r = fit_rates(f, 1.0);
+  EXPECT_TRUE(r.pass_through[std::size_t(b)]);
+  const SteadyProjection p =
+      project_steady(r, std::vector<double>(std::size_t(r.compartments()), 0.0));
+  ASSERT_TRUE(p.exists);
+  EXPECT_NEAR(p.product_kg_per_s[2], feed, 1e-12 * feed);
+  EXPECT_EQ(p.held_kg[std::size_t(b)], 0.0);
+  const double exact = std::log(10.0) / k;
+  EXPECT_GE(p.time_to_steady_s, exact - 1e-12);
+  EXPECT_LE(p.time_to_steady_s, exact + p.horizon_s / 4000.0 + 1e-12);
+}
+
+// B (particles, slot 2) fed at F leaves through the outlet at E or breaks at k_B into dust of
+// slot 1 that leaves at once; its counts over the window are `count` of each.
+CompartmentRates two_ways_out(double count) {
+  const double feed = 1e-6, e = 20.0, k_b = 20.0;
+  MassFlows f = make_mass_flows(kEdges);
+  const int b = 2, dust = MassFlows::dust(1, f.slots);
+  const double held = feed / (e + k_b);
+  f.fed_kg[std::size_t(b)] = feed;
+  hold(f, b, held, 1.0);
+  f.left_kg[std::size_t(b)] = e * held;
+  f.left_count[std::size_t(b)] = count;
+  f.moved(b, dust) = k_b * held;
+  f.events[std::size_t(b)] = count;
+  return fit_rates(f, 1.0);
+}
+
+TEST(SteadyProjection, ItsSpreadNarrowsAsTheCountsGrow) {
+  const CompartmentRates few = two_ways_out(4.0), many = two_ways_out(1e6);
+  const std::vector<double> empty(std::size_t(few.compartments()), 0.0);
+  const SteadyProjection p = project_steady(many, empty);
+  ASSERT_TRUE(p.exists);
+  EXPECT_NEAR(p.product_kg_per_s[2] / p.feed_kg_per_s, 0.5, 1e-12) << "E / (E + k_B)";
+  const ProjectionSpread narrow = projection_spread(many, empty, kEdges, 200, 7);
+  const ProjectionSpread wide = projection_spread(few, empty, kEdges, 200, 7);
+  ASSERT_EQ(narrow.draws_steady, 200);
+  ASSERT_EQ(wide.draws_steady, 200);
+  ASSERT_EQ(narrow.d50_m.size(), 3u);
+  ASSERT_EQ(wide.d50_m.size(), 3u);
+  // d50 of a product half in [1, 2) µm and half in [2, 4) µm: 2 µm.
+  EXPECT_NEAR(narrow.d50_m[1], 2e-6, 0.01 * 2e-6);
+  EXPECT_LT(narrow.d50_m[2] / narrow.d50_m[0], 1.01);
+  EXPECT_GT(wide.d50_m[2] / wide.d50_m[0], 1.3);
+  EXPECT_LE(wide.d50_m[0], 2e-6);
+  EXPECT_GE(wide.d50_m[2], 2e-6);
+  // The same seed draws the same rates.
+  EXPECT_EQ(projection_spread(few, empty, kEdges, 200, 7).d50_m, wide.d50_m);
+}
+
+// Particles A (slot 3, cross-section a per kg) fed at F break at k into dust of slot 2, which
+// the particles grind into dust of slot 1 at g A per second, A = a M_A; dust of slot 1 leaves at
+// E. The window saw A at a tenth of its steady hold-up F/k, so its grinding ran at a tenth of
+// the steady rate: the steady dust of slot 2 is F / (g a F/k), not F over the window's rate.
+TEST(SteadyProjection, DustGroundByTheParticlesIsGroundAsTheyAreAtSteadyState) {
+  const double feed = 1e-6, k = 100.0, a = 2.0e3, g = 5.0e3, e = 40.0;
+  MassFlows f = make_mass_flows(kEdges);
+  const int particles = 3, coarse = MassFlows::dust(2, f.slots), fine = MassFlows::dust(1, f.slots);
+  const double held_a = 0.1 * feed / k, held_coarse = 2e-8, held_fine = 3e-8;
+  f.fed_kg[std::size_t(particles)] = feed;
+  hold(f, particles, held_a, 1.0);
+  f.area_m2_s[std::size_t(particles)] = a * held_a;
+  f.moved(particles, coarse) = k * held_a;
+  f.events[std::size_t(particles)] = 1000.0;
+  hold(f, coarse, held_coarse, 1.0);
+  f.exposure_kg_m2_s[std::size_t(coarse)] = held_coarse * a * held_a;
+  f.moved(coarse, fine) = g * a * held_a * held_coarse;
+  hold(f, fine, held_fine, 1.0);
+  f.exposure_kg_m2_s[std::size_t(fine)] = held_fine * a * held_a;
+  f.left_kg[std::size_t(fine)] = e * held_fine;
+  const CompartmentRates r = fit_rates(f, 1.0);
+  EXPECT_NEAR(r.grind(coarse, fine), g, 1e-12 * g);
+  EXPECT_EQ(r.move(coarse, fine), 0.0);
+  EXPECT_NEAR(r.area_per_kg[std::size_t(particles)], a, 1e-12 * a);
+  const SteadyProjection p =
+      project_steady(r, std::vector<double>(std::size_t(r.compartments()), 0.0));
+  ASSERT_TRUE(p.exists);
+  const double steady_a = feed / k;
+  EXPECT_NEAR(p.area_m2, a * steady_a, 1e-12 * a * steady_a);
+  EXPECT_NEAR(p.held_kg[std::size_t(coarse)], feed / (g * a * steady_a), 1e-9 * held_coarse);
+  EXPECT_NEAR(p.held_kg[std::size_t(fine)], feed / e, 1e-12 * feed / e);
+  EXPECT_NEAR(p.product_kg_per_s[1], feed, 1e-12 * feed);
+  // The course ends steady (the outflow within the tolerance long before the horizon).
+  ASSERT_FALSE(p.course_outflow_to_feed.empty());
+  EXPECT_NEAR(p.course_outflow_to_feed.back(), 1.0, 1e-6);
+  EXPECT_GT(p.time_to_steady_s, 0.0);
+  EXPECT_LT(p.time_to_steady_s, 0.5 * p.horizon_s);
+}
+
+TEST(MassFlows, SlotsCoverEveryDiameterOnce) {
+  EXPECT_EQ(psd_slot(kEdges, 0.5e-6), 0);
+  EXPECT_EQ(psd_slot(kEdges, 1e-6), 1);
+  EXPECT_EQ(psd_slot(kEdges, 3.9e-6), 2);
+  EXPECT_EQ(psd_slot(kEdges, 4e-6), 3);
+  EXPECT_EQ(psd_slot(kEdges, 8e-6), 4);
+  EXPECT_EQ(make_mass_flows(kEdges).slots, 5);
+  MassFlows f = make_mass_flows(kEdges);
+  add_tracked(f, 2, 3.0, 5.0);
+  integrate_tracked(f, 0.5);
+  add_tracked(f, 2, -1.0, -2.0);
+  integrate_tracked(f, 2.0);
+  EXPECT_DOUBLE_EQ(f.held_kg_s[2], 3.0 * 0.5 + 2.0 * 1.5);
+  EXPECT_DOUBLE_EQ(f.area_m2_s[2], 5.0 * 0.5 + 3.0 * 1.5);
+}
+
+}  // namespace
+}  // namespace millsim
