@@ -66,9 +66,14 @@ def report(run_dir):
         print("product by size (µm): " + ", ".join(
             f"{GROUPS_UM[g]}–{GROUPS_UM[g + 1] if GROUPS_UM[g + 1] < 1e9 else '∞'}: "
             f"{100 * x:.3g} %" for g, x in enumerate(shares) if x > 1e-6))
+    area = p["cross_section_m2"]
+    ev = p["breakage_events"]
+    print(f"particles' cross-section {fmt(area['window_mean'], 1e6)} mm² in the window, "
+          f"{fmt(area['steady'], 1e6)} mm² at steady state; {int(ev['by_wall_impact'])} of "
+          f"{int(ev['all'])} breakage events by a wall impact")
     print("\n| class µm | particles held µg | breakage 1/s | events | steady µg | dust held µg "
-          "| ground 1/s | leaves 1/s | steady µg |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+          "| ground 1/s | at steady 1/s | leaves 1/s | steady µg |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     P, D = s["particles"], s["dust"]
     for k, lo in enumerate(edges):
         if max(P["mean_held_kg"][k], D["mean_held_kg"][k], P["steady_held_kg"][k],
@@ -77,7 +82,8 @@ def report(run_dir):
         print(f"| {fmt(lo, 1e6)} | {fmt(P['mean_held_kg'][k], 1e9)} | "
               f"{fmt(P['breakage_per_s'][k])} | {int(P['events'][k])} | "
               f"{fmt(P['steady_held_kg'][k], 1e9)} | {fmt(D['mean_held_kg'][k], 1e9)} | "
-              f"{fmt(D['ground_per_s'][k])} | {fmt(D['leave_per_s'][k])} | "
+              f"{fmt(D['ground_per_s'][k])} | {fmt(D['steady_ground_per_s'][k])} | "
+              f"{fmt(D['leave_per_s'][k])} | "
               f"{fmt(D['steady_held_kg'][k], 1e9)} |")
     print()
     return threshold, p

@@ -31,9 +31,11 @@ int psd_slot(const std::vector<double>& edges, double d) {
 void integrate_tracked(MassFlows& f, double time_s) {
   const double dt = time_s - f.integrated_to_s;
   if (!(dt > 0.0)) return;
+  const double area = tracked_area_m2(f);
   for (std::size_t s = 0; s < std::size_t(f.slots); ++s) {
     f.held_kg_s[s] += f.tracked_now_kg[s] * dt;
     f.area_m2_s[s] += f.tracked_area_now_m2[s] * dt;
+    f.exposure_kg_m2_s[s] += f.tracked_now_kg[s] * area * dt;
   }
   f.integrated_to_s = time_s;
 }

@@ -10,10 +10,10 @@
 //   ledger's outflow), the time integral of its hold-up (kg·s), the particles that left (for the
 //   rates' counting error) and its particles' breakage events, all and those by a wall impact;
 //   per pair of compartments the mass that breakage or the dust's grinding moved from one to
-//   the other. The dust is ground by the particles that sweep it, at a rate that grows with
-//   their number: so the particles' cross-section π r² is integrated too (per slot, m²·s), and
-//   each dust compartment's exposure to it, ∫ M_c A dt with A the particles' total
-//   cross-section (kg·m²·s).
+//   the other. The dust is ground by the particles that sweep it, and particles break by meeting
+//   each other, at rates that grow with the particles' number: so the particles' cross-section
+//   π r² is integrated too (per slot, m²·s), and each compartment's exposure to it, ∫ M_c A dt
+//   with A the particles' total cross-section (kg·m²·s).
 //
 // The tracked hold-up changes only where the population does (breakage, outlets, feeds), so its
 // integrals are exact: the caller brings them up to the time of each change (integrate_tracked)
@@ -38,7 +38,7 @@ struct MassFlows {
   std::vector<double> wall_events;          // per compartment: of those, by a wall impact
   std::vector<double> moved_kg;             // (2S)², row = from, column = to
   std::vector<double> area_m2_s;            // per slot: ∫ the particles' cross-section dt
-  std::vector<double> exposure_kg_m2_s;     // per compartment (dust): ∫ M_c A dt
+  std::vector<double> exposure_kg_m2_s;     // per compartment: ∫ M_c A dt
   std::vector<double> tracked_now_kg;       // per slot: the tracked hold-up now
   std::vector<double> tracked_area_now_m2;  // per slot: the particles' cross-section now
   double integrated_to_s = 0.0;             // the tracked slots' integrals are complete up to here

@@ -101,14 +101,20 @@ CompartmentRates fit_rates(const MassFlows& w, double window_s) {
       continue;
     }
     r.leave_per_s[k] = w.left_kg[k] / held;
+    // The share of the moves that grows with the particles' cross-section: dust moved to dust
+    // was ground by the particles; particles broken by meeting another particle (or crushed
+    // against one) met it at a rate that grows with their number. Wall impacts do not.
+    double collided = 0.0;
+    if (exposure > 0.0)
+      collided = dust                ? 1.0
+                 : w.events[k] > 0.0 ? (w.events[k] - w.wall_events[k]) / w.events[k]
+                                     : 0.0;
     for (int to = 0; to < n; ++to) {
       if (to == c) continue;
       const std::size_t entry = k * std::size_t(n) + std::size_t(to);
-      // Dust moved to dust was ground by the particles: per unit of their cross-section.
-      if (dust && to >= w.slots && exposure > 0.0)
-        r.grind_per_m2_s[entry] = w.moved(c, to) / exposure;
-      else
-        r.move_per_s[entry] = w.moved(c, to) / held;
+      const double moved = w.moved(c, to);
+      r.grind_per_m2_s[entry] = collided * moved / (exposure > 0.0 ? exposure : 1.0);
+      r.move_per_s[entry] = (1.0 - collided) * moved / held;
     }
   }
   return r;
@@ -173,6 +179,29 @@ void balance_matrix(const CompartmentRates& r, const std::vector<int>& active,
     if (r.pass_through[std::size_t(c)]) output(m) += r.feed_kg_per_s[std::size_t(c)];
 }
 
+// The particles' steady cross-section A*: their steady hold-up at a cross-section A has the
+// cross-section f(A), which falls as A grows (collisions break more), so A* = f(A*) is the one
+// root of f(A) − A, found by doubling then bisection. Without collisions f is constant.
+double steady_area_m2(const CompartmentRates& r, const std::vector<int>& particles) {
+  const int n = r.compartments();
+  const auto area_at = [&](double area) {
+    SteadyProjection p;
+    p.held_kg.assign(std::size_t(n), 0.0);
+    p.product_kg_per_s.assign(std::size_t(r.slots), 0.0);
+    std::vector<double> inflow(r.feed_kg_per_s);
+    std::vector<char> done(std::size_t(n), 0);
+    solve_group(r, particles, area, inflow, done, p);
+    return p.accumulating.empty() ? r.area_m2(p.held_kg) : 1e300;
+  };
+  double lo = 0.0, hi = std::max(r.mean_area_m2, 1e-30);
+  for (int i = 0; i < 200 && area_at(hi) > hi; ++i) lo = hi, hi *= 2.0;
+  for (int i = 0; i < 100; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (area_at(mid) > mid ? lo : hi) = mid;
+  }
+  return hi;
+}
+
 // Where the course renews its propagator as A changes.
 constexpr int kCoursePieces = 32;
 
@@ -189,9 +218,10 @@ SteadyProjection project_steady(const CompartmentRates& r, const std::vector<dou
   // the dust.
   std::vector<int> particles, dust;
   for (int c : balance_order(slots)) (c < slots ? particles : dust).push_back(c);
+  const double area = steady_area_m2(r, particles);
   std::vector<double> inflow(r.feed_kg_per_s);
   std::vector<char> done(std::size_t(n), 0);
-  bool forwards = solve_group(r, particles, 0.0, inflow, done, p);
+  bool forwards = solve_group(r, particles, area, inflow, done, p);
   p.area_m2 = r.area_m2(p.held_kg);
   forwards = solve_group(r, dust, p.area_m2, inflow, done, p) && forwards;
   p.exists = forwards && p.accumulating.empty() && p.feed_kg_per_s > 0.0;
@@ -265,8 +295,10 @@ ProjectionSpread projection_spread(const CompartmentRates& r,
       const std::size_t k = std::size_t(c);
       if (r.events[k] > 0.0) {
         const double scale = redraw(r.events[k]);
-        for (int to = 0; to < n; ++to)
+        for (int to = 0; to < n; ++to) {
           drawn.move_per_s[k * std::size_t(n) + std::size_t(to)] *= scale;
+          drawn.grind_per_m2_s[k * std::size_t(n) + std::size_t(to)] *= scale;
+        }
       }
       if (r.left_count[k] > 0.0) drawn.leave_per_s[k] *= redraw(r.left_count[k]);
     }

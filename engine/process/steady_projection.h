@@ -8,28 +8,30 @@
 //     k_{c→c'} = moved / ∫M_c dt,   E_c = left / ∫M_c dt,   F_c = fed / window,
 // and the balance
 //     dM_c/dt = F_c − (E_c + Σ_{c'} k_{c→c'}) M_c + Σ_{c'} k_{c'→c} M_{c'}.
-// The dust's grinding is the exception: the particles that sweep the dust grind it, so its rate
-// grows with them. Its moves are fitted per unit of the particles' cross-section A (the sum of
-// π r²), g_{c→c'} = moved / ∫M_c A dt, and act at g A(t), with A(t) = Σ_s a_s M_s(t) from each
-// particle slot's measured cross-section per kilogram a_s. That keeps the dust ground where the
-// particles and the dust meet as they did in the window, only more or less of it.
+// Two kinds of move grow with the particles instead: the dust's grinding (the particles sweep
+// it) and the breakage of particles by meeting each other (or crushed against one). Their moves
+// are fitted per unit of the particles' cross-section A (the sum of π r²),
+// g_{c→c'} = moved / ∫M_c A dt, and act at g A(t), with A(t) = Σ_s a_s M_s(t) from each particle
+// slot's measured cross-section per kilogram a_s; a particle compartment's moves are split so by
+// the share of its window's breakage events that were not wall impacts. That keeps them where
+// the particles and their partners meet as they did in the window, only more or less often.
 //
 // Breakage moves mass only to the same or finer slots and from particles to dust, never back, so
-// in the order (coarsest slot first; the particles, then the dust) the balance is triangular: the
-// particles' steady hold-up follows compartment by compartment, then A, then the dust's. A
-// compartment that receives mass but neither breaks nor leaves (no event in the window) has
-// none: it would grow without end, and the projection names it. A compartment that held nothing
-// yet received mass (the dust table's dust, made and counted at once) passes what it receives
-// straight to the product. The course from the run's end is stepped by the exact propagator of
-// the linear balance, renewed as A changes (32 pieces of the horizon) where there is grinding.
+// in the order (coarsest slot first; the particles, then the dust) the balance is triangular at
+// a given A. The particles' steady hold-up at A has a cross-section f(A) that falls as A grows;
+// the steady A* = f(A*) is found by bisection, then the dust's hold-up follows at A*. A
+// compartment that receives mass but neither breaks nor leaves (no event in the window) has no
+// steady hold-up: it would grow without end, and the projection names it. A compartment that
+// held nothing yet received mass (the dust table's dust, made and counted at once) passes what
+// it receives straight to the product. The course from the run's end is stepped by the exact
+// propagator of the balance, renewed as A changes (32 pieces of the horizon) where A matters.
 //
-// What it assumes: each particle compartment's rates are those of the window and do not depend
-// on the hold-up (breakage by the walls and the gas, not by collisions whose number grows with
-// the hold-up: the share of the window's events by a wall impact is reported to check it). The
-// counting error of the rates is carried by redrawing each particle compartment's breakage and
-// outlet rates from the gamma distribution their counts give (Jeffreys prior, a Poisson count n
-// over the window: rate ∝ Gamma(n + ½)), the dust's rates being sums over many particles and
-// cells.
+// What it assumes: the rates per kilogram (per kilogram and m² of cross-section for the
+// collisions) are those of the window: the mill's flow, the impact speeds and where particles
+// and dust meet stay as they were while the hold-up grows. The counting error of the rates is
+// carried by redrawing each particle compartment's breakage and outlet rates from the gamma
+// distribution their counts give (Jeffreys prior, a Poisson count n over the window:
+// rate ∝ Gamma(n + ½)), the dust's rates being sums over many particles and cells.
 #pragma once
 
 #include <cstdint>
@@ -51,7 +53,7 @@ struct CompartmentRates {
   std::vector<double> feed_kg_per_s;   // per compartment
   std::vector<double> leave_per_s;     // E_c
   std::vector<double> move_per_s;      // (2S)², row = from; the diagonal is 0
-  std::vector<double> grind_per_m2_s;  // (2S)²: the dust's grinding per unit of A
+  std::vector<double> grind_per_m2_s;  // (2S)²: moves per unit of A (grinding, collisions)
   std::vector<double> area_per_kg;     // per particle slot: a_s, m²/kg
   std::vector<double> mean_held_kg;    // ∫M dt / window
   double mean_area_m2 = 0.0;           // the particles' cross-section, ∫A dt / window
@@ -73,7 +75,7 @@ struct CompartmentRates {
   double out_per_s(int c, double area_m2) const;
   // A of a hold-up (per compartment): Σ_s a_s M_s.
   double area_m2(const std::vector<double>& held_kg) const;
-  bool grinds() const;
+  bool grinds() const;  // any move grows with A
 };
 
 // The rates over a window's flows (flows_between) of length window_s > 0.

@@ -186,6 +186,43 @@ TEST(SteadyProjection, DustGroundByTheParticlesIsGroundAsTheyAreAtSteadyState) {
   EXPECT_LT(p.time_to_steady_s, 0.5 * p.horizon_s);
 }
 
+// Particles A (slot 3) fed at F break only by meeting each other: at g A M_A with A = a M_A,
+// into dust of slot 2 that leaves at once. Steady: F = g a M_A², M_A = √(F / (g a)). Had a
+// wall broken one of every four, the rest at g A: F = (k_w + g a M) M, a quadratic's root.
+TEST(SteadyProjection, ParticlesThatBreakByMeetingEachOtherSettleWhereTheirCollisionsTakeTheFeed) {
+  const double feed = 1e-6, a = 2.0e3, g = 4.0e6, held_window = 1e-9;
+  for (double wall_share : {0.0, 0.25}) {
+    MassFlows f = make_mass_flows(kEdges);
+    const int particles = 3, dust = MassFlows::dust(2, f.slots);
+    // The window: A held at 1e-9 kg, broken at (k_w + g a M) with k_w chosen so that a quarter
+    // of the events were by a wall when wall_share is 0.25.
+    const double collision_rate = g * a * held_window;
+    const double wall_rate = collision_rate * wall_share / (1.0 - wall_share);
+    f.fed_kg[std::size_t(particles)] = feed;
+    hold(f, particles, held_window, 1.0);
+    f.area_m2_s[std::size_t(particles)] = a * held_window;
+    f.exposure_kg_m2_s[std::size_t(particles)] = held_window * a * held_window;
+    f.moved(particles, dust) = (wall_rate + collision_rate) * held_window;
+    f.events[std::size_t(particles)] = 400.0;
+    f.wall_events[std::size_t(particles)] = 400.0 * wall_share;
+    const CompartmentRates r = fit_rates(f, 1.0);
+    EXPECT_NEAR(r.grind(particles, dust), g, 1e-9 * g);
+    EXPECT_NEAR(r.move(particles, dust), wall_rate, 1e-9 * (wall_rate + 1.0));
+    const SteadyProjection p =
+        project_steady(r, std::vector<double>(std::size_t(r.compartments()), 0.0));
+    ASSERT_TRUE(p.exists) << wall_share;
+    // (g a) M² + k_w M − F = 0.
+    const double ga = g * a;
+    const double held =
+        (-wall_rate + std::sqrt(wall_rate * wall_rate + 4.0 * ga * feed)) / (2.0 * ga);
+    EXPECT_NEAR(p.held_kg[std::size_t(particles)], held, 1e-9 * held) << wall_share;
+    EXPECT_NEAR(p.area_m2, a * held, 1e-9 * a * held);
+    EXPECT_NEAR(p.product_kg_per_s[2], feed, 1e-12 * feed);
+    ASSERT_FALSE(p.course_outflow_to_feed.empty());
+    EXPECT_NEAR(p.course_outflow_to_feed.back(), 1.0, 1e-3) << "steady by the horizon";
+  }
+}
+
 TEST(MassFlows, SlotsCoverEveryDiameterOnce) {
   EXPECT_EQ(psd_slot(kEdges, 0.5e-6), 0);
   EXPECT_EQ(psd_slot(kEdges, 1e-6), 1);
@@ -200,6 +237,7 @@ TEST(MassFlows, SlotsCoverEveryDiameterOnce) {
   integrate_tracked(f, 2.0);
   EXPECT_DOUBLE_EQ(f.held_kg_s[2], 3.0 * 0.5 + 2.0 * 1.5);
   EXPECT_DOUBLE_EQ(f.area_m2_s[2], 5.0 * 0.5 + 3.0 * 1.5);
+  EXPECT_DOUBLE_EQ(f.exposure_kg_m2_s[2], 3.0 * 5.0 * 0.5 + 2.0 * 3.0 * 1.5);
 }
 
 }  // namespace
