@@ -57,7 +57,7 @@ double Breakage::impact_energy_j_per_kg(const Impact& impact, bool on_partner,
 }
 
 std::uint64_t Breakage::process(const std::vector<Impact>& impacts,
-                                const std::vector<std::uint32_t>& crushed, double dt_s,
+                                const std::vector<CrushedParticle>& crushed, double dt_s,
                                 double time_s, const std::vector<Wall>& walls,
                                 const PeriodicBox& box, ParticleStore& p, ParticleId& next_id,
                                 std::vector<Newborn>& newborn, const ParticleHook& before_removal,
@@ -65,10 +65,10 @@ std::uint64_t Breakage::process(const std::vector<Impact>& impacts,
   std::vector<std::uint32_t> broken;
   std::vector<double> breaking_energy;  // per broken slot: its impact's, 0 when crushed
   std::vector<std::uint8_t> by_wall;    // per broken slot: its impact was on a wall
-  for (std::uint32_t slot : crushed)
-    if (material_[p.material[slot]] &&
-        std::find(broken.begin(), broken.end(), slot) == broken.end())
-      broken.push_back(slot), breaking_energy.push_back(0.0), by_wall.push_back(0),
+  for (const CrushedParticle& c : crushed)
+    if (material_[p.material[c.slot]] &&
+        std::find(broken.begin(), broken.end(), c.slot) == broken.end())
+      broken.push_back(c.slot), breaking_energy.push_back(0.0), by_wall.push_back(c.against_wall),
           ++stats_.crush_events;
   for (const Impact& impact : impacts) {
     for (int side = 0; side < (impact.with_wall ? 1 : 2); ++side) {

@@ -47,6 +47,12 @@ struct BreakageStats {
   }
 };
 
+// A particle squeezed past the penetration limit: by another particle, or against a wall only.
+struct CrushedParticle {
+  std::uint32_t slot;
+  bool against_wall = false;
+};
+
 // One breakage event, as run.h5's /breakage_events lists it.
 struct BreakageEvent {
   double time_s = 0.0;
@@ -60,7 +66,8 @@ struct BreakageEvent {
   std::uint32_t fragments = 0;  // kept as particles
   std::uint8_t generation = 0;  // of the parent (0: fed or initial)
   std::uint8_t crushed = 0;
-  std::uint8_t by_wall = 0;  // the impact that broke it was on a wall
+  std::uint8_t by_wall =
+      0;  // the impact that broke it was on a wall, or it was crushed against one
 };
 
 class Breakage {
@@ -88,13 +95,14 @@ class Breakage {
   // Each fragment takes its mass share of the parent's stored force and torque, so the next
   // half-kicks stay balanced (dem/integrator.h); the dust's share leaves with the dust as
   // ½ dt F m_dust/m: the dust momentum is then exactly what Verlet would have given it.
-  // `crushed`: slots of particles squeezed past the penetration limit this step. A breakable one
+  // `crushed`: particles squeezed past the penetration limit this step (by another particle or
+  // against a wall; the first listing of a slot counts). A breakable one
   // breaks: Hertz contact is meaningless there and the real particle would have fractured; an
   // impact-energy criterion misses such slow squeezes (a fine caught between a wall and a
   // coarse particle). An impact that breaks a particle is completed first (complete_impact).
   // `time_s`: the time the events are logged at.
   std::uint64_t process(const std::vector<Impact>& impacts,
-                        const std::vector<std::uint32_t>& crushed, double dt_s, double time_s,
+                        const std::vector<CrushedParticle>& crushed, double dt_s, double time_s,
                         const std::vector<Wall>& walls, const PeriodicBox& box,
                         ParticleStore& particles, ParticleId& next_id,
                         std::vector<Newborn>& newborn, const ParticleHook& before_removal,

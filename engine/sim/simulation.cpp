@@ -775,13 +775,15 @@ void Simulation::process_population() {
   const ContactStepStats& c = contact_stats_;
   if (breakage_ && !(c.impacts.empty() && c.pairs_over_limit.empty() && c.walls_over_limit.empty()))
     profile_.time(Phase::Breakage, [&] {
-      // The smaller partner of each contact past the penetration limit is crushed.
-      std::vector<std::uint32_t> crushed;
+      // The smaller partner of each contact past the penetration limit is crushed; pairs first,
+      // so a particle squeezed by another against a wall counts as crushed by the other.
+      std::vector<CrushedParticle> crushed;
       for (std::uint32_t k : c.pairs_over_limit) {
         const std::uint32_t i = neighbors_.pairs.first[k], j = neighbors_.pairs.second[k];
-        crushed.push_back(particles_.radius_m[i] <= particles_.radius_m[j] ? i : j);
+        crushed.push_back({particles_.radius_m[i] <= particles_.radius_m[j] ? i : j, false});
       }
-      for (std::uint32_t k : c.walls_over_limit) crushed.push_back(neighbors_.wall_particle[k]);
+      for (std::uint32_t k : c.walls_over_limit)
+        crushed.push_back({neighbors_.wall_particle[k], true});
       breakage_->process(c.impacts, crushed, time_.step_s, time_s(), walls_, box_, particles_,
                          next_id_, newborn, removed, added);
       if (dust_ledger_)
