@@ -202,8 +202,8 @@ double steady_area_m2(const CompartmentRates& r, const std::vector<int>& particl
   return hi;
 }
 
-// Where the course renews its propagator as A changes.
-constexpr int kCoursePieces = 32;
+// The course renews its propagator when A has moved by this share since the last renewal.
+constexpr double kCourseAreaChange = 0.05;
 
 }  // namespace
 
@@ -229,10 +229,22 @@ SteadyProjection project_steady(const CompartmentRates& r, const std::vector<dou
 
   // The course from the start, by the exact propagator exp(X Δt) of the balance at the
   // cross-section of each piece's start.
+  // The compartments that can ever hold mass: those that start with some, are fed, or receive
+  // from one of them (moves go forwards in the particles-then-dust order).
+  std::vector<char> reachable(std::size_t(n), 0);
+  std::vector<int> order = particles;
+  order.insert(order.end(), dust.begin(), dust.end());
+  for (int c : order) {
+    const std::size_t k = std::size_t(c);
+    if (start_held_kg[k] > 0.0 || r.feed_kg_per_s[k] > 0.0) reachable[k] = 1;
+    if (!reachable[k]) continue;
+    for (int to = 0; to < n; ++to)
+      if (r.move(c, to) > 0.0 || r.grind(c, to) > 0.0) reachable[std::size_t(to)] = 1;
+  }
   std::vector<int> active;
   std::vector<int> index(std::size_t(n), -1);
   for (int c = 0; c < n; ++c)
-    if (!r.pass_through[std::size_t(c)])
+    if (reachable[std::size_t(c)] && !r.pass_through[std::size_t(c)])
       index[std::size_t(c)] = int(active.size()), active.push_back(c);
   const int m = int(active.size());
   double residences = 0.0;
@@ -252,20 +264,29 @@ SteadyProjection project_steady(const CompartmentRates& r, const std::vector<dou
     for (int a = 0; a < m; ++a) held[std::size_t(active[std::size_t(a)])] = y(a);
     return r.area_m2(held);
   };
-  const int steps_per_piece = r.grinds() ? kCourseSteps / kCoursePieces : kCourseSteps;
+  const bool renew = r.grinds();
   Eigen::MatrixXd x, step;
   Eigen::VectorXd output;
   int last_outside = -1;
-  const int keep_every = std::max(1, kCourseSteps / std::max(course_points, 1));
+  // The kept points, spaced evenly in log time (the course's first steps hold its fast part).
+  std::vector<char> keep(std::size_t(kCourseSteps) + 1, 0);
+  keep[0] = 1;
+  for (int k = 0; k < course_points; ++k)
+    keep[std::size_t(std::lround(
+        std::pow(double(kCourseSteps), double(k) / std::max(course_points - 1, 1))))] = 1;
+  double renewed_area = -1.0;
   for (int s = 0; s <= kCourseSteps; ++s) {
-    if (s % steps_per_piece == 0) {  // a new piece: the balance at the cross-section now
-      balance_matrix(r, active, index, area_now(), x, output);
+    // The balance at the cross-section now, whenever it has moved since the last renewal.
+    const double area = renew || s == 0 ? area_now() : renewed_area;
+    if (s == 0 || std::abs(area - renewed_area) > kCourseAreaChange * renewed_area) {
+      balance_matrix(r, active, index, area, x, output);
       step = (x * dt).exp();
+      renewed_area = area;
     }
     if (s > 0) y = step * y;
     const double ratio = output.dot(y) / p.feed_kg_per_s;
     if (!(std::abs(ratio - 1.0) <= kProjectionSteadyTolerance)) last_outside = s;
-    if (s % keep_every == 0) {
+    if (keep[std::size_t(s)]) {
       p.course_time_s.push_back(s * dt);
       p.course_held_kg.push_back(y.head(m).sum());
       p.course_outflow_to_feed.push_back(ratio);

@@ -24,7 +24,8 @@
 // steady hold-up: it would grow without end, and the projection names it. A compartment that
 // held nothing yet received mass (the dust table's dust, made and counted at once) passes what
 // it receives straight to the product. The course from the run's end is stepped by the exact
-// propagator of the balance, renewed as A changes (32 pieces of the horizon) where A matters.
+// propagator of the balance over 4000 steps of its horizon, renewed whenever A has moved by 5 %
+// since the last renewal.
 //
 // What it assumes: the rates per kilogram (per kilogram and m² of cross-section for the
 // collisions) are those of the window: the mill's flow, the impact speeds and where particles
