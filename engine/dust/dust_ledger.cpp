@@ -73,6 +73,9 @@ void DustLedger::build_faces() {
     }
   }
   face_speed_.assign(faces_.size(), 0.0);
+  gas_face_speed_.assign(faces_.size(), 0.0);
+  for (std::size_t c = 0; c < g.padded_size; ++c)
+    if (g.fluid[c]) fluid_cells_.push_back(c);
 }
 
 std::size_t DustLedger::containing_cell(const Vec3& x) const {
@@ -128,12 +131,10 @@ void DustLedger::move_between_classes(std::size_t c, int k, double kg,
 
 void DustLedger::update_acceleration(const GasView& gas, double now_s) {
   const GasGrid& g = *grid_;
-  for (std::size_t c = 0; c < g.padded_size; ++c)
-    if (g.fluid[c]) velocity_[c] = gas.cell_velocity_m_per_s(c);
+  for (const std::size_t c : fluid_cells_) velocity_[c] = gas.cell_velocity_m_per_s(c);
   const double dt = now_s - previous_time_s_;
   const bool unsteady = have_previous_ && dt > 0.0;
-  for (std::size_t c = 0; c < g.padded_size; ++c) {
-    if (!g.fluid[c]) continue;
+  for (const std::size_t c : fluid_cells_) {
     const Vec3& u = velocity_[c];
     // (u·∇)u by central differences, one-sided next to a wall, 0 across a cell with no fluid
     // on either side.
@@ -204,20 +205,26 @@ void DustLedger::advance(const GasView& gas, double dt_s) {
   const GasGrid& g = *grid_;
   ++stats_.advances;
   update_acceleration(gas, gas.time_s());
+  // The gas's own speed through each face, the same for every class.
+  for (std::size_t f = 0; f < faces_.size(); ++f) {
+    const Face& face = faces_[f];
+    gas_face_speed_[f] = gas.face_velocity_m_per_s(face.axis, face.face, face.low, face.high);
+  }
   scratch_.resize(g.padded_size);  // per cell: Σ outgoing speed / h, for the step bound
   for (std::size_t k = 0; k < classes_.size(); ++k) {
     const double tau = classes_[k].relaxation_time_s;
     std::fill(scratch_.begin(), scratch_.end(), 0.0);
+    double max_slip2 = 0.0;  // (the largest |w|², its root taken once: the same as the largest |w|)
+    for (const std::size_t c : fluid_cells_) {
+      slip_[c] = tau > 0.0 ? slip_m_per_s(c, tau) : Vec3{};
+      max_slip2 = std::max(max_slip2, norm2(slip_[c]));
+    }
     double& max_slip = stats_.max_slip_m_per_s[k];
-    for (std::size_t c = 0; c < g.padded_size; ++c)
-      if (g.fluid[c]) {
-        slip_[c] = tau > 0.0 ? slip_m_per_s(c, tau) : Vec3{};
-        max_slip = std::max(max_slip, norm(slip_[c]));
-      }
+    max_slip = std::max(max_slip, std::sqrt(max_slip2));
     for (std::size_t f = 0; f < faces_.size(); ++f) {
       const Face& face = faces_[f];
       const int a = face.axis;
-      double speed = gas.face_velocity_m_per_s(a, face.face, face.low, face.high);
+      double speed = gas_face_speed_[f];
       const bool low_fluid = g.fluid[face.low] != 0, high_fluid = g.fluid[face.high] != 0;
       if (low_fluid && high_fluid)
         speed += 0.5 * (slip_[face.low][a] + slip_[face.high][a]);
@@ -231,20 +238,19 @@ void DustLedger::advance(const GasView& gas, double dt_s) {
       scratch_[speed > 0.0 ? face.low : face.high] += rate;
     }
     double fastest = 0.0;  // 1/s: the largest share of a cell's mass leaving per second
-    for (std::size_t c = 0; c < g.padded_size; ++c)
-      if (g.fluid[c]) fastest = std::max(fastest, scratch_[c]);
+    for (const std::size_t c : fluid_cells_) fastest = std::max(fastest, scratch_[c]);
     const int substeps = std::max(1, int(std::ceil(dt_s * fastest / 0.5 - 1e-12)));
     const double h = dt_s / substeps;
     stats_.substeps += std::uint64_t(substeps);
     // Heun's method (SSP-RK2): each stage a conservative, positive flux pass, their mean the
-    // step, so what left is the mean of the stages' outflows.
+    // step, so what left is the mean of the stages' outflows. Cells without fluid hold nothing.
     std::vector<double>& m = mass_[k];
     for (int step = 0; step < substeps; ++step) {
       start_ = m;
       const double out_first = flux_pass(start_, m, h);
       stage_ = m;
       const double out_second = flux_pass(stage_, m, h);
-      for (std::size_t c = 0; c < m.size(); ++c) m[c] = 0.5 * (start_[c] + m[c]);
+      for (const std::size_t c : fluid_cells_) m[c] = 0.5 * (start_[c] + m[c]);
       outflow_kg_[k] += 0.5 * (out_first + out_second);
     }
   }
@@ -279,6 +285,7 @@ double DustLedger::flux_pass(const std::vector<double>& from, std::vector<double
     const std::size_t down = forward ? face.high : face.low;
     const std::size_t beyond = forward ? face.below : face.above;
     double value = from[up];
+    if (value == 0.0) continue;  // (its limited slope is 0 too: an empty cell is an extremum)
     if (beyond < g.padded_size && g.fluid[down]) {
       const double downwind_difference = from[down] - from[up];
       value += 0.5 * van_leer(from[up] - from[beyond], downwind_difference) * downwind_difference;

@@ -126,7 +126,8 @@ class DustLedger {
   double previous_time_s_ = 0.0;
   bool have_previous_ = false;
   double unplaced_kg_ = 0.0;  // deposits on a grid without fluid cells (held, never moved)
-  std::vector<double> face_speed_, scratch_, start_, stage_;
+  std::vector<std::size_t> fluid_cells_;  // the padded indices of the fluid cells, ascending
+  std::vector<double> face_speed_, gas_face_speed_, scratch_, start_, stage_;
   DustLedgerStats stats_;
 };
 
