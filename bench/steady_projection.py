@@ -71,6 +71,14 @@ def report(run_dir):
     print(f"particles' cross-section {fmt(area['window_mean'], 1e6)} mm² in the window, "
           f"{fmt(area['steady'], 1e6)} mm² at steady state; {int(ev['by_wall_impact'])} of "
           f"{int(ev['all'])} breakage events by a wall impact")
+    # (The hold-up's and cross-section's bands, from builds that report them.)
+    bands = [(name, spread.get(key), scale, unit) for name, key, scale, unit in (
+        ("particles held", "holdup_particles_kg", 1e6, "mg"), ("dust held", "holdup_dust_kg", 1e6, "mg"),
+        ("cross-section", "cross_section_m2", 1e6, "mm²"))]
+    if all(band for _, band, _, _ in bands):
+        print("steady state's 5 / 50 / 95 % over the draws: " + "; ".join(
+            f"{name} {fmt(band[0], scale)} / {fmt(band[1], scale)} / {fmt(band[2], scale)} {unit}"
+            for name, band, scale, unit in bands))
     print("\n| class µm | particles held µg | breakage 1/s | events | steady µg | dust held µg "
           "| ground 1/s | at steady 1/s | leaves 1/s | steady µg |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")

@@ -303,7 +303,7 @@ ProjectionSpread projection_spread(const CompartmentRates& r,
   ProjectionSpread spread;
   spread.draws = draws;
   std::mt19937_64 rng(seed);
-  std::vector<double> d10, d50, d90, times;
+  std::vector<double> d10, d50, d90, times, held_particles, held_dust, area;
   const int n = r.compartments();
   // A count's rate scale: Gamma(n + ½, 1) / n, whose mean is 1 + 1/(2n).
   const auto redraw = [&rng](double count) {
@@ -329,6 +329,9 @@ ProjectionSpread projection_spread(const CompartmentRates& r,
     const PsdSummary s = summarize(product_tally(p.product_kg_per_s, edges_m));
     d10.push_back(s.d10_m), d50.push_back(s.d50_m), d90.push_back(s.d90_m);
     if (p.time_to_steady_s >= 0.0) times.push_back(p.time_to_steady_s);
+    double particles = 0.0, dust = 0.0;
+    for (int c = 0; c < n; ++c) (c < r.slots ? particles : dust) += p.held_kg[std::size_t(c)];
+    held_particles.push_back(particles), held_dust.push_back(dust), area.push_back(p.area_m2);
   }
   const auto band = [](const std::vector<double>& v) {
     return v.empty() ? std::vector<double>{}
@@ -336,6 +339,8 @@ ProjectionSpread projection_spread(const CompartmentRates& r,
   };
   spread.d10_m = band(d10), spread.d50_m = band(d50), spread.d90_m = band(d90);
   spread.time_to_steady_s = band(times);
+  spread.held_particles_kg = band(held_particles), spread.held_dust_kg = band(held_dust);
+  spread.cross_section_m2 = band(area);
   return spread;
 }
 
@@ -390,9 +395,15 @@ nlohmann::ordered_json steady_projection_json(const CompartmentRates& r, const S
                   {"d50_m", s.d50_m},
                   {"d90_m", s.d90_m},
                   {"mass_fraction_by_slot", fractions}};
-  j["spread"] = {{"draws", spread.draws}, {"draws_steady", spread.draws_steady},
-                 {"d10_m", spread.d10_m}, {"d50_m", spread.d50_m},
-                 {"d90_m", spread.d90_m}, {"time_to_steady_s", spread.time_to_steady_s}};
+  j["spread"] = {{"draws", spread.draws},
+                 {"draws_steady", spread.draws_steady},
+                 {"d10_m", spread.d10_m},
+                 {"d50_m", spread.d50_m},
+                 {"d90_m", spread.d90_m},
+                 {"time_to_steady_s", spread.time_to_steady_s},
+                 {"holdup_particles_kg", spread.held_particles_kg},
+                 {"holdup_dust_kg", spread.held_dust_kg},
+                 {"cross_section_m2", spread.cross_section_m2}};
   j["slots"] = {{"lower_edge_m", lower_edge}};
   for (bool dust : {false, true}) {
     j["slots"][dust ? "dust" : "particles"] = {

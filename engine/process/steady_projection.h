@@ -110,6 +110,7 @@ struct ProjectionSpread {
   int draws_steady = 0;  // draws in which a steady state exists
   // 5 %, 50 % and 95 % over the draws with a steady state.
   std::vector<double> d10_m, d50_m, d90_m, time_to_steady_s;
+  std::vector<double> held_particles_kg, held_dust_kg, cross_section_m2;  // the steady state's
 };
 
 // The counting error (above): `draws` redrawn rate sets from a fixed seed, each projected.

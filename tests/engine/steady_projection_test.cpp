@@ -143,6 +143,16 @@ TEST(SteadyProjection, ItsSpreadNarrowsAsTheCountsGrow) {
   EXPECT_GT(wide.d50_m[2] / wide.d50_m[0], 1.3);
   EXPECT_LE(wide.d50_m[0], 2e-6);
   EXPECT_GE(wide.d50_m[2], 2e-6);
+  // The steady hold-up of B, F / (E + k_B), is as uncertain as its two rates.
+  const double held = 1e-6 / 40.0;
+  ASSERT_EQ(narrow.held_particles_kg.size(), 3u);
+  ASSERT_EQ(wide.held_particles_kg.size(), 3u);
+  EXPECT_NEAR(narrow.held_particles_kg[1], held, 0.01 * held);
+  EXPECT_LT(narrow.held_particles_kg[2] / narrow.held_particles_kg[0], 1.01);
+  EXPECT_GT(wide.held_particles_kg[2] / wide.held_particles_kg[0], 1.5);
+  EXPECT_LE(wide.held_particles_kg[0], held);
+  EXPECT_GE(wide.held_particles_kg[2], held);
+  EXPECT_EQ(narrow.held_dust_kg, std::vector<double>(3, 0.0)) << "the dust leaves at once";
   // The same seed draws the same rates.
   EXPECT_EQ(projection_spread(few, empty, kEdges, 200, 7).d50_m, wide.d50_m);
 }
