@@ -66,8 +66,8 @@ struct BreakageEvent {
   std::uint32_t fragments = 0;  // kept as particles
   std::uint8_t generation = 0;  // of the parent (0: fed or initial)
   std::uint8_t crushed = 0;
-  std::uint8_t by_wall =
-      0;  // the impact that broke it was on a wall, or it was crushed against one
+  // The impact that broke it was on a wall, or it was crushed against one.
+  std::uint8_t by_wall = 0;
 };
 
 class Breakage {

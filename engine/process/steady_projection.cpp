@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <utility>
 
 #include <Eigen/Dense>
 #include <unsupported/Eigen/MatrixFunctions>
@@ -205,6 +206,14 @@ double steady_area_m2(const CompartmentRates& r, const std::vector<int>& particl
 // The course renews its propagator when A has moved by this share since the last renewal.
 constexpr double kCourseAreaChange = 0.05;
 
+// A steady state's hold-up of the particles' compartments [0, slots) and of the dust's.
+std::pair<double, double> held_by_phase_kg(const SteadyProjection& p, int slots) {
+  double particles = 0.0, dust = 0.0;
+  for (std::size_t c = 0; c < p.held_kg.size(); ++c)
+    (int(c) < slots ? particles : dust) += p.held_kg[c];
+  return {particles, dust};
+}
+
 }  // namespace
 
 SteadyProjection project_steady(const CompartmentRates& r, const std::vector<double>& start_held_kg,
@@ -227,8 +236,6 @@ SteadyProjection project_steady(const CompartmentRates& r, const std::vector<dou
   p.exists = forwards && p.accumulating.empty() && p.feed_kg_per_s > 0.0;
   if (!forwards) return p;
 
-  // The course from the start, by the exact propagator exp(X Δt) of the balance at the
-  // cross-section of each piece's start.
   // The compartments that can ever hold mass: those that start with some, are fed, or receive
   // from one of them (moves go forwards in the particles-then-dust order).
   std::vector<char> reachable(std::size_t(n), 0);
@@ -276,7 +283,8 @@ SteadyProjection project_steady(const CompartmentRates& r, const std::vector<dou
         std::pow(double(kCourseSteps), double(k) / std::max(course_points - 1, 1))))] = 1;
   double renewed_area = -1.0;
   for (int s = 0; s <= kCourseSteps; ++s) {
-    // The balance at the cross-section now, whenever it has moved since the last renewal.
+    // The course from the start by the exact propagator exp(X Δt) of the balance at the
+    // cross-section now, renewed whenever that has moved since the last renewal.
     const double area = renew || s == 0 ? area_now() : renewed_area;
     if (s == 0 || std::abs(area - renewed_area) > kCourseAreaChange * renewed_area) {
       balance_matrix(r, active, index, area, x, output);
@@ -329,8 +337,7 @@ ProjectionSpread projection_spread(const CompartmentRates& r,
     const PsdSummary s = summarize(product_tally(p.product_kg_per_s, edges_m));
     d10.push_back(s.d10_m), d50.push_back(s.d50_m), d90.push_back(s.d90_m);
     if (p.time_to_steady_s >= 0.0) times.push_back(p.time_to_steady_s);
-    double particles = 0.0, dust = 0.0;
-    for (int c = 0; c < n; ++c) (c < r.slots ? particles : dust) += p.held_kg[std::size_t(c)];
+    const auto [particles, dust] = held_by_phase_kg(p, r.slots);
     held_particles.push_back(particles), held_dust.push_back(dust), area.push_back(p.area_m2);
   }
   const auto band = [](const std::vector<double>& v) {
@@ -372,9 +379,8 @@ nlohmann::ordered_json steady_projection_json(const CompartmentRates& r, const S
     steady_breakage_per_s.push_back(r.out_per_s(c, p.area_m2) - leave);
     events += r.events[std::size_t(c)], wall_events += r.wall_events[std::size_t(c)];
   }
-  double held_particles = 0.0, held_dust = 0.0, product = 0.0;
-  for (int c = 0; c < 2 * slots; ++c)
-    (c < slots ? held_particles : held_dust) += p.held_kg[std::size_t(c)];
+  const auto [held_particles, held_dust] = held_by_phase_kg(p, slots);
+  double product = 0.0;
   for (double x : p.product_kg_per_s) product += x;
   const PsdSummary s = summarize(product_tally(p.product_kg_per_s, edges_m));
   nlohmann::ordered_json j;
