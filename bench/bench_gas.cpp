@@ -16,6 +16,13 @@
 //   bench_gas stokes N              Stokes' first problem (a wall set moving at t = 0, ν = 0.01,
 //                                   N cells over the unit height) by the compressible model at
 //                                   Mach 0.2, against u = U erfc(y / (2√(νt))) at t = 1
+//   bench_gas ledger SCENE CACHE_DIR [advances] [threads]
+//                                   the dust ledger's advance in a mill's gas (SCENE with a
+//                                   ledger, its gas spun up or read from the spin-up cache in
+//                                   CACHE_DIR), every class holding dust in every fluid cell:
+//                                   ms per advance, ns per class-cell, sub-steps per class, and a
+//                                   checksum of the masses (the same for any code that is bit
+//                                   for bit the same)
 //   bench_gas cache SOURCE_DIR      drag caching (§3.1, Fig. 5) at thresholds 0, 1, 5, 10 %:
 //                                   salt particles settling in air (terminal velocity against
 //                                   Schiller–Naumann) and the fluidized bed case at 1.5 u_mf
@@ -25,13 +32,18 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <numbers>
+#include <random>
+#include <sstream>
 #include <string>
 
+#include "dust/dust_ledger.h"
 #include "gas/compressible/compressible_solver.h"
 #include "gas/gas_solver.h"
 #include "parallel/thread_team.h"
 #include "scene/scene_json.h"
+#include "sim/gas_spin_up.h"
 #include "sim/simulation.h"
 
 using namespace millsim;
@@ -281,6 +293,51 @@ void stokes_first_problem(int n) {
   std::printf("| %d | %+.5f | %.4f |\n", n, worst, at);
 }
 
+// The dust ledger in the mill's spun-up gas (the gas held still: the ledger's own cost).
+void ledger(const std::string& scene_path, const std::string& cache_dir, int advances) {
+  const SceneConfig scene = load_scene(scene_path);
+  std::ifstream in(scene_path);
+  std::stringstream text;
+  text << in.rdbuf();
+  Simulation sim(scene, SimulationStart::AfterSpinUp);
+  SpinUpOptions options;
+  options.cache_dir = cache_dir;
+  options.scene_text = text.str();
+  const SpinUpReport spin = run_gas_spin_up(sim, options);
+  if (!sim.dust_ledger()) {
+    std::fprintf(stderr, "%s has no dust ledger\n", scene_path.c_str());
+    std::exit(2);
+  }
+  const GasView gas = sim.gas()->view();
+  const GasGrid& grid = gas.grid();
+  DustLedger dust(grid, sim.dust_ledger()->classes(), scene.gravity_m_per_s2);
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::size_t fluid_cells = 0;
+  for (int k = 1; k <= grid.n[2]; ++k)
+    for (int j = 1; j <= grid.n[1]; ++j)
+      for (int i = 1; i <= grid.n[0]; ++i) {
+        if (!grid.fluid[grid.index(i, j, k)]) continue;
+        ++fluid_cells;
+        for (int c = 0; c < dust.class_count(); ++c)
+          dust.deposit(grid.cell_center(i, j, k), c, 1e-12 * unit(rng));
+      }
+  const double dt = sim.gas()->compressible() ? 4.6e-7 : 1e-6;  // the 4 barg mill's gas step
+  dust.advance(gas, dt);
+  const auto t0 = Clock::now();
+  for (int a = 0; a < advances; ++a) dust.advance(gas, dt);
+  const double s = seconds_since(t0) / advances;
+  double checksum = 0.0;
+  for (int c = 0; c < dust.class_count(); ++c)
+    for (std::size_t i = 0; i < grid.padded_size; ++i)
+      checksum += dust.cell_mass_kg(c)[i] * double(i % 97 + c + 1);
+  std::printf("| %s | %d | %zu | %d | %.3f | %.1f | %.2f | %.17g |\n", spin.source.c_str(),
+              thread_count(), fluid_cells, dust.class_count(), 1e3 * s,
+              1e9 * s / (double(fluid_cells) * dust.class_count()),
+              double(dust.stats().substeps) / double(dust.stats().advances) / dust.class_count(),
+              checksum);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -299,6 +356,12 @@ int main(int argc, char** argv) {
   } else if (mode == "stokes" && argc > 2) {
     std::printf("| cells | largest u − erfc near the wall | at distance |\n| --- | --- | --- |\n");
     stokes_first_problem(std::atoi(argv[2]));
+  } else if (mode == "ledger" && argc > 3) {
+    set_thread_count(argc > 5 ? std::max(1, std::atoi(argv[5])) : 1);
+    std::printf(
+        "| gas | threads | fluid cells | classes | ms per advance | ns per class-cell | "
+        "sub-steps per class | checksum |\n| --- | --- | --- | --- | --- | --- | --- | --- |\n");
+    ledger(argv[2], argv[3], argc > 4 ? std::atoi(argv[4]) : 200);
   } else if (mode == "cache" && argc > 2) {
     std::printf(
         "| threshold | cache stores | d | final v / v_t − 1 | peak v / v_t − 1 | "
@@ -312,7 +375,8 @@ int main(int argc, char** argv) {
   } else {
     std::fprintf(stderr,
                  "usage: bench_gas grid [steps] | bench_gas compressible [steps] [threads] | "
-                 "bench_gas cavity N MACH | bench_gas stokes N | bench_gas cache SOURCE_DIR\n");
+                 "bench_gas cavity N MACH | bench_gas stokes N | bench_gas cache SOURCE_DIR | "
+                 "bench_gas ledger SCENE CACHE_DIR [advances] [threads]\n");
     return 2;
   }
   return 0;

@@ -6,6 +6,7 @@
 #include <numbers>
 
 #include "comminution/strength.h"
+#include "parallel/thread_team.h"
 
 namespace millsim {
 
@@ -83,40 +84,29 @@ void DustGrinding::grind(DustLedger& ledger, const ParticleStore& p, const Mater
                          double dt_s) {
   if (!(dt_s > 0.0)) return;
   const GasGrid& g = ledger.grid();
-  const std::vector<DustClass>& classes = ledger.classes();
-  const std::size_t n_classes = classes.size(), cells = g.padded_size;
-  const double c_dust = materials.material(dust_material_).normal_compliance;
+  const std::size_t n_classes = ledger.classes().size(), cells = g.padded_size;
+  particle_cell_.resize(p.size());
   for (std::size_t i = 0; i < p.size(); ++i) {
     const std::size_t c = ledger.cell_of(p.position_m[i]);
-    if (!g.fluid[c]) continue;
-    const Vec3& u_i = p.motion[i].velocity_m_per_s;
-    const double r_i = p.radius_m[i], m_i = p.mass_kg[i];
-    const double c_i = materials.material(p.material[i]).normal_compliance;
-    for (std::size_t k = 1; k < n_classes; ++k) {  // class 0 is not ground
-      if (!(ledger.cell_mass_kg(int(k))[c] > 0.0)) continue;
-      const std::size_t kc = k * cells + c;
-      if (!have_velocity_[kc]) {
-        dust_velocity_[kc] =
-            ledger.gas_velocity_m_per_s(c) + ledger.slip_m_per_s(c, classes[k].relaxation_time_s);
-        have_velocity_[kc] = 1;
-        touched_.push_back(kc);
-      }
-      const double s = norm(u_i - dust_velocity_[kc]);
-      const double r_k = 0.5 * classes[k].diameter_m;
-      const double v_eq =
-          equivalent_speed_pair(equivalence_, class_mass_kg_[k], r_k, c_dust, m_i, r_i, c_i, s);
-      const double breaks =
-          swept_selection_probability(strength_, classes[k].diameter_m, 0.5 * v_eq * v_eq);
-      if (breaks <= 0.0) continue;
-      const double eta = impaction_efficiency(classes[k].relaxation_time_s * s / r_i);
-      const double reach = r_i + r_k;
-      rate_[kc] += std::numbers::pi * reach * reach * s * eta * breaks;
-    }
+    particle_cell_[i] = g.fluid[c] ? c : cells;
+  }
+  // Class by class on the engine's threads (class 0 is not ground): each class's rates and
+  // touched entries are its own, and each rate sums its particles in slot order, so the result
+  // is the same on any thread count.
+  touched_by_class_.resize(n_classes);
+  if (n_classes > 1)
+    parallel_blocks_if(worth_threads((n_classes - 1) * p.size()), n_classes - 1,
+                       [&](std::size_t b) { sweep_class(b + 1, ledger, p, materials); });
+  // The entries in ascending order (class by class, each class's cells sorted).
+  touched_.clear();
+  for (std::vector<std::size_t>& class_touched : touched_by_class_) {
+    std::sort(class_touched.begin(), class_touched.end());
+    touched_.insert(touched_.end(), class_touched.begin(), class_touched.end());
+    class_touched.clear();
   }
   ++stats_.passes;
   // Class by class, cell by cell: every class loses its share of what it held at the start,
   // then the fragments land.
-  std::sort(touched_.begin(), touched_.end());
   const double volume = g.cell_volume_m3();
   broken_.assign(touched_.size(), 0.0);
   for (std::size_t t = 0; t < touched_.size(); ++t) {
@@ -135,6 +125,41 @@ void DustGrinding::grind(DustLedger& ledger, const ParticleStore& p, const Mater
     have_velocity_[kc] = 0;
   }
   touched_.clear();
+}
+
+// Class k's rate λ V_cell in each cell a particle sweeps: Σ_i π (R_i + r_k)² s η P̄ over the
+// particles in the cell, in slot order.
+void DustGrinding::sweep_class(std::size_t k, const DustLedger& ledger, const ParticleStore& p,
+                               const MaterialTable& materials) {
+  const GasGrid& g = ledger.grid();
+  const DustClass& dust_class = ledger.classes()[k];
+  const std::vector<double>& held = ledger.cell_mass_kg(int(k));
+  const std::size_t cells = g.padded_size;
+  const double c_dust = materials.material(dust_material_).normal_compliance;
+  const double r_k = 0.5 * dust_class.diameter_m;
+  std::vector<std::size_t>& touched = touched_by_class_[k];
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const std::size_t c = particle_cell_[i];
+    if (c == cells || !(held[c] > 0.0)) continue;
+    const std::size_t kc = k * cells + c;
+    if (!have_velocity_[kc]) {
+      dust_velocity_[kc] =
+          ledger.gas_velocity_m_per_s(c) + ledger.slip_m_per_s(c, dust_class.relaxation_time_s);
+      have_velocity_[kc] = 1;
+      touched.push_back(kc);
+    }
+    const double r_i = p.radius_m[i];
+    const double s = norm(p.motion[i].velocity_m_per_s - dust_velocity_[kc]);
+    const double v_eq =
+        equivalent_speed_pair(equivalence_, class_mass_kg_[k], r_k, c_dust, p.mass_kg[i], r_i,
+                              materials.material(p.material[i]).normal_compliance, s);
+    const double breaks =
+        swept_selection_probability(strength_, dust_class.diameter_m, 0.5 * v_eq * v_eq);
+    if (breaks <= 0.0) continue;
+    const double eta = impaction_efficiency(dust_class.relaxation_time_s * s / r_i);
+    const double reach = r_i + r_k;
+    rate_[kc] += std::numbers::pi * reach * reach * s * eta * breaks;
+  }
 }
 
 }  // namespace millsim

@@ -98,7 +98,11 @@ class DustGrinding {
   std::vector<Vec3> dust_velocity_;
   std::vector<std::uint8_t> have_velocity_;
   std::vector<std::size_t> touched_;
+  std::vector<std::vector<std::size_t>> touched_by_class_;  // a class's own, while it is swept
   std::vector<double> broken_;
+  std::vector<std::size_t> particle_cell_;  // per particle, this pass: its fluid cell (or none)
+  void sweep_class(std::size_t k, const DustLedger& ledger, const ParticleStore& particles,
+                   const MaterialTable& materials);
   DustGrindingStats stats_;
 };
 

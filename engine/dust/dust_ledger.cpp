@@ -4,8 +4,10 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include "gas/drag.h"
+#include "parallel/thread_team.h"
 
 namespace millsim {
 
@@ -44,8 +46,7 @@ DustLedger::DustLedger(const GasGrid& grid, std::vector<DustClass> classes,
   mass_.assign(classes_.size(), std::vector<double>(grid.padded_size, 0.0));
   outflow_kg_.assign(classes_.size(), 0.0);
   velocity_.assign(grid.padded_size, Vec3{});
-  previous_velocity_ = acceleration_ = slip_ = velocity_;
-  gradient_.assign(grid.padded_size, {});
+  previous_velocity_ = velocity_;
   stats_.max_slip_m_per_s.assign(classes_.size(), 0.0);
   build_faces();
 }
@@ -72,10 +73,25 @@ void DustLedger::build_faces() {
       }
     }
   }
-  face_speed_.assign(faces_.size(), 0.0);
   gas_face_speed_.assign(faces_.size(), 0.0);
+  // The interior faces first, then the outflow faces (the passes treat them apart), each in the
+  // grid's order; the passes' copy holds 32-bit cells.
+  if (g.padded_size + 1 >= std::size_t(kNoSlot))
+    throw std::length_error("dust ledger: the gas grid has too many cells for 32-bit indices");
+  std::stable_partition(faces_.begin(), faces_.end(),
+                        [](const Face& face) { return !face.outflow_low && !face.outflow_high; });
+  for (const Face& face : faces_) {
+    pass_faces_.push_back({std::uint32_t(face.low), std::uint32_t(face.high),
+                           std::uint32_t(face.below), std::uint32_t(face.above)});
+    if (!face.outflow_low && !face.outflow_high) ++interior_faces_;
+  }
+  fluid_slot_.assign(g.padded_size, kNoSlot);
   for (std::size_t c = 0; c < g.padded_size; ++c)
-    if (g.fluid[c]) fluid_cells_.push_back(c);
+    if (g.fluid[c]) {
+      fluid_slot_[c] = std::uint32_t(fluid_cells_.size());
+      fluid_cells_.push_back(c);
+    }
+  slip_terms_.assign(fluid_cells_.size(), SlipTerms{});
 }
 
 std::size_t DustLedger::containing_cell(const Vec3& x) const {
@@ -134,17 +150,17 @@ void DustLedger::update_acceleration(const GasView& gas, double now_s) {
   for (const std::size_t c : fluid_cells_) velocity_[c] = gas.cell_velocity_m_per_s(c);
   const double dt = now_s - previous_time_s_;
   const bool unsteady = have_previous_ && dt > 0.0;
-  for (const std::size_t c : fluid_cells_) {
+  for (std::size_t slot = 0; slot < fluid_cells_.size(); ++slot) {
+    const std::size_t c = fluid_cells_[slot];
     const Vec3& u = velocity_[c];
     // (u·∇)u by central differences, one-sided next to a wall, 0 across a cell with no fluid
     // on either side.
     Vec3 convective;
-    std::array<Vec3, 3>& gradient = gradient_[c];  // column a: ∂u/∂x_a
+    std::array<Vec3, 3> gradient{};  // column a: ∂u/∂x_a
     for (int a = 0; a < 3; ++a) {
       const std::size_t s = g.stride[std::size_t(a)];
       const std::size_t lo = g.wrap_cell(c - s, a), hi = g.wrap_cell(c + s, a);
       const bool has_lo = g.fluid[lo] != 0, has_hi = g.fluid[hi] != 0;
-      gradient[std::size_t(a)] = {};
       if (!has_lo && !has_hi) continue;
       const Vec3& u_lo = has_lo ? velocity_[lo] : u;
       const Vec3& u_hi = has_hi ? velocity_[hi] : u;
@@ -154,55 +170,59 @@ void DustLedger::update_acceleration(const GasView& gas, double now_s) {
     }
     Vec3 du_dt = convective;
     if (unsteady) du_dt += (u - previous_velocity_[c]) * (1.0 / dt);
-    acceleration_[c] = gravity_m_per_s2_ - du_dt;
+    slip_terms_[slot] = slip_terms(gravity_m_per_s2_ - du_dt, gradient);
   }
   previous_velocity_ = velocity_;
   previous_time_s_ = now_s;
   have_previous_ = true;
 }
 
-namespace {
-
-double determinant(const double m[3][3]) {
-  return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
-         m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
-         m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+// G's invariants and the vectors the slip of any τ is made of. With M = I + τ G, Cayley–Hamilton
+// gives det M = 1 + τ tr G + τ² c₂ + τ³ det G (c₂ the sum of G's principal 2 × 2 minors) and
+// adj M = (1 + τ tr G + τ² c₂) I − τ (1 + τ tr G) G + τ² G², so M⁻¹ a needs only a, G a and G² a.
+DustLedger::SlipTerms DustLedger::slip_terms(const Vec3& acceleration,
+                                             const std::array<Vec3, 3>& gradient) {
+  // G_ij = ∂u_i/∂x_j = gradient[j][i].
+  const auto G = [&](int i, int j) { return gradient[std::size_t(j)][i]; };
+  const auto times_g = [&](const Vec3& v) {
+    return gradient[0] * v[0] + gradient[1] * v[1] + gradient[2] * v[2];
+  };
+  SlipTerms t;
+  t.a = acceleration;
+  t.ga = times_g(acceleration);
+  t.gga = times_g(t.ga);
+  t.trace = G(0, 0) + G(1, 1) + G(2, 2);
+  t.minors = G(0, 0) * G(1, 1) - G(0, 1) * G(1, 0) + G(0, 0) * G(2, 2) - G(0, 2) * G(2, 0) +
+             G(1, 1) * G(2, 2) - G(1, 2) * G(2, 1);
+  t.det = G(0, 0) * (G(1, 1) * G(2, 2) - G(1, 2) * G(2, 1)) -
+          G(0, 1) * (G(1, 0) * G(2, 2) - G(1, 2) * G(2, 0)) +
+          G(0, 2) * (G(1, 0) * G(2, 1) - G(1, 1) * G(2, 0));
+  t.norm = std::sqrt(norm2(gradient[0]) + norm2(gradient[1]) + norm2(gradient[2]));
+  return t;
 }
 
-}  // namespace
-
-// The slip w of class τ in cell c: (I + τ ∇u) w = τ (g − Du/Dt), the locally implicit
-// equilibrium velocity (Ferry, Rani & Balachandar 2003). Where I + τ ∇u is near singular (a
-// strong compression at large τ), w = τ a / (1 + τ |∇u|). Never longer than the explicit slip
-// τ |a|: near that singularity the implicit form amplifies it (2.3 km/s for the mill's 8.9 µm
-// dust before this bound).
-Vec3 DustLedger::slip_m_per_s(std::size_t c, double tau) const {
-  const Vec3 rhs = acceleration_[c] * tau;
-  const std::array<Vec3, 3>& grad = gradient_[c];
-  // M = I + τ G, with G's column a = ∂u/∂x_a; M's rows by component.
-  double m[3][3];
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) m[i][j] = (i == j ? 1.0 : 0.0) + tau * grad[std::size_t(j)][i];
-  const double det = determinant(m);
-  if (!(det > 0.1)) {
-    double norm_g = 0.0;
-    for (const Vec3& column : grad) norm_g += norm2(column);
-    return rhs * (1.0 / (1.0 + tau * std::sqrt(norm_g)));
-  }
-  Vec3 w;
-  for (int i = 0; i < 3; ++i) {  // Cramer: replace column i by the right-hand side
-    double n[3][3];
-    for (int r = 0; r < 3; ++r)
-      for (int k = 0; k < 3; ++k) n[r][k] = k == i ? rhs[r] : m[r][k];
-    w[i] = determinant(n) / det;
-  }
+// The slip w of class τ: (I + τ ∇u) w = τ (g − Du/Dt), the locally implicit equilibrium
+// velocity (Ferry, Rani & Balachandar 2003), from the cell's invariants above. Where I + τ ∇u is
+// near singular (det ≤ 0.1: a strong compression at large τ), w = τ a / (1 + τ |∇u|). Never
+// longer than the explicit slip τ |a|: near that singularity the implicit form amplifies it
+// (2.3 km/s for the mill's 8.9 µm dust before this bound).
+Vec3 DustLedger::slip_of(const SlipTerms& t, double tau) {
+  const Vec3 rhs = t.a * tau;
+  const double first = 1.0 + tau * t.trace, second = first + tau * tau * t.minors;
+  const double det = second + tau * tau * tau * t.det;
+  if (!(det > 0.1)) return rhs * (1.0 / (1.0 + tau * t.norm));
+  Vec3 w = (t.a * second - t.ga * (tau * first) + t.gga * (tau * tau)) * (tau / det);
   const double explicit2 = norm2(rhs), implicit2 = norm2(w);
   if (implicit2 > explicit2) w *= std::sqrt(explicit2 / implicit2);
   return w;
 }
 
+Vec3 DustLedger::slip_m_per_s(std::size_t c, double tau) const {
+  const std::uint32_t slot = fluid_slot_[c];
+  return slot == kNoSlot ? Vec3{} : slip_of(slip_terms_[slot], tau);
+}
+
 void DustLedger::advance(const GasView& gas, double dt_s) {
-  const GasGrid& g = *grid_;
   ++stats_.advances;
   update_acceleration(gas, gas.time_s());
   // The gas's own speed through each face, the same for every class.
@@ -210,92 +230,120 @@ void DustLedger::advance(const GasView& gas, double dt_s) {
     const Face& face = faces_[f];
     gas_face_speed_[f] = gas.face_velocity_m_per_s(face.axis, face.face, face.low, face.high);
   }
-  scratch_.resize(g.padded_size);  // per cell: Σ outgoing speed / h, for the step bound
-  for (std::size_t k = 0; k < classes_.size(); ++k) {
-    const double tau = classes_[k].relaxation_time_s;
-    std::fill(scratch_.begin(), scratch_.end(), 0.0);
-    double max_slip2 = 0.0;  // (the largest |w|², its root taken once: the same as the largest |w|)
-    for (const std::size_t c : fluid_cells_) {
-      slip_[c] = tau > 0.0 ? slip_m_per_s(c, tau) : Vec3{};
-      max_slip2 = std::max(max_slip2, norm2(slip_[c]));
-    }
-    double& max_slip = stats_.max_slip_m_per_s[k];
-    max_slip = std::max(max_slip, std::sqrt(max_slip2));
-    for (std::size_t f = 0; f < faces_.size(); ++f) {
-      const Face& face = faces_[f];
-      const int a = face.axis;
-      double speed = gas_face_speed_[f];
-      const bool low_fluid = g.fluid[face.low] != 0, high_fluid = g.fluid[face.high] != 0;
-      if (low_fluid && high_fluid)
-        speed += 0.5 * (slip_[face.low][a] + slip_[face.high][a]);
-      else
-        speed += slip_[low_fluid ? face.low : face.high][a];
-      // An outflow face carries dust out only.
-      if (face.outflow_low && speed < 0.0) speed = 0.0;
-      if (face.outflow_high && speed > 0.0) speed = 0.0;
-      face_speed_[f] = speed;
-      const double rate = std::abs(speed) / g.h_m[a];
-      scratch_[speed > 0.0 ? face.low : face.high] += rate;
-    }
-    double fastest = 0.0;  // 1/s: the largest share of a cell's mass leaving per second
-    for (const std::size_t c : fluid_cells_) fastest = std::max(fastest, scratch_[c]);
-    const int substeps = std::max(1, int(std::ceil(dt_s * fastest / 0.5 - 1e-12)));
-    const double h = dt_s / substeps;
-    stats_.substeps += std::uint64_t(substeps);
-    // Heun's method (SSP-RK2): each stage a conservative, positive flux pass, their mean the
-    // step, so what left is the mean of the stages' outflows. Cells without fluid hold nothing.
-    std::vector<double>& m = mass_[k];
-    for (int step = 0; step < substeps; ++step) {
-      start_ = m;
-      const double out_first = flux_pass(start_, m, h);
-      stage_ = m;
-      const double out_second = flux_pass(stage_, m, h);
-      for (const std::size_t c : fluid_cells_) m[c] = 0.5 * (start_[c] + m[c]);
-      outflow_kg_[k] += 0.5 * (out_first + out_second);
-    }
+  // The classes are carried independently, each by one thread into its own mass, outflow and
+  // counters, so the result is the same on any thread count.
+  class_substeps_.assign(classes_.size(), 0);
+  parallel_blocks_if(worth_threads(classes_.size() * fluid_cells_.size()), classes_.size(),
+                     [&](std::size_t k) {
+                       static thread_local ClassScratch scratch;  // the running thread's own
+                       carry_class(k, dt_s, scratch);
+                     });
+  for (const std::uint64_t n : class_substeps_) stats_.substeps += n;
+}
+
+// Class k over dt_s: its slip per cell, its speed through each face, the sub-steps its fastest
+// cell needs, and Heun's method over them. `scratch` holds nothing between calls.
+void DustLedger::carry_class(std::size_t k, double dt_s, ClassScratch& scratch) {
+  const GasGrid& g = *grid_;
+  const double tau = classes_[k].relaxation_time_s;
+  scratch.slip.resize(g.padded_size);
+  scratch.face_rate.resize(faces_.size());
+  // Per cell: Σ outgoing speed / h, for the step bound.
+  scratch.outgoing_rate.assign(g.padded_size, 0.0);
+  double max_slip2 = 0.0;  // (the largest |w|², its root taken once: the same as the largest |w|)
+  for (std::size_t slot = 0; slot < fluid_cells_.size(); ++slot) {
+    const Vec3 w = tau > 0.0 ? slip_of(slip_terms_[slot], tau) : Vec3{};
+    scratch.slip[fluid_cells_[slot]] = w;
+    max_slip2 = std::max(max_slip2, norm2(w));
+  }
+  double& max_slip = stats_.max_slip_m_per_s[k];
+  max_slip = std::max(max_slip, std::sqrt(max_slip2));
+  const double inverse_h[3] = {1.0 / g.h_m[0], 1.0 / g.h_m[1], 1.0 / g.h_m[2]};
+  for (std::size_t f = 0; f < interior_faces_; ++f) {  // fluid on both sides
+    const Face& face = faces_[f];
+    const int a = face.axis;
+    const double speed =
+        gas_face_speed_[f] + 0.5 * (scratch.slip[face.low][a] + scratch.slip[face.high][a]);
+    const double rate = speed * inverse_h[a];  // 1/s, signed as the speed
+    scratch.face_rate[f] = rate;
+    scratch.outgoing_rate[speed > 0.0 ? face.low : face.high] += std::abs(rate);
+  }
+  for (std::size_t f = interior_faces_; f < faces_.size(); ++f) {  // outflow: fluid on one side
+    const Face& face = faces_[f];
+    const int a = face.axis;
+    double speed = gas_face_speed_[f] + scratch.slip[face.outflow_low ? face.low : face.high][a];
+    // An outflow face carries dust out only.
+    if (face.outflow_low && speed < 0.0) speed = 0.0;
+    if (face.outflow_high && speed > 0.0) speed = 0.0;
+    const double rate = speed * inverse_h[a];
+    scratch.face_rate[f] = rate;
+    scratch.outgoing_rate[speed > 0.0 ? face.low : face.high] += std::abs(rate);
+  }
+  double fastest = 0.0;  // 1/s: the largest share of a cell's mass leaving per second
+  for (const std::size_t c : fluid_cells_) fastest = std::max(fastest, scratch.outgoing_rate[c]);
+  const int substeps = std::max(1, int(std::ceil(dt_s * fastest / 0.5 - 1e-12)));
+  const double h = dt_s / substeps;
+  class_substeps_[k] = std::uint64_t(substeps);
+  // Heun's method (SSP-RK2): each stage a conservative, positive flux pass, their mean the
+  // step, so what left is the mean of the stages' outflows. Cells without fluid hold nothing.
+  std::vector<double>& m = mass_[k];
+  for (int step = 0; step < substeps; ++step) {
+    scratch.start = m;
+    const double out_first = flux_pass(scratch.face_rate, scratch.transfer, scratch.start, m, h);
+    scratch.stage = m;
+    const double out_second = flux_pass(scratch.face_rate, scratch.transfer, scratch.stage, m, h);
+    for (const std::size_t c : fluid_cells_) m[c] = 0.5 * (scratch.start[c] + m[c]);
+    outflow_kg_[k] += 0.5 * (out_first + out_second);
   }
 }
 
-namespace {
-
-// Van Leer's limiter, φ(r) = (r + |r|)/(1 + |r|): 0 at an extremum, 1 where the slope is even,
-// never above 2 or 2r.
-double van_leer(double upwind_difference, double downwind_difference) {
-  if (upwind_difference * downwind_difference <= 0.0) return 0.0;
-  const double r = upwind_difference / downwind_difference;
-  return 2.0 * r / (1.0 + r);
-}
-
-}  // namespace
-
 // One forward-Euler pass over dt_s: each face carries the mass of its upwind cell, reconstructed
 // to the face with van Leer's limited slope (first order at outlets and where the cell beyond is
-// not fluid), from `from` into `to`. The face value lies in [0, 2 m_upwind], so with the
-// outgoing Courant sum ≤ 0.5 no cell gives more than it holds. Returns the mass that left.
-double DustLedger::flux_pass(const std::vector<double>& from, std::vector<double>& to,
-                             double dt_s) {
-  const GasGrid& g = *grid_;
-  double left = 0.0;
-  for (std::size_t f = 0; f < faces_.size(); ++f) {
-    const double speed = face_speed_[f];
-    if (speed == 0.0) continue;
-    const Face& face = faces_[f];
-    const bool forward = speed > 0.0;
-    const std::size_t up = forward ? face.low : face.high;
-    const std::size_t down = forward ? face.high : face.low;
-    const std::size_t beyond = forward ? face.below : face.above;
+// not fluid), from `from` into `to`. Van Leer's φ(r) = (r + |r|)/(1 + |r|), r the ratio of the
+// upwind to the downwind difference, adds ½ φ(r) × (downwind difference) to the upwind value: in
+// its harmonic-mean form, u d / (u + d) where the differences u and d have one sign, else 0 (at
+// an extremum). The face value lies in [0, 2 m_upwind], so with the outgoing Courant sum ≤ 0.5
+// no cell gives more than it holds. Returns the mass that left.
+//
+// The faces' transfers are found first, each from `from` alone, and applied after: applied as
+// they are found, each face's update of a cell would wait for the one before it (the same cell's
+// other face), a chain through the limiter's division.
+double DustLedger::flux_pass(const std::vector<double>& face_rate, std::vector<double>& transfer,
+                             const std::vector<double>& from, std::vector<double>& to,
+                             double dt_s) const {
+  const std::uint32_t none = std::uint32_t(grid_->padded_size);
+  transfer.resize(pass_faces_.size());
+  for (std::size_t f = 0; f < interior_faces_; ++f) {
+    const double rate = face_rate[f];  // signed: > 0 from low to high
+    const PassFace& face = pass_faces_[f];
+    const bool forward = rate > 0.0;
+    const std::uint32_t up = forward ? face.low : face.high;
+    const std::uint32_t down = forward ? face.high : face.low;
+    const std::uint32_t beyond = forward ? face.below : face.above;
     double value = from[up];
-    if (value == 0.0) continue;  // (its limited slope is 0 too: an empty cell is an extremum)
-    if (beyond < g.padded_size && g.fluid[down]) {
-      const double downwind_difference = from[down] - from[up];
-      value += 0.5 * van_leer(from[up] - from[beyond], downwind_difference) * downwind_difference;
+    if (beyond != none) {
+      const double upwind_difference = value - from[beyond];
+      const double downwind_difference = from[down] - value;
+      if (upwind_difference * downwind_difference > 0.0)
+        value +=
+            upwind_difference * downwind_difference / (upwind_difference + downwind_difference);
     }
-    const double moved = value * (std::abs(speed) * dt_s / g.h_m[face.axis]);
+    transfer[f] = value * (rate * dt_s);  // kg from low to high
+  }
+  for (std::size_t f = 0; f < interior_faces_; ++f) {
+    const PassFace& face = pass_faces_[f];
+    to[face.low] -= transfer[f];
+    to[face.high] += transfer[f];
+  }
+  // Outflow faces, first order: out of the fluid side only (their rate points out or is 0).
+  double left = 0.0;
+  for (std::size_t f = interior_faces_; f < pass_faces_.size(); ++f) {
+    const PassFace& face = pass_faces_[f];
+    const double rate = face_rate[f];
+    const std::uint32_t up = rate > 0.0 ? face.low : face.high;
+    const double moved = from[up] * (std::abs(rate) * dt_s);
     to[up] -= moved;
-    if (g.fluid[down])
-      to[down] += moved;
-    else
-      left += moved;
+    left += moved;
   }
   return left;
 }

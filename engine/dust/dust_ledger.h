@@ -14,7 +14,8 @@
 // and no cell gives more than it holds. Walls, inlets and solid cells pass no dust; an
 // outflow face passes what the face flux carries out (never in), into the class's outflow tally.
 // One-way coupled: the dust is carried by the gas and never acts on it (docs/dust.md gives the
-// volume fractions that justifies).
+// volume fractions that justifies). The classes are carried on the engine's threads, each by one
+// thread into its own arrays, so the result is the same on any thread count.
 //
 // Valid while τ_k |∇u| is small (the expansion is in the Stokes number): the run records the
 // largest slip speed it gave each class, to set against the gas speeds.
@@ -111,23 +112,49 @@ class DustLedger {
   void build_faces();
   std::size_t containing_cell(const Vec3& x) const;  // the interior cell x lies in (clamped)
   std::size_t nearest_fluid_cell(const Vec3& x) const;
-  // The gas's acceleration term g − Du/Dt and velocity gradient per fluid cell (ghosts 0).
+  // Per fluid cell, the gas's acceleration term a = g − Du/Dt and its velocity gradient G = ∇u
+  // reduced to what the slip of any class needs (slip_of).
+  struct SlipTerms {
+    Vec3 a, ga, gga;                                          // a, G a, G² a
+    double trace = 0.0, minors = 0.0, det = 0.0, norm = 0.0;  // of G (norm: Frobenius)
+  };
+  static SlipTerms slip_terms(const Vec3& acceleration, const std::array<Vec3, 3>& gradient);
+  static Vec3 slip_of(const SlipTerms& terms, double tau);
   void update_acceleration(const GasView& gas, double now_s);
-  double flux_pass(const std::vector<double>& from, std::vector<double>& to, double dt_s);
+  // A face as the flux passes read it: its cells and those beyond (padded_size: none).
+  struct PassFace {
+    std::uint32_t low, high, below, above;
+  };
+  // A class's work arrays while it is carried: each thread's own, overwritten before read.
+  struct ClassScratch {
+    std::vector<Vec3> slip;             // per padded cell (fluid ones written)
+    std::vector<double> face_rate;      // per face: (the gas's speed + the class's slip) / h
+    std::vector<double> outgoing_rate;  // per padded cell
+    std::vector<double> start, stage;   // the mass at the step's start and after its first stage
+    std::vector<double> transfer;       // per face: the mass a pass moves from low to high
+  };
+  void carry_class(std::size_t k, double dt_s, ClassScratch& scratch);
+  double flux_pass(const std::vector<double>& face_rate, std::vector<double>& transfer,
+                   const std::vector<double>& from, std::vector<double>& to, double dt_s) const;
+  static constexpr std::uint32_t kNoSlot = 0xffffffffu;
 
   const GasGrid* grid_;
   std::vector<DustClass> classes_;
   Vec3 gravity_m_per_s2_;
   std::vector<Face> faces_;
+  std::vector<PassFace> pass_faces_;  // faces_ as the passes read them
+  std::size_t interior_faces_ = 0;    // faces_ and pass_faces_: these first, then outflow faces
   std::vector<std::vector<double>> mass_;  // per class, per padded cell
   std::vector<double> outflow_kg_;
-  std::vector<Vec3> velocity_, previous_velocity_, acceleration_, slip_;  // per padded cell
-  std::vector<std::array<Vec3, 3>> gradient_;  // per padded cell: ∂u/∂x_a for a = x, y, z
+  std::vector<Vec3> velocity_, previous_velocity_;  // per padded cell
+  std::vector<SlipTerms> slip_terms_;               // per fluid cell, as of the last advance
+  std::vector<std::uint32_t> fluid_slot_;           // per padded cell: its fluid cell's (kNoSlot)
   double previous_time_s_ = 0.0;
   bool have_previous_ = false;
   double unplaced_kg_ = 0.0;  // deposits on a grid without fluid cells (held, never moved)
-  std::vector<std::size_t> fluid_cells_;  // the padded indices of the fluid cells, ascending
-  std::vector<double> face_speed_, gas_face_speed_, scratch_, start_, stage_;
+  std::vector<std::size_t> fluid_cells_;       // the padded indices of the fluid cells, ascending
+  std::vector<double> gas_face_speed_;         // per face, this advance
+  std::vector<std::uint64_t> class_substeps_;  // per class, this advance
   DustLedgerStats stats_;
 };
 

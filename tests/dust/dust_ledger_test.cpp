@@ -8,12 +8,17 @@
 //   - a box with an inlet and an outlet drains at the outlet's face flux c U A, the inlet passes
 //     no dust, and held + outflow equals what was put in to 1e-12 throughout;
 //   - a free vortex draining into a central outlet lets out the classes inside the force-balance
-//     cut and holds the others on the ring where drift and sink balance.
+//     cut and holds the others on the ring where drift and sink balance;
+//   - in a linear 3-D flow u = u₀ + G x with a full, non-symmetric G, each cell's slip is the
+//     solution of (I + τ G) w = τ (g − G u) by Eigen's LU, with the documented fallback where
+//     det(I + τ G) ≤ 0.1 and the bound by the explicit slip, for τ G from 0.01 to 10.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+
+#include <Eigen/Dense>
 
 #include "dust/dust_ledger.h"
 #include "gas/gas_solver.h"
@@ -173,6 +178,66 @@ TEST(DustLedger, TheSlipOfHeavyDustStaysBoundedByTheGasSpeed) {
       EXPECT_NEAR(dot(w, radial), speed * k / (1.0 + k * k), 1e-9 * speed) << i << ", " << j;
       EXPECT_NEAR(dot(w, along), -speed * k * k / (1.0 + k * k), 1e-9 * speed) << i << ", " << j;
     }
+}
+
+TEST(DustLedger, TheSlipSolvesItsLinearSystemInAThreeDimensionalLinearFlow) {
+  // u = u₀ + G x on 8³ cells of 1 mm: each face holds its component at its centre, so the cell
+  // velocities (the mean of two faces) and their central differences are exact for the linear
+  // field in the cells whose neighbours' faces are all inside: Du/Dt = G u (steady).
+  const int n = 8;
+  const double h = 1e-3;
+  Eigen::Matrix3d G;
+  G << 300, -1200, 500, 900, -200, -700, -400, 600, -600;  // 1/s: a real eigenvalue −385
+  const Eigen::Vector3d u0(20, -10, 5), gravity(0, 0, -9.81);
+  const GasConfig config = still_config({n, n, n});
+  GasSolver gas(config, build_gas_grid(config, {0, 0, 0}, {n * h, n * h, n * h}, {}), {});
+  const GasGrid& grid = gas.grid();
+  const auto u_at = [&](double x, double y, double z) -> Eigen::Vector3d {
+    return u0 + G * Eigen::Vector3d(x, y, z);
+  };
+  for (int k = 1; k <= n; ++k)
+    for (int j = 1; j <= n; ++j)
+      for (int i = 1; i < n; ++i) {  // the interior faces normal to each axis
+        gas.velocity()[0][grid.index(i, j, k)] = u_at(i * h, (j - 0.5) * h, (k - 0.5) * h)(0);
+        gas.velocity()[1][grid.index(j, i, k)] = u_at((j - 0.5) * h, i * h, (k - 0.5) * h)(1);
+        gas.velocity()[2][grid.index(j, k, i)] = u_at((j - 0.5) * h, (k - 0.5) * h, i * h)(2);
+      }
+  const std::vector<double> taus = {1e-5, 1e-4, 1e-3, 3e-3, 1e-2};
+  std::vector<DustClass> classes;
+  for (double tau : taus) classes.push_back({1e-6, tau});
+  DustLedger dust(grid, classes, {gravity(0), gravity(1), gravity(2)});
+  dust.advance(gas, 1e-7);
+  int fallbacks = 0, bounded = 0, solved = 0;
+  for (int k = 3; k <= n - 2; ++k)
+    for (int j = 3; j <= n - 2; ++j)
+      for (int i = 3; i <= n - 2; ++i) {
+        const Eigen::Vector3d u = u_at((i - 0.5) * h, (j - 0.5) * h, (k - 0.5) * h);
+        const Eigen::Vector3d a = gravity - G * u;
+        for (double tau : taus) {
+          const Eigen::Matrix3d M = Eigen::Matrix3d::Identity() + tau * G;
+          Eigen::Vector3d expected;
+          if (M.determinant() <= 0.1) {
+            expected = tau * a / (1.0 + tau * G.norm());
+            ++fallbacks;
+          } else {
+            expected = M.fullPivLu().solve(tau * a);
+            if (expected.norm() > (tau * a).norm()) {
+              expected *= (tau * a).norm() / expected.norm();
+              ++bounded;
+            } else {
+              ++solved;
+            }
+          }
+          const Vec3 w = dust.slip_m_per_s(grid.index(i, j, k), tau);
+          for (int c = 0; c < 3; ++c)
+            EXPECT_NEAR(w[c], expected(c), 1e-9 * expected.norm())
+                << "cell " << i << " " << j << " " << k << ", τ " << tau << ", component " << c;
+        }
+      }
+  // Every branch of the rule was taken.
+  EXPECT_GT(solved, 0);
+  EXPECT_GT(bounded, 0);
+  EXPECT_GT(fallbacks, 0);
 }
 
 TEST(DustLedger, ABoxDrainsAtTheOutletsFaceFlux) {
