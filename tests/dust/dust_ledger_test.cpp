@@ -22,6 +22,7 @@
 
 #include "dust/dust_ledger.h"
 #include "gas/gas_solver.h"
+#include "support/draining_vortex.h"
 
 namespace millsim {
 namespace {
@@ -299,34 +300,17 @@ TEST(DustLedger, ADepositInASolidCellGoesToTheNearestFluidCell) {
 // (64 cells across, 1 mm): +2.2, +0.8 and +0.1 % at 2, 4 and 8 τ_c; the first-order upwind
 // transport it had before gave +19, +10 and +6 %, its numerical diffusion pushing the rings out.
 TEST(DustLedger, AFreeVortexWithASinkHoldsEachClassAtItsForceBalanceRadius) {
-  const int n = 64;
-  const double L = 0.064, h = L / n, c0 = 0.5 * L, lid = h, outlet_radius = 0.006;
-  const double q = 0.06, circulation = 0.3;  // m²/s: u_r = −10 m/s, u_t = 50 m/s at R_o
-  GasConfig config = still_config({n, n, 1});
-  GasBoundaryPatch outlet;
-  outlet.name = "finder", outlet.face = 5, outlet.kind = GasBoundaryKind::Outlet;
-  outlet.shape = PatchShape::Circle, outlet.center_m = {c0, c0, lid};
-  outlet.radius_m = outlet_radius;
-  config.boundaries = {outlet};
-  GasSolver gas(config, build_gas_grid(config, {0, 0, 0}, {L, L, lid}, {false, false, false}), {});
+  // 1 mm cells; u_r = −10 m/s, u_t = 50 m/s at R_o.
+  const test::DrainingVortex vortex;
+  const int n = vortex.cells;
+  const double c0 = vortex.centre_m(), h = vortex.cell_m(), outlet_radius = vortex.outlet_radius_m;
+  const double q = vortex.sink_m2_per_s, circulation = vortex.circulation_m2_per_s;
+  const GasSolver gas = test::draining_vortex_gas(vortex);
   const GasGrid& grid = gas.grid();
-  const auto velocity = [&](double x, double y) {
-    const double dx = x - c0, dy = y - c0, r2 = dx * dx + dy * dy;
-    const double scale = 1.0 / std::max(r2, outlet_radius * outlet_radius);
-    return Vec3{(-q * dx - circulation * dy) * scale, (-q * dy + circulation * dx) * scale, 0.0};
-  };
-  for (int j = 1; j <= n; ++j)
-    for (int i = 1; i < n; ++i) {
-      gas.velocity()[0][grid.index(i, j, 1)] = velocity(i * h, (j - 0.5) * h).x;
-      gas.velocity()[1][grid.index(j, i, 1)] = velocity((j - 0.5) * h, i * h).y;
-    }
-  // What the sink takes in, 2π q per unit height, leaves through the lid's outlet faces.
-  std::vector<std::size_t> lid_outlet;
+  std::size_t lid_outlet = 0;  // what the sink takes in leaves through the lid's outlet faces
   for (std::size_t f = 0; f < grid.padded_size; ++f)
-    if (grid.face[2][f] == FaceKind::Outflow) lid_outlet.push_back(f);
-  ASSERT_GT(lid_outlet.size(), 50u);
-  for (std::size_t f : lid_outlet)
-    gas.velocity()[2][f] = 2.0 * M_PI * q * lid / (double(lid_outlet.size()) * h * h);
+    if (grid.face[2][f] == FaceKind::Outflow) ++lid_outlet;
+  ASSERT_GT(lid_outlet, 50u);
 
   const double tau_c = q * outlet_radius * outlet_radius / (circulation * circulation + q * q);
   const std::vector<double> ratios = {0.125, 0.25, 0.5, 2.0, 4.0, 8.0};

@@ -22,6 +22,7 @@
 #include "particles/materials.h"
 #include "search/hashed_grid.h"
 #include "sim/simulation.h"
+#include "support/draining_vortex.h"
 #include "support/run_compare.h"
 #include "support/scenes.h"
 
@@ -206,33 +207,13 @@ struct DustState {
 };
 
 DustState carry_and_grind_dust() {
-  const int n = 24;
-  const double L = 0.024, h = L / n, c0 = 0.5 * L, lid = 2 * h, outlet_radius = 0.003;
-  const double q = 0.03, circulation = 0.15;
-  GasConfig config;
-  config.density_kg_per_m3 = 1.2;
-  config.viscosity_pa_s = 1.8e-5;
-  config.cells = {n, n, 2};
-  GasBoundaryPatch outlet;
-  outlet.name = "finder", outlet.face = 5, outlet.kind = GasBoundaryKind::Outlet;
-  outlet.shape = PatchShape::Circle, outlet.center_m = {c0, c0, lid};
-  outlet.radius_m = outlet_radius;
-  config.boundaries = {outlet};
-  GasSolver gas(config, build_gas_grid(config, {0, 0, 0}, {L, L, lid}, {false, false, false}), {});
+  test::DrainingVortex vortex;
+  vortex.cells = 24, vortex.layers = 2, vortex.side_m = 0.024, vortex.outlet_radius_m = 0.003;
+  vortex.sink_m2_per_s = 0.03, vortex.circulation_m2_per_s = 0.15;
+  const double L = vortex.side_m, lid = vortex.layers * vortex.cell_m();
+  const GasSolver gas = test::draining_vortex_gas(vortex);
   const GasGrid& grid = gas.grid();
-  const auto velocity = [&](double x, double y) {
-    const double dx = x - c0, dy = y - c0, r2 = dx * dx + dy * dy;
-    const double scale = 1.0 / std::max(r2, outlet_radius * outlet_radius);
-    return Vec3{(-q * dx - circulation * dy) * scale, (-q * dy + circulation * dx) * scale, 0.0};
-  };
-  for (int kz = 1; kz <= 2; ++kz)
-    for (int j = 1; j <= n; ++j)
-      for (int i = 1; i < n; ++i) {
-        gas.velocity()[0][grid.index(i, j, kz)] = velocity(i * h, (j - 0.5) * h).x;
-        gas.velocity()[1][grid.index(j, i, kz)] = velocity((j - 0.5) * h, i * h).y;
-      }
-  for (std::size_t f = 0; f < grid.padded_size; ++f)
-    if (grid.face[2][f] == FaceKind::Outflow) gas.velocity()[2][f] = 3.0;
+  const int n = vortex.cells;
 
   std::vector<double> edges;
   for (double d = 1e-7; d < 1.1e-5; d *= 1.5) edges.push_back(d);
