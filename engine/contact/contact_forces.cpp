@@ -17,11 +17,27 @@ inline double ghost_overlap_m(double overlap, double& memory) {
 }
 
 // The wall's springs at the particle's contact point: R_e from the surface's curvature there.
+inline PairSprings wall_springs_at(const ParticleStore& p, std::size_t i, const PairConstants& pc,
+                                   double curvature_per_m) {
+  return wall_springs(p, i, pc, equivalent_contact_radius_m(p.radius_m[i], curvature_per_m));
+}
 inline PairSprings wall_springs_at(const ParticleStore& p, std::size_t i, const Wall& wall,
                                    const PairConstants& pc) {
-  const double r_e = equivalent_contact_radius_m(
-      p.radius_m[i], surface_curvature_per_m(wall.surface, p.position_m[i]));
-  return wall_springs(p, i, pc, r_e);
+  return wall_springs_at(p, i, pc, surface_curvature_per_m(wall.surface, p.position_m[i]));
+}
+
+// Wall candidate k's springs, made once per curvature under it (NeighborList::wall_springs_memo):
+// the same numbers as wall_springs_at, without its divisions and roots at every touching step.
+inline const PairSprings& remembered_wall_springs(const ParticleStore& p, std::size_t i,
+                                                  const Wall& wall, const PairConstants& pc,
+                                                  NeighborList::WallSpringsMemo& memo) {
+  // Only a tube's curvature depends on where the particle is (inside, outside, past a rim).
+  const bool made = memo.curvature_per_m == memo.curvature_per_m;  // not NaN
+  if (made && wall.surface.kind != SurfaceKind::Tube) return memo.springs;
+  const double curvature = surface_curvature_per_m(wall.surface, p.position_m[i]);
+  if (!made || curvature != memo.curvature_per_m)
+    memo = {curvature, wall_springs_at(p, i, pc, curvature)};
+  return memo.springs;
 }
 
 // The pair loop's memory pipeline, apart from the physics: a lean pass over a chunk of
@@ -447,6 +463,10 @@ void wall_contacts(const MaterialTable& materials, const std::vector<Wall>& wall
     const std::uint32_t i = nl.wall_particle[k];
     const Wall& wall = walls[nl.wall_index[k]];
     const double r = p.radius_m[i];
+    // Apart and staying apart (the branch below would change nothing): skip the exact gap.
+    if (nl.wall_touching[k] == kPairApart &&
+        surface_certainly_beyond(wall.surface, p.position_m[i], r))
+      continue;
     Vec3 n;
     double overlap = r - wall_gap_m(wall, p.position_m[i], n);
     const PairConstants& pc = materials.wall_pair(wall.pair_table, p.material[i]);
@@ -476,9 +496,9 @@ void wall_contacts(const MaterialTable& materials, const std::vector<Wall>& wall
       const double vn = dot(v_rel, n);
       if (vn < 0.0) tally.impacts.push_back({i, nl.wall_index[k], true, -vn, norm(v_rel - n * vn)});
     }
-    const ContactResponse c = contact_response(wall_springs_at(p, i, wall, pc), pc, overlap, n,
-                                               v_rel, m.angular_velocity_rad_per_s, r, dt,
-                                               ghost ? nullptr : &nl.wall_history_m[k]);
+    const ContactResponse c = contact_response(
+        remembered_wall_springs(p, i, wall, pc, nl.wall_springs_memo[k]), pc, overlap, n, v_rel,
+        m.angular_velocity_rad_per_s, r, dt, ghost ? nullptr : &nl.wall_history_m[k]);
     p.load[i].force_n += n * c.normal_force_n + c.tangential_force_n;
     p.load[i].torque_n_m -=
         cross(n, c.tangential_force_n) * (r - 0.5 * overlap) + c.rolling_torque_n_m;
@@ -499,6 +519,7 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Wall>
                          double limit, ParticleStore& p, NeighborList& nl,
                          ContactStepStats& stats) {
   const std::size_t n = nl.wall_particle.size();
+  if (nl.wall_springs_memo.size() != n) nl.forget_wall_springs();
   const bool impacts = stats.record_impacts;
   // The pieces: the rebuild lists a particle's wall candidates together (by slot, then wall).
   // One piece of all of them unless the population is worth threads.

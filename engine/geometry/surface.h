@@ -53,6 +53,21 @@ double surface_gap(const Surface& s, const Vec3& x, Vec3& normal);
 // Rims and edge circles are edges, not smooth surfaces: 0 there too (contact/curved_contact.h).
 double surface_curvature_per_m(const Surface& s, const Vec3& x);
 
+// True only when the gap at x certainly exceeds `distance_m` (a sphere of that radius cannot
+// touch), decided without the square root surface_gap takes; false when it cannot tell cheaply
+// (then ask surface_gap). Exact on planes; on a cylinder's inside it keeps a relative margin of
+// 1e-9 on ρ², far above the rounding of either test, so it never says apart where surface_gap
+// would find an overlap.
+inline bool surface_certainly_beyond(const Surface& s, const Vec3& x, double distance_m) {
+  if (s.kind == SurfaceKind::Plane) return dot(x - s.point_m, s.normal) >= distance_m;
+  if (s.kind != SurfaceKind::CylinderInside) return false;
+  const double inner = s.radius_m - distance_m;  // the gap exceeds distance_m for ρ below it
+  if (!(inner > 0.0)) return false;
+  const Vec3 d = x - s.point_m;
+  const Vec3 radial = d - s.normal * dot(d, s.normal);
+  return norm2(radial) < inner * inner * (1.0 - 1e-9);
+}
+
 // The gap alone (candidate tests).
 inline double surface_gap(const Surface& s, const Vec3& x) {
   Vec3 n;

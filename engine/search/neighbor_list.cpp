@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "dem/integrator.h"
 
@@ -541,6 +542,7 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
           wall_index.push_back(wall_block_scratch_[b][e + 1]);
   wall_history_m.assign(wall_particle.size(), Vec3{});
   wall_touching.assign(wall_particle.size(), kPairApart);
+  forget_wall_springs();
   if (!old_walls.empty() || !newborn_.empty())
     for (std::size_t k = 0; k < wall_particle.size(); ++k) {
       const std::uint32_t i = wall_particle[k];
@@ -581,6 +583,11 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
                   reference_id_.begin() + std::ptrdiff_t(begin));
       });
   ++stats_.rebuilds;
+}
+
+void NeighborList::forget_wall_springs() {
+  wall_springs_memo.assign(wall_particle.size(),
+                           {std::numeric_limits<double>::quiet_NaN(), PairSprings{}});
 }
 
 }  // namespace millsim

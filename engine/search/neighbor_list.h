@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "checkpoint/archive.h"
+#include "contact/contact_law.h"
 #include "contact/walls.h"
 #include "particles/particle_store.h"
 #include "search/hashed_grid.h"
@@ -135,6 +136,9 @@ class NeighborList {
   const NeighborSettings& settings() const { return settings_; }
   const NeighborStats& stats() const { return stats_; }
 
+  // Empties wall_springs_memo (one entry per wall candidate, none made yet).
+  void forget_wall_springs();
+
   // Particle–particle candidates, each listed from its higher slot (first > second), and their
   // tangential spring displacement (m).
   PairList pairs;
@@ -153,6 +157,15 @@ class NeighborList {
   std::vector<std::uint32_t> wall_index;
   std::vector<Vec3> wall_history_m;
   std::vector<std::uint8_t> wall_touching;
+  // Per wall candidate, for the force pass: the springs of its last touching step and the wall's
+  // curvature they were made for (NaN: none yet). A candidate's particle and wall are fixed
+  // until the next rebuild, so its springs change only with the curvature under it (a tube's
+  // inside, outside or rim). Derived: emptied at every rebuild and load, never checkpointed.
+  struct WallSpringsMemo {
+    double curvature_per_m;
+    PairSprings springs;
+  };
+  std::vector<WallSpringsMemo> wall_springs_memo;
 
   // Checkpoints: the lists, their history and every bound and choice the next steps read. The
   // grids are not kept: a rebuild fills them from the positions alone.
@@ -160,6 +173,7 @@ class NeighborList {
   void checkpoint_io(A& a) {
     io_all(a, pairs, pair_image, pair_history, history_pool, pair_touching, wall_particle,
            wall_index, wall_history_m, wall_touching);
+    if constexpr (std::is_same_v<A, ArchiveReader>) forget_wall_springs();
     io_all(a, settings_, division_, division_skin_m_, image_shift_, motion_bound_m_,
            steps_since_rebuild_, previous_skin_m_, next_skin_m_, population_version_);
     io_all(a, reference_position_m_, reference_id_, newborn_, overlapping_, band_end_,

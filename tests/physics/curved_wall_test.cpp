@@ -12,7 +12,9 @@
 #include <cmath>
 #include <numbers>
 
+#include "contact/contact_forces.h"
 #include "contact/curved_contact.h"
+#include "dem/integrator.h"
 #include "geometry/surface.h"
 #include "sim/simulation.h"
 #include "support/scenes.h"
@@ -141,6 +143,67 @@ TEST(CurvedWall, ASphereStrikingTheInsideOfACylinderFollowsEllipticHertz) {
     EXPECT_NEAR(got.contact_time_s, time, 0.01 * time) << radii << " radii";
     EXPECT_NEAR(got.max_force_n, force, 0.01 * force) << radii << " radii";
   }
+}
+
+// The force pass keeps each wall candidate's springs from one touching step to the next
+// (NeighborList::wall_springs_memo) and makes them again only where the curvature under the
+// particle changes, which on a tube it does: convex outside, an edge past the rim. A sphere held
+// in contact and carried along a tube's outside and over its rim must get at every step the force
+// a list that keeps nothing gives, to the bit, and that force must be Johnson's on the face
+// (R_e from 1/r + 1/R across the axis and 1/r along it) and the sphere's own past the rim.
+TEST(CurvedWall, WallSpringsKeptBetweenStepsFollowTheCurvatureUnderTheParticle) {
+  SceneConfig scene =
+      test::empty_scene({-1e-2, -1e-2, -1e-2}, {1e-2, 1e-2, 1e-2}, test::table1_material(0.5, 0.3));
+  MaterialTable materials(scene);
+  Surface tube;
+  tube.kind = SurfaceKind::Tube;
+  tube.normal = {0, 0, 1};
+  tube.radius_m = 1e-3;
+  tube.axial_min_m = 0.0, tube.axial_max_m = 2e-3;
+  const std::vector<Wall> walls{{"tube", tube, materials.add_wall(0, std::nullopt, std::nullopt)}};
+  const double d = 100e-6, r = 0.5 * d, overlap = 0.5e-6, dt = 1e-9, step_m = 20.0 * dt;
+  ParticleStore p;
+  // At rest: the path is carried by hand below, so the force is the spring's alone (no damper,
+  // no tangential slip) and its stiffness reads off as |F| / δ^{3/2}.
+  p.add(materials, 0, 1, {tube.radius_m + r - overlap, 0, 1.99e-3}, {}, {}, d);
+  NeighborSettings settings;
+  settings.skin_m = 20e-6;
+  NeighborList nl(settings);
+  const PeriodicBox box{scene.domain.min_m, scene.domain.max_m, {false, false, false}};
+  nl.update(p, box, walls, true);
+  ASSERT_EQ(nl.wall_particle.size(), 1u);
+  const double e_star = 1.0 / (p.normal_compliance[0] +
+                               materials.wall_pair(walls[0].pair_table, 0).wall_normal_compliance);
+  const double face = 4.0 / 3.0 * e_star *
+                      std::sqrt(johnson_equivalent_radius(1.0 / r + 1.0 / tube.radius_m, 1.0 / r));
+  const double edge = 4.0 / 3.0 * e_star * std::sqrt(r);
+  int steps_on_face = 0, steps_past_rim = 0;
+  for (int step = 0; step < 2000 && steps_past_rim < 20; ++step) {
+    NeighborList keeps_nothing = nl;
+    keeps_nothing.forget_wall_springs();
+    ParticleStore q = p;
+    clear_forces(p, {}), clear_forces(q, {});
+    ContactStepStats kept_stats, fresh_stats;
+    compute_wall_forces(materials, walls, dt, 1.0, p, nl, kept_stats);
+    compute_wall_forces(materials, walls, dt, 1.0, q, keeps_nothing, fresh_stats);
+    ASSERT_EQ(kept_stats.touching_walls, 1u) << "step " << step;
+    const Vec3 f = p.load[0].force_n, g = q.load[0].force_n;
+    ASSERT_TRUE(f.x == g.x && f.y == g.y && f.z == g.z) << "step " << step;
+    const double z = p.position_m[0].z, delta = r - wall_gap_m(walls[0], p.position_m[0]);
+    const double stiffness = norm(f) / (delta * std::sqrt(delta));
+    if (z < tube.axial_max_m) {
+      ++steps_on_face;
+      ASSERT_NEAR(stiffness, face, 1e-6 * face) << "step " << step;
+    } else if (z > tube.axial_max_m + 0.1 * r) {
+      ++steps_past_rim;
+      ASSERT_NEAR(stiffness, edge, 1e-9 * edge) << "step " << step;
+    }
+    p.position_m[0].z += step_m;
+  }
+  EXPECT_GT(steps_on_face, 100);
+  EXPECT_EQ(steps_past_rim, 20);
+  EXPECT_EQ(nl.wall_springs_memo[0].curvature_per_m, 0.0) << "past the rim: the edge's springs";
+  EXPECT_GT(edge, 1.005 * face) << "the case must tell the face from the edge";
 }
 
 TEST(CurvedWall, ACylinderWallNeedsItsAxisAndRadius) {
