@@ -512,11 +512,6 @@ void wall_contacts(const MaterialTable& materials, const std::vector<Wall>& wall
 // Wall candidates per piece, about: a piece ends where a particle's run of candidates ends, so
 // that one thread adds all of a particle's wall forces, in candidate order.
 constexpr std::size_t kWallPieceCandidates = 2048;
-// A wall candidate's work in particles' worth of a step's passes: half of them touch, and each
-// touching one costs a root or two, the tangential spring and the curvature's springs (about
-// 40 ns), against a few ns per particle in a kick. So a pass over a mill's mantle riders is worth
-// threads long before the particles are.
-constexpr std::size_t kWallCandidateWeight = 8;
 
 }  // namespace
 
@@ -529,9 +524,7 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Wall>
   // The pieces: the rebuild lists a particle's wall candidates together (by slot, then wall).
   // One piece of all of them unless the population is worth threads.
   const std::size_t piece_size =
-      worth_threads(p.size()) || worth_threads(n * kWallCandidateWeight)
-          ? block_items(kWallPieceCandidates)
-          : std::max<std::size_t>(n, 1);
+      worth_threads(p.size()) ? block_items(kWallPieceCandidates) : std::max<std::size_t>(n, 1);
   static thread_local std::vector<std::size_t> calling_thread_starts;
   std::vector<std::size_t>& starts = calling_thread_starts;
   starts.assign(1, 0);
