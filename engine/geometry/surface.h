@@ -55,11 +55,14 @@ double surface_curvature_per_m(const Surface& s, const Vec3& x);
 
 // True only when the gap at x certainly exceeds `distance_m` (a sphere of that radius cannot
 // touch), decided without the square root surface_gap takes; false when it cannot tell cheaply
-// (then ask surface_gap). Exact on planes; on a cylinder's inside it keeps a relative margin of
-// 1e-9 on ρ², far above the rounding of either test, so it never says apart where surface_gap
-// would find an overlap.
+// (then ask surface_gap). Exact on planes; on a cylinder's inside and a disc it keeps a relative
+// margin of 1e-9, far above the rounding of either test, so it never says apart where
+// surface_gap would find an overlap. A disc's gap is never less than the distance to its plane
+// on its facing side (over the face it is that distance, past an edge the edge circle's).
 inline bool surface_certainly_beyond(const Surface& s, const Vec3& x, double distance_m) {
   if (s.kind == SurfaceKind::Plane) return dot(x - s.point_m, s.normal) >= distance_m;
+  if (s.kind == SurfaceKind::Disc)
+    return (dot(x - s.point_m, s.normal) - s.axial_min_m) * s.facing > distance_m * (1.0 + 1e-9);
   if (s.kind != SurfaceKind::CylinderInside) return false;
   const double inner = s.radius_m - distance_m;  // the gap exceeds distance_m for ρ below it
   if (!(inner > 0.0)) return false;

@@ -109,6 +109,63 @@ TEST(Surface, CylinderInsideIsSignedRadialDistance) {
   EXPECT_NEAR(surface_gap(s, {1.0, 2.7, 0}, n), -0.2, 1e-15);  // behind the wall
 }
 
+// The wall pass skips an apart candidate when surface_certainly_beyond says the gap exceeds the
+// particle's radius (contact/contact_forces.cpp): that must never happen where the exact gap
+// would give an overlap, r − gap > 0, however close to contact the point lies, and it must
+// happen for points clearly apart (else it saves nothing). Points are drawn at gaps within
+// 1e-7 relative of r on either side, and well apart, on a tilted plane, a tilted cylinder's
+// inside and a disc facing either way (over its face and past its edges).
+TEST(Surface, CertainlyBeyondNeverCallsApartWhatTheGapTouches) {
+  const Vec3 axis = Vec3{0.3, -0.2, 0.9} * (1.0 / norm(Vec3{0.3, -0.2, 0.9}));
+  Surface plane = plane_surface({0.01, 0.02, -0.03}, axis);
+  Surface cylinder;
+  cylinder.kind = SurfaceKind::CylinderInside;
+  cylinder.point_m = {0.013, -0.007, 0.002};
+  cylinder.normal = axis;
+  cylinder.radius_m = 0.02;
+  Surface disc = cylinder;
+  disc.kind = SurfaceKind::Disc;
+  disc.radius_m = 0.01, disc.inner_radius_m = 0.003, disc.axial_min_m = 0.004;
+  Surface back = disc;
+  back.facing = -1.0;
+  const Vec3 across = Vec3{1, 0, 0} - axis * axis.x;
+  const Vec3 e1 = across * (1.0 / norm(across)), e2 = cross(axis, e1);
+  std::mt19937_64 rng(17);
+  std::uniform_real_distribution<double> unit(0.0, 1.0), near(-1e-7, 1e-7);
+  const double r = 25e-6;
+  int said_beyond = 0, clearly_apart = 0;
+  for (const Surface* s : {&plane, &cylinder, &disc, &back})
+    for (int k = 0; k < 20000; ++k) {
+      // The gap to aim at: at contact within 1e-7 relative, or clearly apart (2 to 10 radii).
+      const bool close = k % 4 != 0;
+      const double target = close ? r * (1.0 + near(rng)) : r * (2.0 + 8.0 * unit(rng));
+      const double phi = 2.0 * std::numbers::pi * unit(rng);
+      const Vec3 around = e1 * std::cos(phi) + e2 * std::sin(phi);
+      Vec3 x;
+      if (s->kind == SurfaceKind::Plane) {
+        x = s->point_m + around * (0.05 * unit(rng)) + s->normal * target;
+      } else if (s->kind == SurfaceKind::CylinderInside) {
+        x = s->point_m + around * (s->radius_m - target) + s->normal * (0.1 * (unit(rng) - 0.5));
+      } else {  // a disc: its plane at `target` on the facing side, anywhere across it
+        x = s->point_m + around * (0.012 * unit(rng)) +
+            s->normal * (s->axial_min_m + s->facing * target);
+      }
+      const bool beyond = surface_certainly_beyond(*s, x, r);
+      const double overlap = r - surface_gap(*s, x);
+      ASSERT_FALSE(beyond && overlap > 0.0)
+          << "kind " << int(s->kind) << " point " << k << " overlap " << overlap;
+      said_beyond += beyond;
+      if (!close) {
+        ++clearly_apart;
+        EXPECT_TRUE(beyond) << "kind " << int(s->kind) << " point " << k;
+      }
+    }
+  EXPECT_GT(said_beyond, clearly_apart) << "some of the close points are told apart too";
+  Surface tube = cylinder;
+  tube.kind = SurfaceKind::Tube;
+  EXPECT_FALSE(surface_certainly_beyond(tube, cylinder.point_m, r)) << "a tube is always measured";
+}
+
 // A small spiral-jet-mill geometry for the tests: chamber R = 10 mm, 4 mm high.
 MillConfig test_mill() {
   MillConfig m;
