@@ -23,13 +23,19 @@ def ks(a, b):
     return max(abs(x - y) for x, y in zip(fa, fb))
 
 
-def main():
-    out = pathlib.Path(sys.argv[1])
+def load_runs(out):
+    """Each run directory NAME-sSEED of `out` with a result.json, by (NAME, SEED)."""
     runs = {}
     for d in sorted(out.iterdir()):
         if d.is_dir() and (d / "result.json").exists():
             name, seed = d.name.rsplit("-s", 1)
             runs[(name, int(seed))] = load(d / "result.json")
+    return runs
+
+
+def main():
+    out = pathlib.Path(sys.argv[1])
+    runs = load_runs(out)
     print("| run | seed | time stepping s | speed-up | d10 / d50 / d90 um | events by generation "
           "| waited share | KS to single-rate |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")

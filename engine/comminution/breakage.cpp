@@ -56,6 +56,22 @@ double Breakage::impact_energy_j_per_kg(const Impact& impact, bool on_partner,
   return 0.5 * u * u;
 }
 
+bool Breakage::may_break(const std::vector<Impact>& impacts,
+                         const std::vector<CrushedParticle>& crushed,
+                         const std::vector<Wall>& walls, const ParticleStore& p) const {
+  for (const CrushedParticle& c : crushed)
+    if (material_[p.material[c.slot]]) return true;
+  for (const Impact& impact : impacts)
+    for (int side = 0; side < (impact.with_wall ? 1 : 2); ++side) {
+      const std::uint32_t slot = side ? impact.partner : impact.particle;
+      const auto& m = material_[p.material[slot]];
+      if (m && impact_energy_j_per_kg(impact, side == 1, walls, p) >
+                   threshold_energy_j_per_kg(m->config.strength, 2.0 * p.radius_m[slot]))
+        return true;
+    }
+  return false;
+}
+
 std::uint64_t Breakage::process(const std::vector<Impact>& impacts,
                                 const std::vector<CrushedParticle>& crushed, double dt_s,
                                 double time_s, const std::vector<Wall>& walls,

@@ -108,6 +108,12 @@ class Breakage {
                         std::vector<Newborn>& newborn, const ParticleHook& before_removal,
                         const ParticleHook& after_addition);
 
+  // Whether process() could break anything with these impacts and crushes: a crushed particle
+  // of a breakable material, or an impact above its W_min (process() then draws whether it
+  // breaks). Changes nothing.
+  bool may_break(const std::vector<Impact>& impacts, const std::vector<CrushedParticle>& crushed,
+                 const std::vector<Wall>& walls, const ParticleStore& particles) const;
+
   const BreakageStats& stats() const { return stats_; }
   const std::vector<BreakageEvent>& event_log() const { return event_log_; }
   const PsdTally& dust() const { return dust_; }

@@ -1,5 +1,7 @@
 #include "contact/contact_forces.h"
 
+#include <limits>
+
 #include "contact/contact_law.h"
 #include "contact/curved_contact.h"
 #include "geometry/surface.h"
@@ -506,7 +508,8 @@ void wall_contacts(const MaterialTable& materials, const std::vector<Wall>& wall
     if (ratio > limit) tally.over_limit.push_back(std::uint32_t(k));
     if (ratio > max_ratio) max_ratio = ratio, max_pair = k;
   }
-  tally.touching = touching, tally.max_ratio = max_ratio, tally.max_pair = max_pair;
+  tally.touching += touching;
+  if (max_ratio > tally.max_ratio) tally.max_ratio = max_ratio, tally.max_pair = max_pair;
 }
 
 // Wall candidates per piece, about: a piece ends where a particle's run of candidates ends, so
@@ -516,37 +519,56 @@ constexpr std::size_t kWallPieceCandidates = 2048;
 }  // namespace
 
 void compute_wall_forces(const MaterialTable& materials, const std::vector<Wall>& walls, double dt,
-                         double limit, ParticleStore& p, NeighborList& nl,
-                         ContactStepStats& stats) {
+                         double limit, ParticleStore& p, NeighborList& nl, ContactStepStats& stats,
+                         const std::vector<NeighborList::PairRange>* ranges) {
   const std::size_t n = nl.wall_particle.size();
   if (nl.wall_springs_memo.size() != n) nl.forget_wall_springs();
   const bool impacts = stats.record_impacts;
-  // The pieces: the rebuild lists a particle's wall candidates together (by slot, then wall).
-  // One piece of all of them unless the population is worth threads.
-  const std::size_t piece_size =
-      worth_threads(p.size()) ? block_items(kWallPieceCandidates) : std::max<std::size_t>(n, 1);
-  static thread_local std::vector<std::size_t> calling_thread_starts;
-  std::vector<std::size_t>& starts = calling_thread_starts;
-  starts.assign(1, 0);
-  while (starts.back() < n) {
-    std::size_t end = std::min(n, starts.back() + piece_size);
-    while (end < n && nl.wall_particle[end] == nl.wall_particle[end - 1]) ++end;
-    starts.push_back(end);
-  }
-  const std::size_t pieces = starts.size() - 1;
+  // The pieces: runs of candidates cut where a particle's candidates end (the rebuild lists them
+  // together, by slot, then wall), about kWallPieceCandidates to a piece, or one piece of all
+  // of them unless the population is worth threads.
+  const std::size_t piece_size = worth_threads(p.size()) ? block_items(kWallPieceCandidates)
+                                                         : std::numeric_limits<std::size_t>::max();
+  static thread_local std::vector<NeighborList::PairRange> calling_thread_runs;
+  static thread_local std::vector<std::size_t> calling_thread_piece_runs;
+  std::vector<NeighborList::PairRange>& runs = calling_thread_runs;
+  std::vector<std::size_t>& piece_runs = calling_thread_piece_runs;  // each piece's first run
+  runs.clear(), piece_runs.assign(1, 0);
+  std::size_t in_piece = 0;
+  const auto add_runs = [&](std::size_t begin, std::size_t end) {
+    while (begin < end) {
+      std::size_t stop = end;
+      if (end - begin > piece_size - in_piece) {
+        stop = begin + std::max<std::size_t>(piece_size - in_piece, 1);
+        while (stop < end && nl.wall_particle[stop] == nl.wall_particle[stop - 1]) ++stop;
+      }
+      runs.push_back({begin, stop});
+      in_piece += stop - begin;
+      if (in_piece >= piece_size) piece_runs.push_back(runs.size()), in_piece = 0;
+      begin = stop;
+    }
+  };
+  if (ranges)
+    for (const NeighborList::PairRange& r : *ranges) add_runs(r.begin, r.end);
+  else
+    add_runs(0, n);
+  if (piece_runs.back() != runs.size()) piece_runs.push_back(runs.size());
+  const std::size_t pieces = piece_runs.size() - 1;
   static thread_local std::vector<PairTally> calling_thread_tallies;
   std::vector<PairTally>& tallies = calling_thread_tallies;
   if (tallies.size() < pieces) tallies.resize(pieces);
-  parallel_blocks(pieces, [&](std::size_t piece) {
-    PairTally& t = tallies[piece];
+  parallel_blocks(pieces, [&](std::size_t q) {
+    PairTally& t = tallies[q];
     t.impacts.clear(), t.over_limit.clear();
-    wall_contacts(materials, walls, dt, limit, impacts, p, nl, starts[piece], starts[piece + 1], t);
+    t.touching = 0, t.max_ratio = 0.0, t.max_pair = 0;
+    for (std::size_t run = piece_runs[q]; run < piece_runs[q + 1]; ++run)
+      wall_contacts(materials, walls, dt, limit, impacts, p, nl, runs[run].begin, runs[run].end, t);
   });
   // The statistics in candidate order, as one thread gathers them.
   PairTally total;
   total.impacts = std::move(stats.impacts);
   total.over_limit = std::move(stats.walls_over_limit);
-  for (std::size_t piece = 0; piece < pieces; ++piece) add_tally(total, tallies[piece]);
+  for (std::size_t q = 0; q < pieces; ++q) add_tally(total, tallies[q]);
   stats.impacts = std::move(total.impacts);
   stats.walls_over_limit = std::move(total.over_limit);
   stats.touching_walls = total.touching;

@@ -65,9 +65,11 @@ void compute_pair_forces(ContactModel model, const MaterialTable& materials, con
                          double dt_s, double penetration_limit, ParticleStore& particles,
                          NeighborList& neighbors, ContactStepStats& stats);
 
+// The wall candidates of `ranges` only, when given (multi-rate's wall riders step on their own).
 void compute_wall_forces(const MaterialTable& materials, const std::vector<Wall>& walls,
                          double dt_s, double penetration_limit, ParticleStore& particles,
-                         NeighborList& neighbors, ContactStepStats& stats);
+                         NeighborList& neighbors, ContactStepStats& stats,
+                         const std::vector<NeighborList::PairRange>* ranges = nullptr);
 
 // Elastic energy stored in the touching contacts: Σ (2/5) kn δ^{5/2} + ½ kt δ^{1/2} |ξ|².
 double contact_elastic_energy_j(ContactModel model, const MaterialTable& materials,

@@ -21,42 +21,55 @@ double hertz_contact_time_s(double m_eff, double k, double v) {
   return 2.0 * integral * max_overlap / v;
 }
 
+WallStiffness stiffest_wall_stiffness(const MaterialTable& materials,
+                                      const std::vector<Wall>& walls) {
+  WallStiffness w;
+  const int stiffest = stiffest_wall(materials, walls);
+  if (stiffest >= 0)
+    w.compliance =
+        materials.wall_pair(walls[std::size_t(stiffest)].pair_table, 0).wall_normal_compliance;
+  // A concave wall holds a sphere in a stiffer elliptic contact (contact/curved_contact.h): the
+  // most concave one, at the stiffest wall's compliance, bounds them all.
+  for (const Wall& wall : walls)
+    if (wall.surface.kind == SurfaceKind::CylinderInside || wall.surface.kind == SurfaceKind::Tube)
+      w.most_concave_per_m = std::min(w.most_concave_per_m, -1.0 / wall.surface.radius_m);
+  return w;
+}
+
+ParticleStepTimes particle_step_times(const ParticleStore& p, std::size_t i,
+                                      const MaterialTable& materials, const WallStiffness& wall,
+                                      double speed, bool at_real_stiffness) {
+  const MaterialConstants& m = materials.material(p.material[i]);
+  const double r = p.radius_m[i];
+  ParticleStepTimes t;
+  const double s = at_real_stiffness ? 1.0 : m.normal_compliance / p.normal_compliance[i];
+  t.rayleigh_s = rayleigh_time_s(r, s * m.youngs_modulus_pa, m.poisson_ratio, m.density_kg_per_m3);
+  const double compliance = at_real_stiffness ? m.normal_compliance : p.normal_compliance[i];
+  // Against an equal particle: E* = 1/(2c), R* = r/2, m* = m/2.
+  const double k_pair = 4.0 / 3.0 / (2.0 * compliance) * std::sqrt(0.5 * r);
+  t.pair_contact_s = hertz_contact_time_s(0.5 * p.mass_kg[i], k_pair, speed);
+  if (wall.compliance >= 0.0) {
+    const double k_wall = 4.0 / 3.0 / (compliance + wall.compliance) *
+                          std::sqrt(equivalent_contact_radius_m(r, wall.most_concave_per_m));
+    t.wall_contact_s = hertz_contact_time_s(p.mass_kg[i], k_wall, speed);
+  }
+  return t;
+}
+
 TimeStepBounds time_step_bounds(const ParticleStore& p, const MaterialTable& materials,
                                 const std::vector<Wall>& walls, double speed,
                                 bool at_real_stiffness) {
   TimeStepBounds b;
-  const int stiffest = stiffest_wall(materials, walls);
-  const double wall_compliance =
-      stiffest < 0
-          ? -1.0
-          : materials.wall_pair(walls[std::size_t(stiffest)].pair_table, 0).wall_normal_compliance;
-  // A concave wall holds a sphere in a stiffer elliptic contact (contact/curved_contact.h): the
-  // most concave one, at the stiffest wall's compliance, bounds them all.
-  double most_concave_per_m = 0.0;
-  for (const Wall& w : walls)
-    if (w.surface.kind == SurfaceKind::CylinderInside || w.surface.kind == SurfaceKind::Tube)
-      most_concave_per_m = std::min(most_concave_per_m, -1.0 / w.surface.radius_m);
+  const WallStiffness wall = stiffest_wall_stiffness(materials, walls);
   for (std::size_t i = 0; i < p.size(); ++i) {
-    const MaterialConstants& m = materials.material(p.material[i]);
-    const double r = p.radius_m[i];
-    b.smallest_diameter_m = std::min(b.smallest_diameter_m, 2.0 * r);
-    const double s = at_real_stiffness ? 1.0 : m.normal_compliance / p.normal_compliance[i];
-    const double t_r =
-        rayleigh_time_s(r, s * m.youngs_modulus_pa, m.poisson_ratio, m.density_kg_per_m3);
-    if (t_r < b.rayleigh_s) b.rayleigh_s = t_r, b.rayleigh_particle = p.id[i];
-    const double compliance = at_real_stiffness ? m.normal_compliance : p.normal_compliance[i];
-    // Against an equal particle: E* = 1/(2c), R* = r/2, m* = m/2.
-    const double k_pair = 4.0 / 3.0 / (2.0 * compliance) * std::sqrt(0.5 * r);
-    const double t_pair = hertz_contact_time_s(0.5 * p.mass_kg[i], k_pair, speed);
-    if (t_pair < b.contact_s)
-      b.contact_s = t_pair, b.contact_particle = p.id[i], b.contact_with_wall = false;
-    if (wall_compliance >= 0.0) {
-      const double k_wall = 4.0 / 3.0 / (compliance + wall_compliance) *
-                            std::sqrt(equivalent_contact_radius_m(r, most_concave_per_m));
-      const double t_wall = hertz_contact_time_s(p.mass_kg[i], k_wall, speed);
-      if (t_wall < b.contact_s)
-        b.contact_s = t_wall, b.contact_particle = p.id[i], b.contact_with_wall = true;
-    }
+    b.smallest_diameter_m = std::min(b.smallest_diameter_m, 2.0 * p.radius_m[i]);
+    const ParticleStepTimes t =
+        particle_step_times(p, i, materials, wall, speed, at_real_stiffness);
+    if (t.rayleigh_s < b.rayleigh_s) b.rayleigh_s = t.rayleigh_s, b.rayleigh_particle = p.id[i];
+    if (t.pair_contact_s < b.contact_s)
+      b.contact_s = t.pair_contact_s, b.contact_particle = p.id[i], b.contact_with_wall = false;
+    if (t.wall_contact_s < b.contact_s)
+      b.contact_s = t.wall_contact_s, b.contact_particle = p.id[i], b.contact_with_wall = true;
   }
   return b;
 }

@@ -42,6 +42,26 @@ struct TimeStepBounds {
   double smallest_diameter_m = 1e300;  // the travel bound's d
 };
 
+// The stiffest wall's normal compliance (−1: no wall) and the most concave wall's curvature
+// (≤ 0), which together bound every wall contact's stiffness.
+struct WallStiffness {
+  double compliance = -1.0;
+  double most_concave_per_m = 0.0;
+};
+WallStiffness stiffest_wall_stiffness(const MaterialTable& materials,
+                                      const std::vector<Wall>& walls);
+
+// One particle's own time scales: its Rayleigh time and its Hertz contact times at `speed`
+// against an equal particle and against the stiffest, most concave wall (1e300 without walls).
+struct ParticleStepTimes {
+  double rayleigh_s = 1e300;
+  double pair_contact_s = 1e300;
+  double wall_contact_s = 1e300;
+};
+ParticleStepTimes particle_step_times(const ParticleStore& p, std::size_t i,
+                                      const MaterialTable& materials, const WallStiffness& wall,
+                                      double speed, bool at_real_stiffness = false);
+
 // Bounds over all particles. Each particle's reduced-stiffness scale is read from its compliance
 // (s = c_material / c_particle); `at_real_stiffness` ignores it, for the time-step gain.
 TimeStepBounds time_step_bounds(const ParticleStore& p, const MaterialTable& materials,

@@ -142,6 +142,9 @@ struct TimeConfig {
   // Particles in free flight (nothing in their neighbour list) take a long step of their own
   // (sim/multi_rate.h) instead of every contact step.
   bool multi_rate = false;
+  // With multi_rate: particles whose only candidates are walls step at the step their own size
+  // and stiffness allow, in powers of two of the run's step (sim/multi_rate.h).
+  bool wall_riders = false;
 };
 
 enum class ContactModel {

@@ -383,6 +383,11 @@ TimeConfig parse_time(JsonObjectReader& top, InputErrors& errors) {
   t.safety_factor = r.number("safety_factor", 0.2, NumberRange::open_closed(0.0, 1.0));
   t.steps_per_contact = r.number("steps_per_contact", 20.0, NumberRange::closed(4.0, 1e4));
   t.multi_rate = r.boolean("multi_rate", false);
+  t.wall_riders = r.boolean("wall_riders", false);
+  if (t.wall_riders && !t.multi_rate)
+    errors.push_back({"/time/wall_riders", "true",
+                      "wall riders are a kind of multi-rate stepping: set /time/multi_rate true "
+                      "as well, or remove /time/wall_riders"});
   r.finish();
   return t;
 }

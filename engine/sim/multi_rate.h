@@ -21,6 +21,20 @@
 // So the rebuild comes no later than it would have, and nothing it would have found is missed.
 // A run where no particle is in free flight takes the single-rate path unchanged.
 //
+// With /time/wall_riders, a particle whose list holds wall candidates but no candidate pair
+// ("rides the walls") steps at a step of its own as well: its only contacts until the next
+// rebuild are walls, whose force depends on nothing but its own state, so its contact step is
+// the one its own size and stiffness set, not the smallest particle's. It is put on level L, a
+// step of 2^L dt, the largest with 2^L dt at most the step the run's own rule gives for it (its
+// Rayleigh time, its Hertz contact time with a wall at its own impact speed bound, its
+// penetration travel: dem/time_step.h) and 2^L ≤ max_wait_steps. Each level is caught up every 2^L
+// steps, and with the particles in free flight, in one velocity-Verlet step of its own length, its
+// wall contacts computed at that step (their springs' history at that step too). Its motion bound
+// is the free-flight one, which holds for any single Verlet step up to max_wait_steps long. Its
+// wall impacts and crushes go to the breakage by particle id (their slots may move before the next
+// population pass), and every rider is caught up before a breakage moves slots (their wall
+// candidates are listed by slot). Level 0 steps with the contacts.
+//
 // The particles that step keep their fluid force too (in gas scenes): it is evaluated at most
 // every max_wait_steps steps and on the step after a CFD step (which changed the gas), and in
 // between the step applies the kept force, so the drag and the DEM-cell lookup follow the
@@ -32,6 +46,8 @@
 #include <vector>
 
 #include "checkpoint/archive.h"
+#include "dem/time_step.h"
+#include "particles/materials.h"
 #include "particles/particle_store.h"
 #include "search/neighbor_list.h"
 
@@ -42,6 +58,34 @@ namespace millsim {
 // particle; a rebuild (about every 80 steps there) catches every particle up anyway.
 inline constexpr std::int64_t kMaxFreeFlightSteps = 64;
 inline constexpr double kMaxWaitPerRelaxationTime = 0.05;
+
+// The deepest wall-rider level: a step of 2^6 = kMaxFreeFlightSteps steps.
+inline constexpr int kMaxRiderLevel = 6;
+
+// ParticleStore::free_flight holds, per particle since the last rebuild: kSteps (takes the contact
+// step), kInFreeFlight, or kRidesWalls + L for a wall rider on level L ≥ 1.
+inline constexpr std::uint8_t kSteps = 0, kInFreeFlight = 1, kRidesWalls = 1;
+
+// What a wall rider's level is chosen from (a run with /time/wall_riders).
+struct RiderRule {
+  WallStiffness wall;
+  double impact_speed_m_per_s = 0.0;
+  double safety_factor = 0.0;      // of the Rayleigh time
+  double steps_per_contact = 0.0;  // per Hertz contact time
+  double penetration_limit = 0.0;  // travel per step, in diameters, at the impact speed
+  double run_bound_s = 0.0;  // the same bound over the run's smallest particles, or dt if larger
+  int max_level = 0;         // log2(max_wait_steps), at most kMaxRiderLevel
+};
+
+// The step wall rider i allows: min(safety t_R, t_c / steps per contact, limit · d / V), the
+// run's own rule (dem/time_step.h) for its size and stiffness, with t_c its Hertz contact time
+// against the stiffest, most concave wall at V, its own impact speed bound: twice its speed, at
+// least 1 m/s and at most the run's impact speed.
+double own_step_bound_s(const ParticleStore& p, std::size_t i, const MaterialTable& materials,
+                        const RiderRule& rule);
+// Its level: the largest L ≤ rule.max_level with 2^L ≤ own_step_bound_s / rule.run_bound_s.
+int rider_level(const ParticleStore& p, std::size_t i, const MaterialTable& materials,
+                const RiderRule& rule);
 
 // The longest wait for a step `dt` and the smallest particle's relaxation time (1e300 without
 // gas): at least one step, at most kMaxFreeFlightSteps.
@@ -54,6 +98,39 @@ struct MultiRateStats {
   double long_steps = 0.0;              // particle catch-ups (each one long step)
   std::uint64_t catch_ups = 0;          // times the waiting particles were brought up to date
   std::uint64_t full_steps = 0;         // steps turned into full ones by the motion bound
+  double rider_steps = 0.0;             // wall riders' own steps (particle catch-ups)
+  double rider_waited_steps = 0.0;      // DEM steps the wall riders did not take
+  std::uint64_t rider_catch_ups = 0;    // level catch-ups
+};
+
+// A wall rider's impact (onset of a wall contact) or crush (past the penetration limit), kept by
+// id until the breakage takes it.
+struct RiderEvent {
+  std::uint64_t id = 0;
+  std::uint32_t wall = 0;
+  bool crushed = false;
+  double speed_m_per_s = 0.0;
+  double tangential_speed_m_per_s = 0.0;
+  std::int64_t step = 0;  // when it was recorded
+};
+
+// The wall riders of one level.
+struct RiderLevel {
+  std::vector<std::uint32_t> slots;                  // ascending
+  std::vector<NeighborList::PairRange> wall_ranges;  // their wall candidates
+  std::int64_t since_step = 0;                       // the step they are complete at
+  std::vector<double> block_speed2;                  // their speed bounds, as the waiting ones'
+  double max_speed2 = 0.0;
+  std::uint64_t touching_walls = 0;  // their wall contacts at their last own step
+  // When their fluid force was last evaluated (they keep it in between, as the stepping ones
+  // do); −1: at their next step.
+  std::int64_t fluid_refreshed_step = -1;
+
+  template <class A>
+  void checkpoint_io(A& a) {
+    io_all(a, slots, wall_ranges, since_step, block_speed2, max_speed2, touching_walls,
+           fluid_refreshed_step);
+  }
 };
 
 struct MultiRate {
@@ -64,28 +141,52 @@ struct MultiRate {
   std::int64_t max_wait_steps = kMaxFreeFlightSteps;
   std::int64_t fluid_refreshed_step = 0;  // when the stepping particles' fluid force was evaluated
   bool fluid_refresh_due = true;          // a CFD step changed the gas since
+  std::int64_t gas_changed_step = -1;     // the step of the last CFD step
   // Per slot block (dem/integrator.h): the waiting particles' speed bound, squared.
   std::vector<double> waiting_block_speed2;
   double waiting_max_speed2 = 0.0;
   bool speeds_valid = false;
   std::vector<double> block_speed2;  // work array of the step's kick-drift
   MultiRateStats stats;
+  // Wall riders (/time/wall_riders): levels 1..kMaxRiderLevel at riders[L - 1], the stepping
+  // particles' wall candidates, and the riders' events not yet given to the breakage.
+  bool riders_on = false;
+  std::vector<RiderLevel> riders;
+  std::vector<NeighborList::PairRange> stepping_wall_ranges;
+  bool rider_ranges_valid = false;  // the wall ranges match the slots (since the last rebuild)
+  std::vector<RiderEvent> rider_events;
+  // The free-flight particles' own speed bounds (waiting_block_speed2 is theirs and the riders').
+  std::vector<double> free_block_speed2;
+  double free_max_speed2 = 0.0;
+
+  bool any_riders() const {
+    for (const RiderLevel& level : riders)
+      if (!level.slots.empty()) return true;
+    return false;
+  }
 
   template <class A>
   void checkpoint_io(A& a) {
     io_all(a, stepping, waiting, lists_version, marked_rebuilds, waiting_since_step, max_wait_steps,
            fluid_refreshed_step, fluid_refresh_due);
     io_all(a, waiting_block_speed2, waiting_max_speed2, speeds_valid, stats);
+    io_all(a, riders_on, riders, stepping_wall_ranges, rider_ranges_valid, rider_events,
+           free_block_speed2, free_max_speed2, gas_changed_step);
   }
 };
 
 // After a rebuild, with every particle complete: flags each particle in free flight (no
-// candidate pair, no wall candidate) and lists the two sets.
-void mark_free_flight(ParticleStore& p, const NeighborList& neighbors, MultiRate& m);
-// Re-lists the two sets from the flags when slots moved (a breakage or an outlet removed some).
-void relist_if_moved(const ParticleStore& p, MultiRate& m);
-// The waiting particles' speed bounds per slot block, from their current state.
+// candidate pair, no wall candidate) and, with a rider rule, each wall rider's level; lists the
+// sets.
+void mark_free_flight(ParticleStore& p, const NeighborList& neighbors, MultiRate& m,
+                      const RiderRule* riders = nullptr, const MaterialTable* materials = nullptr);
+// Re-lists the sets from the flags when slots moved (a breakage or an outlet removed some).
+void relist_if_moved(const ParticleStore& p, const NeighborList& neighbors, MultiRate& m);
+// The waiting particles' (free flight and riders) speed bounds per slot block, from their
+// current state.
 void bound_waiting_speeds(const ParticleStore& p, double dt, MultiRate& m);
+// The same for one rider level only (after its catch-up), the others' bounds kept.
+void bound_rider_speeds(const ParticleStore& p, double dt, int level, MultiRate& m);
 
 // kick_drift_listed (dem/integrator.h) for particles that keep their fluid force: each one's
 // next force starts from gravity plus the kept force, and the kept exchange's impulse over the

@@ -1093,6 +1093,15 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
                        {"kept_fluid_force_steps", mr->stats.held_fluid_steps},
                        {"fluid_refreshes", mr->stats.fluid_refreshes},
                        {"max_wait_steps", mr->max_wait_steps}};
+    if (mr->riders_on) {
+      // Particles on walls alone, each on the level of its own step (2^level run steps).
+      nlohmann::json by_level = nlohmann::json::array();
+      for (const RiderLevel& level : mr->riders) by_level.push_back(level.slots.size());
+      s["multi_rate"]["wall_riders"] = {{"own_steps", mr->stats.rider_steps},
+                                        {"steps_not_taken", mr->stats.rider_waited_steps},
+                                        {"level_catch_ups", mr->stats.rider_catch_ups},
+                                        {"riders_by_level_at_end", by_level}};
+    }
   }
   s["simulated_time_s"] = sim.time_s();
   s["wall_time_s"] = wall_s;  // with the gas spin-up, when this attempt did it
@@ -1118,8 +1127,12 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
     phases[std::string(kPhaseNames[k])] = sim.profile().seconds[k];
   s["phase_seconds"] = phases;
   const ContactStepStats& c = sim.contact_stats();
+  // The last step's wall contacts, and the wall riders' at their last own steps.
+  std::uint64_t rider_walls = 0;
+  if (const MultiRate* mr = sim.multi_rate())
+    for (const RiderLevel& level : mr->riders) rider_walls += level.touching_walls;
   s["contacts"] = {{"pairs", c.touching_pairs},
-                   {"walls", c.touching_walls},
+                   {"walls", c.touching_walls + rider_walls},
                    {"max_overlap_ratio", c.max_overlap_ratio},
                    {"penetration_limiter_events", sim.penetration_limiter_events()}};
   const NeighborStats& n = sim.neighbors().stats();

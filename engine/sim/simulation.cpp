@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include "contact/penetration_limit.h"
 #include "contact/reduced_stiffness.h"
@@ -260,6 +261,24 @@ Simulation::Simulation(const SceneConfig& scene, SimulationStart start)
   }
   choose_time_step(scene, later, errors);
   multi_rate_.max_wait_steps = max_wait_steps(time_.step_s, drag_relaxation_s_);
+  if (multi_rate_on_ && scene.time.wall_riders) {
+    RiderRule rule;
+    rule.wall = stiffest_wall_stiffness(materials_, walls_);
+    rule.impact_speed_m_per_s = time_.impact_speed_m_per_s;
+    rule.safety_factor = scene.time.safety_factor;
+    rule.steps_per_contact = scene.time.steps_per_contact;
+    rule.penetration_limit = contact_.penetration_limit;
+    // The same bound over the run's smallest particles (the step, unless drag or the scene set
+    // a shorter one); a larger fixed step counts instead, so no rider steps past its own bound.
+    const TimeStepBounds& b = time_.bounds;
+    rule.run_bound_s = std::max(
+        time_.step_s, std::min({rule.safety_factor * b.rayleigh_s,
+                                b.contact_s / rule.steps_per_contact, time_.travel_bound_s}));
+    while (rule.max_level < kMaxRiderLevel &&
+           (std::int64_t(2) << rule.max_level) <= multi_rate_.max_wait_steps)
+      ++rule.max_level;
+    rider_rule_ = rule;
+  }
   if (scene.gas) {
     const GasConfig& gas = *scene.gas;
     for (int a = 0; a < 3; ++a) {
@@ -507,7 +526,7 @@ std::string Simulation::describe_worst_overlap(const ContactStepStats& c) const 
                 100.0 * c.max_overlap_ratio, " % of its diameter");
 }
 
-void Simulation::compute_forces() {
+void Simulation::compute_forces(const std::vector<NeighborList::PairRange>* wall_ranges) {
   if (loads_listed_) {
   } else if (forces_prepared_) {
     begin_force_pass(particles_);
@@ -519,7 +538,7 @@ void Simulation::compute_forces() {
   compute_pair_forces(contact_.model, materials_, box_, time_.step_s, contact_.penetration_limit,
                       particles_, neighbors_, contact_stats_);
   compute_wall_forces(materials_, walls_, time_.step_s, contact_.penetration_limit, particles_,
-                      neighbors_, contact_stats_);
+                      neighbors_, contact_stats_, wall_ranges);
 }
 
 void Simulation::compute_all_forces() {
@@ -549,20 +568,26 @@ std::optional<StepFailure> Simulation::advance(std::int64_t steps) {
 void Simulation::prepare_multi_rate() {
   if (multi_rate_.marked_rebuilds != neighbors_.stats().rebuilds) {
     // The list was rebuilt, which happens only with every particle complete.
-    mark_free_flight(particles_, neighbors_, multi_rate_);
+    mark_free_flight(particles_, neighbors_, multi_rate_, rider_rule_ ? &*rider_rule_ : nullptr,
+                     &materials_);
     multi_rate_.waiting_since_step = step_index_;
+    for (RiderLevel& level : multi_rate_.riders) level.since_step = step_index_;
   } else {
-    relist_if_moved(particles_, multi_rate_);
+    relist_if_moved(particles_, neighbors_, multi_rate_);
   }
 }
 
 void Simulation::catch_up_free_flight() {
   if (!multi_rate_on_) return;
   MultiRate& m = multi_rate_;
+  if (!m.riders.empty()) {
+    relist_if_moved(particles_, neighbors_, m);
+    for (int level = 1; level <= int(m.riders.size()); ++level) catch_up_riders(level);
+  }
   const std::int64_t waited = step_index_ - m.waiting_since_step;
   if (waited <= 0) return;
   m.waiting_since_step = step_index_;
-  relist_if_moved(particles_, m);
+  relist_if_moved(particles_, neighbors_, m);
   m.speeds_valid = false;
   if (m.waiting.empty()) return;
   const double h = double(waited) * time_.step_s;
@@ -574,6 +599,92 @@ void Simulation::catch_up_free_flight() {
   });
   ++m.stats.catch_ups;
   m.stats.long_steps += double(m.waiting.size());
+}
+
+void Simulation::catch_up_riders(int level) {
+  MultiRate& m = multi_rate_;
+  RiderLevel& l = m.riders[std::size_t(level - 1)];
+  const std::int64_t waited = step_index_ - l.since_step;
+  if (waited <= 0) return;
+  l.since_step = step_index_;
+  if (l.slots.empty()) return;
+  if (!m.rider_ranges_valid)  // slots moved since the rebuild (process_population prevents it)
+    throw std::logic_error("wall riders to catch up after their slots moved, before a rebuild");
+  const double h = double(waited) * time_.step_s;
+  profile_.time(Phase::WallRiders, [&] {
+    static thread_local std::vector<double> scratch_block_speed2;
+    scratch_block_speed2.assign((particles_.size() + kSpeedBlockSlots - 1) / kSpeedBlockSlots, 0.0);
+    // Their fluid force as the stepping particles': kept, evaluated after a CFD step and at
+    // least every max_wait_steps steps.
+    const bool refresh = gas_ && (l.fluid_refreshed_step <= m.gas_changed_step ||
+                                  step_index_ - l.fluid_refreshed_step >= m.max_wait_steps);
+    if (gas_ && !refresh) {
+      double max2 = 0.0;
+      gas_->add_held_impulse(kick_drift_keeping_fluid(particles_, l.slots, h, gravity_m_per_s2_,
+                                                      scratch_block_speed2, max2));
+    } else {
+      kick_drift_listed(particles_, l.slots, h, gravity_m_per_s2_, scratch_block_speed2);
+    }
+    ContactStepStats stats;
+    stats.record_impacts = contact_stats_.record_impacts;
+    compute_wall_forces(materials_, walls_, h, contact_.penetration_limit, particles_, neighbors_,
+                        stats, &l.wall_ranges);
+    if (refresh) {
+      gas_->add_fluid_forces(particles_, l.slots, h);
+      l.fluid_refreshed_step = step_index_;
+    }
+    kick_listed(particles_, l.slots, h);
+    for (const Impact& impact : stats.impacts)
+      m.rider_events.push_back({particles_.id[impact.particle], impact.partner, false,
+                                impact.speed_m_per_s, impact.tangential_speed_m_per_s,
+                                step_index_});
+    for (const std::uint32_t k : stats.walls_over_limit)
+      m.rider_events.push_back({particles_.id[neighbors_.wall_particle[k]],
+                                neighbors_.wall_index[k], true, 0.0, 0.0, step_index_});
+    l.touching_walls = stats.touching_walls;
+    if (stats.max_overlap_ratio > contact_stats_.max_overlap_ratio) {
+      contact_stats_.max_overlap_ratio = stats.max_overlap_ratio;
+      contact_stats_.max_overlap_particle = stats.max_overlap_particle;
+      contact_stats_.max_overlap_partner = 0;
+      contact_stats_.max_overlap_wall = stats.max_overlap_wall;
+    }
+    bound_rider_speeds(particles_, time_.step_s, level, m);
+  });
+  ++m.stats.rider_catch_ups;
+  m.stats.rider_steps += double(l.slots.size());
+  m.stats.rider_waited_steps += double(waited - 1) * double(l.slots.size());
+}
+
+void Simulation::take_rider_events() {
+  MultiRate& m = multi_rate_;
+  if (m.rider_events.empty()) return;
+  // An event recorded before this step: its rider may lag the clock now, so bring everyone up
+  // to date before the breakage reads it (which may record more events, all of this step).
+  bool earlier = false;
+  for (const RiderEvent& e : m.rider_events) earlier = earlier || e.step < step_index_;
+  if (earlier) catch_up_free_flight();
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> slot_of;  // id → slot, for the events
+  for (const RiderEvent& e : m.rider_events) slot_of.push_back({e.id, 0});
+  std::sort(slot_of.begin(), slot_of.end());
+  std::size_t found = 0;
+  for (std::uint32_t i = 0; i < std::uint32_t(particles_.size()) && found < slot_of.size(); ++i) {
+    auto it = std::lower_bound(slot_of.begin(), slot_of.end(),
+                               std::pair<std::uint64_t, std::uint32_t>{particles_.id[i], 0});
+    for (; it != slot_of.end() && it->first == particles_.id[i]; ++it) it->second = i + 1, ++found;
+  }
+  for (const RiderEvent& e : m.rider_events) {
+    const auto it = std::lower_bound(slot_of.begin(), slot_of.end(),
+                                     std::pair<std::uint64_t, std::uint32_t>{e.id, 0});
+    if (it == slot_of.end() || it->first != e.id || it->second == 0) continue;  // left meanwhile
+    const std::uint32_t slot = it->second - 1;
+    if (e.crushed) {
+      if (breakage_) rider_crushed_.push_back(slot);
+    } else {
+      contact_stats_.impacts.push_back(
+          {slot, e.wall, true, e.speed_m_per_s, e.tangential_speed_m_per_s});
+    }
+  }
+  m.rider_events.clear();
 }
 
 std::optional<StepFailure> Simulation::step_multi_rate() {
@@ -612,19 +723,26 @@ std::optional<StepFailure> Simulation::step_multi_rate() {
     catch_up_free_flight();
     profile_.time(Phase::KickDrift, [&] {
       kick_drift_listed(particles_, m.waiting, dt, gravity_m_per_s2_, m.block_speed2);
+      for (RiderLevel& level : m.riders)
+        kick_drift_listed(particles_, level.slots, dt, gravity_m_per_s2_, m.block_speed2);
     });
     ++m.stats.full_steps;
   }
   profile_.time(Phase::Neighbors, [&] { neighbors_.update(particles_, box_, walls_, false); });
-  profile_.time(Phase::Forces, [&] { compute_forces(); });
+  // The riders' wall candidates wait for their own steps, except in a full step.
+  const bool riders_apart = !full && m.any_riders();
+  profile_.time(Phase::Forces,
+                [&] { compute_forces(riders_apart ? &m.stepping_wall_ranges : nullptr); });
   if (gas_)
     profile_.time(Phase::Fluid, [&] {
-      if (full && refresh)
+      if (full && refresh) {
         gas_->add_fluid_forces(particles_, dt, true);
-      else if (full)
+      } else if (full) {
         gas_->add_fluid_forces(particles_, m.waiting, dt);  // the stepping ones keep theirs
-      else if (refresh)
+        for (RiderLevel& level : m.riders) gas_->add_fluid_forces(particles_, level.slots, dt);
+      } else if (refresh) {
         gas_->add_fluid_forces(particles_, m.stepping, dt);
+      }
     });
   particle_steps_ += double(full ? particles_.size() : m.stepping.size());
   if (!full) m.stats.waiting_particle_steps += double(m.waiting.size());
@@ -645,7 +763,15 @@ std::optional<StepFailure> Simulation::step_multi_rate() {
       limiter_events_ += apply_penetration_limiter(contact_stats_, materials_, box_, walls_,
                                                    neighbors_, particles_);
   });
-  if (full) m.waiting_since_step = step_index_, m.speeds_valid = false;
+  if (full) {
+    m.waiting_since_step = step_index_, m.speeds_valid = false;
+    for (RiderLevel& level : m.riders) level.since_step = step_index_, level.touching_walls = 0;
+  } else {
+    for (int level = 1; level <= int(m.riders.size()); ++level)
+      if (step_index_ - m.riders[std::size_t(level - 1)].since_step >= (std::int64_t(1) << level))
+        catch_up_riders(level);
+  }
+  take_rider_events();
   if (impact_spectrum_ && !contact_stats_.impacts.empty()) tally_impacts();
   if (breakage_ || !outlets_.empty() || !feeders_.empty()) process_population();
   if (gas_ && gas_->due(step_index_)) {
@@ -662,7 +788,7 @@ std::optional<StepFailure> Simulation::step_multi_rate() {
 std::optional<StepFailure> Simulation::step_once(bool may_defer) {
   if (multi_rate_on_) {
     prepare_multi_rate();
-    if (!multi_rate_.waiting.empty()) return step_multi_rate();
+    if (!multi_rate_.waiting.empty() || multi_rate_.any_riders()) return step_multi_rate();
   }
   const double dt = time_.step_s;
   double max_speed = 0.0;
@@ -682,6 +808,7 @@ std::optional<StepFailure> Simulation::step_once(bool may_defer) {
   particle_steps_ += double(particles_.size());
   contact_steps_ += contact_stats_.touching_pairs;
   ++step_index_;
+  if (multi_rate_on_) take_rider_events();  // a last catch-up's, before the list rebuilt
   // The force pass's impacts, while their slots are the ones the pass saw.
   if (impact_spectrum_ && !contact_stats_.impacts.empty()) tally_impacts();
   const bool limiter = limiter_due();
@@ -720,6 +847,7 @@ std::optional<StepFailure> Simulation::advance_gas() {
   profile_.time(Phase::Gas,
                 [&] { message = gas_->advance(particles_, time_.step_s, step_index_); });
   multi_rate_.fluid_refresh_due = true;  // kept fluid forces (multi-rate) are stale now
+  multi_rate_.gas_changed_step = step_index_;
   if (message) return StepFailure{step_index_, time_s(), 0, "gas_solver", *message};
   if (dust_ledger_) {
     // The dust rides the gas just solved over the DEM time since it was last carried.
@@ -773,17 +901,24 @@ void Simulation::process_population() {
                   cross_section_m2(store.radius_m[i]));
   };
   const ContactStepStats& c = contact_stats_;
-  if (breakage_ && !(c.impacts.empty() && c.pairs_over_limit.empty() && c.walls_over_limit.empty()))
+  if (breakage_ && !(c.impacts.empty() && c.pairs_over_limit.empty() &&
+                     c.walls_over_limit.empty() && rider_crushed_.empty())) {
+    // The smaller partner of each contact past the penetration limit is crushed; pairs first,
+    // so a particle squeezed by another against a wall counts as crushed by the other.
+    std::vector<CrushedParticle> crushed;
+    for (std::uint32_t k : c.pairs_over_limit) {
+      const std::uint32_t i = neighbors_.pairs.first[k], j = neighbors_.pairs.second[k];
+      crushed.push_back({particles_.radius_m[i] <= particles_.radius_m[j] ? i : j, false});
+    }
+    for (std::uint32_t k : c.walls_over_limit)
+      crushed.push_back({neighbors_.wall_particle[k], true});
+    for (std::uint32_t i : rider_crushed_) crushed.push_back({i, true});
+    // A breakage moves slots, after which the riders' wall candidates (listed by slot) are stale
+    // until the rebuild: the riders are brought up to date first, while they are not.
+    if (multi_rate_on_ && multi_rate_.any_riders() &&
+        breakage_->may_break(c.impacts, crushed, walls_, particles_))
+      for (int level = 1; level <= int(multi_rate_.riders.size()); ++level) catch_up_riders(level);
     profile_.time(Phase::Breakage, [&] {
-      // The smaller partner of each contact past the penetration limit is crushed; pairs first,
-      // so a particle squeezed by another against a wall counts as crushed by the other.
-      std::vector<CrushedParticle> crushed;
-      for (std::uint32_t k : c.pairs_over_limit) {
-        const std::uint32_t i = neighbors_.pairs.first[k], j = neighbors_.pairs.second[k];
-        crushed.push_back({particles_.radius_m[i] <= particles_.radius_m[j] ? i : j, false});
-      }
-      for (std::uint32_t k : c.walls_over_limit)
-        crushed.push_back({neighbors_.wall_particle[k], true});
       breakage_->process(c.impacts, crushed, time_.step_s, time_s(), walls_, box_, particles_,
                          next_id_, newborn, removed, added);
       if (dust_ledger_)
@@ -794,6 +929,8 @@ void Simulation::process_population() {
       contact_stats_.pairs_over_limit.clear();
       contact_stats_.walls_over_limit.clear();
     });
+  }
+  rider_crushed_.clear();
   // Outlets and feeds change the population too, and each change costs a neighbour-list
   // rebuild. They are applied when the list rebuilds anyway (a breakage event, or the motion
   // bound), and at least every kMaxDeferredSteps steps: a particle past an outlet lingers, and

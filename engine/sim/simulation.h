@@ -190,7 +190,8 @@ class Simulation {
  private:
   // `later`: particles the run may create (feeds, the smallest fragment), for the bounds.
   void choose_time_step(const SceneConfig& scene, const ParticleStore& later, InputErrors& errors);
-  void compute_forces();
+  // The force pass; `wall_ranges`: the wall candidates to compute (all when null).
+  void compute_forces(const std::vector<NeighborList::PairRange>* wall_ranges = nullptr);
   // Contact forces, then the fluid forces of a force pass that is not a step's (no impulse).
   void compute_all_forces();
   // Breakage, outlets and feeds at the end of a step; rebuilds the neighbour list when the
@@ -207,8 +208,15 @@ class Simulation {
   std::optional<StepFailure> step_multi_rate();
   // After a rebuild: which particles are in free flight now.
   void prepare_multi_rate();
-  // Brings the particles in free flight up to the current step in one long step.
+  // Brings the particles in free flight and the wall riders up to the current step in one long
+  // step each.
   void catch_up_free_flight();
+  // Brings one wall-rider level up to the current step: one step of its own, its wall contacts
+  // computed at that step.
+  void catch_up_riders(int level);
+  // The wall riders' recorded impacts and crushes into this step's statistics (by their current
+  // slots), with the whole population caught up first if any was recorded before this step.
+  void take_rider_events();
   // After a step's force pass: whether the penetration limiter must act, and whether the
   // stability guard looks at the state.
   bool limiter_due() const;
@@ -267,7 +275,9 @@ class Simulation {
   double drag_relaxation_s_ = 1e300;  // Stokes τ of the smallest particle (gas scenes only)
   bool multi_rate_on_ = false;
   MultiRate multi_rate_;
-  bool start_pending_ = false;  // AfterSpinUp, until finish_start()
+  std::optional<RiderRule> rider_rule_;       // /time/wall_riders
+  std::vector<std::uint32_t> rider_crushed_;  // slots taken from the riders' events this step
+  bool start_pending_ = false;                // AfterSpinUp, until finish_start()
   std::optional<ImpactSpectrum> impact_spectrum_;
   std::optional<DustLedger> dust_ledger_;
   std::optional<DustGrinding> dust_grinding_;

@@ -21,12 +21,13 @@ enum class Phase {
   Output,
   FreeFlight,  // multi-rate stepping: particles in free flight brought up to date
                // (sim/multi_rate.h)
+  WallRiders,  // multi-rate stepping: wall riders' own steps, their wall contacts included
   Count
 };
 
 inline constexpr std::array<std::string_view, std::size_t(Phase::Count)> kPhaseNames = {
-    "kick_drift", "neighbors", "forces", "kick",   "breakage",   "population",
-    "fluid",      "gas",       "health", "output", "free_flight"};
+    "kick_drift", "neighbors", "forces", "kick",   "breakage",    "population",
+    "fluid",      "gas",       "health", "output", "free_flight", "wall_riders"};
 
 struct StepProfile {
   std::array<double, std::size_t(Phase::Count)> seconds{};

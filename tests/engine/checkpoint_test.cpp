@@ -30,6 +30,7 @@ struct Case {
   bool ramped_inlet = false;  // the bed's inlet ramps up through the split (a schedule)
   bool multi_rate = false;    // particles in free flight take long steps (sim/multi_rate.h)
   bool dust_ledger = false;   // a downward gas flow and the dust ledger (dust/dust_ledger.h)
+  bool wall_riders = false;   // particles on walls alone take steps of their own too
 };
 
 // The attrition target under air blown down at 8 m/s, its dust in the ledger, ground by the
@@ -54,12 +55,16 @@ TEST(Checkpoint, RestoredRunContinuesBitForBit) {
                         Case{"attrition_target.json", 3e-4, false, true},
                         Case{"fluidized_bed.json", 0.01, false, true},
                         Case{"spiral_jet_mill_4barg.json", 5e-5, false, true},
-                        Case{"attrition_target.json", 6e-4, false, false, true}}) {
+                        Case{"attrition_target.json", 6e-4, false, false, true},
+                        Case{"attrition_target.json", 3e-4, false, true, false, true},
+                        Case{"attrition_target.json", 6e-4, false, true, true, true}}) {
     SCOPED_TRACE(std::string(c.file) + (c.ramped_inlet ? ", ramped inlet" : "") +
-                 (c.multi_rate ? ", multi-rate" : "") + (c.dust_ledger ? ", dust ledger" : ""));
+                 (c.multi_rate ? ", multi-rate" : "") + (c.dust_ledger ? ", dust ledger" : "") +
+                 (c.wall_riders ? ", wall riders" : ""));
     SceneConfig scene = shipped_case(c.file, c.end_s);
     if (c.dust_ledger) add_gas_and_dust_ledger(scene);
     scene.time.multi_rate = c.multi_rate;
+    scene.time.wall_riders = c.wall_riders;
     if (scene.gas && scene.gas->model == GasModel::Compressible)
       scene.gas->spin_up_s = 0.0;  // the jets start blowing at time 0: the gas changes fast
     if (c.ramped_inlet) {
@@ -102,6 +107,10 @@ TEST(Checkpoint, RestoredRunContinuesBitForBit) {
       expect_identical(unbroken, resumed);
       EXPECT_GT(unbroken.multi_rate()->stats.waiting_particle_steps, 0.0)
           << "the case must have particles in free flight";
+      if (c.wall_riders) {
+        EXPECT_GT(unbroken.multi_rate()->stats.rider_steps, 0.0)
+            << "the case must have particles riding walls on their own step";
+      }
     }
     if (std::string(c.file) == "attrition_target.json") {
       EXPECT_GT(whole.breakage()->stats().events, 0u) << "the case must break something";

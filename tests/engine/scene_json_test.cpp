@@ -45,6 +45,17 @@ TEST(SceneJson, ValidSceneHasNoErrors) {
   EXPECT_FALSE(s.time.step_s.has_value());  // automatic by default
 }
 
+TEST(SceneJson, WallRidersNeedMultiRateStepping) {
+  json doc = valid_scene();
+  doc["time"]["wall_riders"] = true;
+  const InputErrors errors = errors_of(doc);
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_EQ(errors[0].path, "/time/wall_riders");
+  EXPECT_NE(errors[0].allowed.find("/time/multi_rate"), std::string::npos) << errors[0].allowed;
+  doc["time"]["multi_rate"] = true;
+  EXPECT_TRUE(errors_of(doc).empty());
+}
+
 TEST(SceneJson, EveryShippedSceneLoads) {
   // Each scene in cases/ (not the studies) loads without an input error, and builds.
   int scenes = 0;

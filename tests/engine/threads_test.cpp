@@ -296,6 +296,7 @@ struct ThreadCase {
   const char* file;
   double end_s;
   bool multi_rate;
+  bool wall_riders = false;
 };
 
 TEST(Threads, PhysicsIsBitIdenticalOnOneTwoAndThreeThreads) {
@@ -312,8 +313,10 @@ TEST(Threads, PhysicsIsBitIdenticalOnOneTwoAndThreeThreads) {
                               ThreadCase{"fluidized_bed.json", kBedEnd, false},
                               ThreadCase{"fluidized_bed.json", kBedEnd, true},
                               ThreadCase{"spiral_jet_mill.json", 1.5e-5, true},
+                              ThreadCase{"attrition_target.json", 4e-4, true, true},
                               ThreadCase{"spiral_jet_mill_4barg.json", 4e-6, true}}) {
-    SCOPED_TRACE(std::string(c.file) + (c.multi_rate ? ", multi-rate" : ""));
+    SCOPED_TRACE(std::string(c.file) + (c.multi_rate ? ", multi-rate" : "") +
+                 (c.wall_riders ? ", wall riders" : ""));
     SmallBlocks small_blocks;
     // The mill's feed has brought in only a few particles this early: 600 more near its mantle.
     SceneConfig scene = test::shipped_case(c.file, c.end_s, [&](nlohmann::json& doc) {
@@ -326,6 +329,7 @@ TEST(Threads, PhysicsIsBitIdenticalOnOneTwoAndThreeThreads) {
             {"sizes", {{"distribution", "uniform"}, {"min_m", 6e-5}, {"max_m", 1.2e-4}}}}});
     });
     scene.time.multi_rate = c.multi_rate;
+    scene.time.wall_riders = c.wall_riders;
     if (scene.gas) scene.gas->spin_up_s = 0.0;  // the particles meet a gas that changes fast
     Threads one(1);
     Simulation serial(scene);
@@ -368,6 +372,9 @@ TEST(Threads, PhysicsIsBitIdenticalOnOneTwoAndThreeThreads) {
     }
     if (c.multi_rate) {
       EXPECT_GT(serial.multi_rate()->stats.waiting_particle_steps, 0.0);
+    }
+    if (c.wall_riders) {
+      EXPECT_GT(serial.multi_rate()->stats.rider_steps, 0.0);
     }
   }
 }
