@@ -22,9 +22,12 @@ void add_range(std::vector<NeighborList::PairRange>& ranges, std::size_t begin, 
 void list_slots(const ParticleStore& p, const NeighborList& neighbors, bool fresh, MultiRate& m) {
   m.stepping.clear();
   m.waiting.clear();
-  for (RiderLevel& level : m.riders)
-    level.slots.clear(), level.wall_ranges.clear(), level.touching_walls = 0,
-                                                    level.fluid_refreshed_step = -1;
+  for (RiderLevel& level : m.riders) {
+    level.slots.clear();
+    level.wall_ranges.clear();
+    level.touching_walls = 0;
+    level.fluid_refreshed_step = -1;
+  }
   m.stepping_wall_ranges.clear();
   for (std::uint32_t i = 0; i < std::uint32_t(p.size()); ++i) {
     const std::uint8_t flag = p.free_flight[i];
