@@ -11,6 +11,7 @@
 // Reduced stiffness enters through each particle's compliance (scale s lowers E and G by s).
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
@@ -67,6 +68,14 @@ ParticleStepTimes particle_step_times(const ParticleStore& p, std::size_t i,
 TimeStepBounds time_step_bounds(const ParticleStore& p, const MaterialTable& materials,
                                 const std::vector<Wall>& walls, double impact_speed_m_per_s,
                                 bool at_real_stiffness = false);
+
+// The automatic step's contact bounds for one size: min(safety × t_R, t_c / steps per contact,
+// the penetration travel bound).
+inline double contact_step_bound_s(double rayleigh_s, double contact_s, double travel_s,
+                                   double safety_factor, double steps_per_contact) {
+  const double step = std::min(safety_factor * rayleigh_s, contact_s / steps_per_contact);
+  return std::min(step, travel_s);
+}
 
 // The penetration limiter's bound: limit · d_min / V (above).
 inline double penetration_travel_bound_s(const TimeStepBounds& b, double penetration_limit,

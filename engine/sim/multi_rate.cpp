@@ -89,8 +89,9 @@ double own_step_bound_s(const ParticleStore& p, std::size_t i, const MaterialTab
   const double speed =
       std::min(rule.impact_speed_m_per_s, std::max(1.0, 2.0 * norm(p.motion[i].velocity_m_per_s)));
   const ParticleStepTimes t = particle_step_times(p, i, materials, rule.wall, speed);
-  return std::min({rule.safety_factor * t.rayleigh_s, t.wall_contact_s / rule.steps_per_contact,
-                   rule.penetration_limit * 2.0 * p.radius_m[i] / speed});
+  return contact_step_bound_s(t.rayleigh_s, t.wall_contact_s,
+                              rule.penetration_limit * 2.0 * p.radius_m[i] / speed,
+                              rule.safety_factor, rule.steps_per_contact);
 }
 
 int rider_level(const ParticleStore& p, std::size_t i, const MaterialTable& materials,

@@ -271,9 +271,9 @@ Simulation::Simulation(const SceneConfig& scene, SimulationStart start)
     // The same bound over the run's smallest particles (the step, unless drag or the scene set
     // a shorter one); a larger fixed step counts instead, so no rider steps past its own bound.
     const TimeStepBounds& b = time_.bounds;
-    rule.run_bound_s = std::max(
-        time_.step_s, std::min({rule.safety_factor * b.rayleigh_s,
-                                b.contact_s / rule.steps_per_contact, time_.travel_bound_s}));
+    rule.run_bound_s =
+        std::max(time_.step_s, contact_step_bound_s(b.rayleigh_s, b.contact_s, time_.travel_bound_s,
+                                                    rule.safety_factor, rule.steps_per_contact));
     while (rule.max_level < kMaxRiderLevel &&
            (std::int64_t(2) << rule.max_level) <= multi_rate_.max_wait_steps)
       ++rule.max_level;
