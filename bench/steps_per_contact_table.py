@@ -1,0 +1,47 @@
+#!/usr/bin/env python3
+"""The table of bench/steps_per_contact.sh: per run its step, time stepping (the sum of the phase
+seconds, without the output), speed-up against the run of the same seed at the reference value,
+product d10/d50/d90, breakage events by generation, the deepest overlap met (in diameters) and
+the KS distance of its product (outlet + dust, by mass) to the reference value's run of the same
+seed; then the reference value's own seed-to-seed scatter (KS between every two seeds).
+
+    python3 bench/steps_per_contact_table.py OUT_DIR REFERENCE_N
+"""
+import itertools
+import pathlib
+import sys
+
+from multi_rate_table import ks, load_runs
+
+
+def stepping_s(r):
+    phases = r["phase_seconds"]
+    return sum(phases.values()) - phases.get("output", 0.0)
+
+
+def main():
+    out, reference = pathlib.Path(sys.argv[1]), f"spc{sys.argv[2]}"
+    runs = load_runs(out)
+    print("| steps per contact | seed | step ns | time stepping s | speed-up | d10 / d50 / d90 um "
+          "| events by generation | last max overlap / d | limiter events | KS to reference |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    order = lambda kv: (kv[0][1], -float(kv[0][0][3:]))
+    for (name, seed), r in sorted(runs.items(), key=order):
+        ref = runs.get((reference, seed))
+        p = r["outlet_psd"]
+        gens = r["breakage"].get("events_by_generation", [])
+        overlap = r["contacts"].get("max_overlap_ratio", float("nan"))
+        speed_up = stepping_s(ref) / stepping_s(r) if ref else float("nan")
+        print(f"| {name[3:]} | {seed} | {r['time_step_s'] * 1e9:.2f} | {stepping_s(r):.1f} "
+              f"| {speed_up:.2f} | {p['d10_m'] * 1e6:.2f} / {p['d50_m'] * 1e6:.2f} / "
+              f"{p['d90_m'] * 1e6:.2f} | {'/'.join(str(g) for g in gens)} | {overlap:.4f} | {r['contacts'].get('penetration_limiter_events', 0)} "
+              f"| {ks(r, ref) if ref else float('nan'):.4f} |")
+    refs = [r for (name, _), r in runs.items() if name == reference]
+    scatter = [ks(a, b) for a, b in itertools.combinations(refs, 2)]
+    if scatter:
+        print(f"\n{reference[3:]} steps per contact, seed-to-seed KS: "
+              f"{', '.join(f'{x:.4f}' for x in scatter)} (max {max(scatter):.4f})")
+
+
+if __name__ == "__main__":
+    main()
