@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Multi-rate stepping on the shipped spiral jet mill (issue 29), paired in one session: the same
 # 2 ms window (cases/spiral_jet_mill.json) run by a build of the commit before the work (single
-# rate: BASE) and by this build with its shipped setting (multi-rate stepping), and with
+# rate at the default 20 steps per contact, as it shipped: BASE) and by this build with its
+# shipped settings (multi-rate stepping, the case's steps per contact), and with
 # multi-rate stepping and reduced stiffness, each at seeds 7, 8 and 9, two runs at a time on two
 # cores (one per core). Then the table of
 # bench/multi_rate_table.py: time stepping, product PSD, breakage events by generation, and the
@@ -23,6 +24,8 @@ scene = json.load(open("cases/spiral_jet_mill.json"))
 scene["seed"] = int(seed)
 scene["time"].pop("multi_rate", None)
 scene["contact"].pop("reduced_stiffness", None)
+if multi == "0":  # the case as the commit before the work shipped it: 20 steps per contact
+    scene["time"].pop("steps_per_contact", None)
 if multi == "1":
     scene["time"]["multi_rate"] = True
 if reduced == "1":
