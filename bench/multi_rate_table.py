@@ -33,6 +33,15 @@ def load_runs(out):
     return runs
 
 
+def print_seed_scatter(runs, name, label):
+    """The KS distance between every two seeds' runs of variant `name`, with their largest."""
+    same = [r for (variant, _), r in runs.items() if variant == name]
+    scatter = [ks(a, b) for a, b in itertools.combinations(same, 2)]
+    if scatter:
+        print(f"\n{label} seed-to-seed KS: {', '.join(f'{x:.4f}' for x in scatter)} "
+              f"(max {max(scatter):.4f})")
+
+
 def main():
     out = pathlib.Path(sys.argv[1])
     runs = load_runs(out)
@@ -50,11 +59,7 @@ def main():
         print(f"| {name} | {seed} | {t:.1f} | {t_single / t:.2f} | {p['d10_m'] * 1e6:.1f} / "
               f"{p['d50_m'] * 1e6:.1f} / {p['d90_m'] * 1e6:.1f} | {'/'.join(str(g) for g in gens)} "
               f"| {waited:.3f} | {ks(r, single) if single else float('nan'):.4f} |")
-    singles = [r for (name, _), r in runs.items() if name == "single"]
-    scatter = [ks(a, b) for a, b in itertools.combinations(singles, 2)]
-    if scatter:
-        print(f"\nsingle-rate seed-to-seed KS: {', '.join(f'{x:.4f}' for x in scatter)} "
-              f"(max {max(scatter):.4f})")
+    print_seed_scatter(runs, "single", "single-rate")
 
 
 if __name__ == "__main__":

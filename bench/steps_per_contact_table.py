@@ -7,11 +7,10 @@ seed; then the reference value's own seed-to-seed scatter (KS between every two 
 
     python3 bench/steps_per_contact_table.py OUT_DIR REFERENCE_N
 """
-import itertools
 import pathlib
 import sys
 
-from multi_rate_table import ks, load_runs
+from multi_rate_table import ks, load_runs, print_seed_scatter
 
 
 def stepping_s(r):
@@ -36,11 +35,7 @@ def main():
               f"| {speed_up:.2f} | {p['d10_m'] * 1e6:.2f} / {p['d50_m'] * 1e6:.2f} / "
               f"{p['d90_m'] * 1e6:.2f} | {'/'.join(str(g) for g in gens)} | {overlap:.4f} | {r['contacts'].get('penetration_limiter_events', 0)} "
               f"| {ks(r, ref) if ref else float('nan'):.4f} |")
-    refs = [r for (name, _), r in runs.items() if name == reference]
-    scatter = [ks(a, b) for a, b in itertools.combinations(refs, 2)]
-    if scatter:
-        print(f"\n{reference[3:]} steps per contact, seed-to-seed KS: "
-              f"{', '.join(f'{x:.4f}' for x in scatter)} (max {max(scatter):.4f})")
+    print_seed_scatter(runs, reference, f"{reference[3:]} steps per contact,")
 
 
 if __name__ == "__main__":

@@ -176,8 +176,9 @@ INSTANTIATE_TEST_SUITE_P(Restitutions, DampedImpact, testing::Values(0.3, 0.5, 0
 // The automatic step's resolution (/time/steps_per_contact) as an error budget: velocity Verlet
 // with the damper at the predicted velocity is second order, so the rebound's error, averaged
 // over where within a step the contact begins, falls as the step squared. The figure
-// docs/contact-model.md states for the mill cases' 12 steps per contact (e = 0.5: 2.4 % too
-// little rebound, bench/impact_resolution.cpp) is checked against a run at 1 000 steps.
+// docs/contact-model.md's table gives for 12 steps per contact (e = 0.5: 2.5 % too little
+// rebound, bench/impact_resolution.cpp) is checked against a run at 1 000 steps; the mill cases'
+// 8 steps follow from it by the same square.
 TEST(DampedImpact, ReboundErrorFallsAsTheStepSquared) {
   const double e = 0.5, v = 5.0;
   const double t_c =
