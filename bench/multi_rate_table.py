@@ -23,6 +23,12 @@ def ks(a, b):
     return max(abs(x - y) for x, y in zip(fa, fb))
 
 
+def stepping_s(r):
+    """A run's time stepping: the sum of its phase seconds without the output's."""
+    phases = r["phase_seconds"]
+    return sum(phases.values()) - phases.get("output", 0.0)
+
+
 def load_runs(out):
     """Each run directory NAME-sSEED of `out` with a result.json, by (NAME, SEED)."""
     runs = {}
@@ -50,9 +56,8 @@ def main():
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")
     for (name, seed), r in sorted(runs.items()):
         single = runs.get(("single", seed))
-        t = sum(r["phase_seconds"].values()) - r["phase_seconds"].get("output", 0.0)
-        t_single = (sum(single["phase_seconds"].values()) - single["phase_seconds"].get("output", 0.0)
-                    if single else float("nan"))
+        t = stepping_s(r)
+        t_single = stepping_s(single) if single else float("nan")
         p = r["outlet_psd"]
         gens = r["breakage"].get("events_by_generation", [])
         waited = r.get("multi_rate", {}).get("waited_share", 0.0)

@@ -1,21 +1,17 @@
 #!/usr/bin/env python3
 """The table of bench/steps_per_contact.sh: per run its step, time stepping (the sum of the phase
 seconds, without the output), speed-up against the run of the same seed at the reference value,
-product d10/d50/d90, breakage events by generation, the deepest overlap met (in diameters) and
-the KS distance of its product (outlet + dust, by mass) to the reference value's run of the same
-seed; then the reference value's own seed-to-seed scatter (KS between every two seeds).
+product d10/d50/d90, breakage events by generation, the deepest overlap at the last step (in
+diameters), the penetration limiter's events and the KS distance of its product (outlet + dust,
+by mass) to the reference value's run of the same seed; then the reference value's own
+seed-to-seed scatter (KS between every two seeds).
 
     python3 bench/steps_per_contact_table.py OUT_DIR REFERENCE_N
 """
 import pathlib
 import sys
 
-from multi_rate_table import ks, load_runs, print_seed_scatter
-
-
-def stepping_s(r):
-    phases = r["phase_seconds"]
-    return sum(phases.values()) - phases.get("output", 0.0)
+from multi_rate_table import ks, load_runs, print_seed_scatter, stepping_s
 
 
 def main():
@@ -30,11 +26,12 @@ def main():
         p = r["outlet_psd"]
         gens = r["breakage"].get("events_by_generation", [])
         overlap = r["contacts"].get("max_overlap_ratio", float("nan"))
+        limiter = r["contacts"].get("penetration_limiter_events", 0)
         speed_up = stepping_s(ref) / stepping_s(r) if ref else float("nan")
         print(f"| {name[3:]} | {seed} | {r['time_step_s'] * 1e9:.2f} | {stepping_s(r):.1f} "
               f"| {speed_up:.2f} | {p['d10_m'] * 1e6:.2f} / {p['d50_m'] * 1e6:.2f} / "
-              f"{p['d90_m'] * 1e6:.2f} | {'/'.join(str(g) for g in gens)} | {overlap:.4f} | {r['contacts'].get('penetration_limiter_events', 0)} "
-              f"| {ks(r, ref) if ref else float('nan'):.4f} |")
+              f"{p['d90_m'] * 1e6:.2f} | {'/'.join(str(g) for g in gens)} | {overlap:.4f} "
+              f"| {limiter} | {ks(r, ref) if ref else float('nan'):.4f} |")
     print_seed_scatter(runs, reference, f"{reference[3:]} steps per contact,")
 
 

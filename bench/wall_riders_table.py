@@ -10,13 +10,12 @@ own steps and the riders on each level at the end, and the KS distance of its ou
 import pathlib
 import sys
 
-from multi_rate_table import ks, load_runs
+from multi_rate_table import ks, load_runs, stepping_s
 
 
 def times(r):
-    phases = r["phase_seconds"]
-    total = sum(phases.values()) - phases.get("output", 0.0)
-    return total, total - phases.get("gas", 0.0)
+    total = stepping_s(r)
+    return total, total - r["phase_seconds"].get("gas", 0.0)
 
 
 def main():

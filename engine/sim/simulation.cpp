@@ -469,17 +469,17 @@ void Simulation::choose_time_step(const SceneConfig& scene, const ParticleStore&
   const TimeStepBounds& b = time_.bounds;
   time_.stable_bound_s = std::min(b.rayleigh_s, b.contact_s / kMinStepsPerContact);
   time_.travel_bound_s = penetration_travel_bound_s(b, contact_.penetration_limit, v);
-  const double automatic =
-      std::min({scene.time.safety_factor * b.rayleigh_s, b.contact_s / scene.time.steps_per_contact,
-                0.2 * drag_relaxation_s_, time_.travel_bound_s});
+  auto automatic_step_s = [&](const TimeStepBounds& bounds) {
+    return std::min(contact_step_bound_s(bounds.rayleigh_s, bounds.contact_s, time_.travel_bound_s,
+                                         scene.time.safety_factor, scene.time.steps_per_contact),
+                    0.2 * drag_relaxation_s_);
+  };
+  const double automatic = automatic_step_s(b);
   if (reduced_) {
     const TimeStepBounds real =
         tighter(time_step_bounds(particles_, materials_, walls_, v, /*at_real_stiffness=*/true),
                 time_step_bounds(later, materials_, walls_, v, /*at_real_stiffness=*/true));
-    reduced_->time_step_gain =
-        automatic / std::min({scene.time.safety_factor * real.rayleigh_s,
-                              real.contact_s / scene.time.steps_per_contact,
-                              0.2 * drag_relaxation_s_, time_.travel_bound_s});
+    reduced_->time_step_gain = automatic / automatic_step_s(real);
   }
   if (scene.time.step_s) {
     time_.automatic = false;
