@@ -20,8 +20,9 @@
 namespace millsim {
 
 // 2: multi-rate stepping state; 3: the impact spectrum and the breakage event log; 4: the run
-// loop's hold-up history; 5: the mass flows by size class (process/mass_flows.h).
-inline constexpr std::uint32_t kCheckpointFormat = 5;
+// loop's hold-up history; 5: the mass flows by size class (process/mass_flows.h); 6: the
+// neighbour list's turning frame (dem/motion_frame.h).
+inline constexpr std::uint32_t kCheckpointFormat = 6;
 
 struct CheckpointHeader {
   std::string millsim_version;

@@ -181,6 +181,9 @@ struct SearchConfig {
   std::optional<int> subcells_per_axis;  // sub-grid division k (§2.2); absent = automatic
   // Grid levels of edge C0/k^l; absent = automatic, or the paper's 2 when k is given.
   std::optional<int> grid_levels;
+  // Measure the list's motion in a frame turning with the particles where the walls allow it
+  // (search/neighbor_list.h, NeighborSettings::rotating_frame).
+  bool rotating_frame = true;
 };
 
 // How a particle–particle impact maps onto the single-particle (wall) impact the strength

@@ -88,18 +88,59 @@ void NeighborList::mark_newborn(std::vector<Newborn> newborn, double penetration
             [](const Newborn& x, const Newborn& y) { return x.id < y.id; });
 }
 
+std::optional<MotionFrame> common_wall_axis(const std::vector<Wall>& walls) {
+  std::optional<MotionFrame> axis;
+  for (const Wall& w : walls)
+    if (w.surface.kind != SurfaceKind::Plane && !axis)
+      axis = MotionFrame{w.surface.point_m, w.surface.normal};
+  if (!axis) return std::nullopt;
+  // Exactly: a mill's surfaces share one axis point and direction (geometry/mill.cpp).
+  auto parallel = [](const Vec3& u, const Vec3& v) { return norm2(cross(u, v)) == 0.0; };
+  for (const Wall& w : walls) {
+    const Surface& s = w.surface;
+    if (!parallel(s.normal, axis->axis)) return std::nullopt;
+    if (s.kind != SurfaceKind::Plane && !parallel(s.point_m - axis->center_m, axis->axis))
+      return std::nullopt;
+  }
+  return axis;
+}
+
+MotionFrame NeighborList::choose_frame(const ParticleStore& p, const PeriodicBox& box,
+                                       const std::vector<Wall>& walls) const {
+  if (!settings_.rotating_frame || box.any_periodic() || p.size() == 0) return {};
+  const std::optional<MotionFrame> axis = common_wall_axis(walls);
+  if (!axis) return {};
+  // Ω minimising Σ |v − Ω a × r|² over the particles (r their offsets from the axis), and the
+  // largest |r|: the reference points keep their distance from the axis as the frame turns.
+  MotionFrame f = *axis;
+  double moment = 0.0, spread = 0.0, radius2 = 0.0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const Vec3 r = p.position_m[i] - f.center_m;
+    const Vec3 r_perp = r - f.axis * dot(r, f.axis);
+    moment += dot(f.axis, cross(r_perp, p.motion[i].velocity_m_per_s));
+    spread += norm2(r_perp);
+    radius2 = std::max(radius2, norm2(r_perp));
+  }
+  f.omega_rad_per_s = spread > 0.0 && std::isfinite(moment) ? moment / spread : 0.0;
+  f.radius_bound_m = std::sqrt(radius2);
+  return f;
+}
+
 double NeighborList::max_displacement_m(const ParticleStore& p, const PeriodicBox& box) const {
   // Per block of slots on the engine's threads, each block stopping once past skin/2. Below
   // skin/2 the figure is the exact largest displacement on any count; past it only the rebuild
-  // it triggers is used.
+  // it triggers is used. In a turning frame, from where the frame has carried each reference.
   const double limit2 = 0.25 * settings_.skin_m * settings_.skin_m;
+  const MotionFrame& f = frame_;
+  const double t = frame_elapsed_s_;
   const std::size_t block =
       worth_threads(p.size()) ? block_items(16384) : std::max<std::size_t>(1, p.size());
   std::vector<double> block_max2((p.size() + block - 1) / block, 0.0);
   parallel_ranges(p.size(), block, [&](std::size_t begin, std::size_t end, std::size_t b) {
     double max2 = 0.0;
     for (std::size_t i = begin; i < end && max2 <= limit2; ++i)
-      max2 = std::max(max2, norm2(box.minimum_image(p.position_m[i] - reference_position_m_[i])));
+      max2 = std::max(max2, norm2(box.minimum_image(
+                                p.position_m[i] - frame_carried(f, reference_position_m_[i], t))));
     block_max2[b] = max2;
   });
   double max2 = 0.0;
@@ -264,13 +305,18 @@ void NeighborList::sort_pairs(const ParticleStore& p, const PeriodicBox& box) {
 
 void NeighborList::note_motion(const std::vector<double>& block_max_speed_m_per_s,
                                double max_speed_m_per_s, double dt) {
-  motion_bound_m_ += max_speed_m_per_s * dt;
+  // The frame's turn carries each displacement round (|Ω| dt of it) and cuts the arc (the chord):
+  // both zero in the lab frame.
+  const double turn = std::abs(frame_.omega_rad_per_s) * dt;
+  const double chord_m = 0.5 * turn * turn * frame_.radius_bound_m;
+  frame_elapsed_s_ += dt;
+  motion_bound_m_ += max_speed_m_per_s * dt + turn * motion_bound_m_ + chord_m;
   if (block_max_speed_m_per_s.size() != block_bound_m_.size()) {
     block_bounds_valid_ = false;  // the population changed: the next update() rebuilds
     return;
   }
   for (std::size_t a = 0; a < block_bound_m_.size(); ++a)
-    block_bound_m_[a] += block_max_speed_m_per_s[a] * dt;
+    block_bound_m_[a] += block_max_speed_m_per_s[a] * dt + turn * block_bound_m_[a] + chord_m;
 }
 
 void NeighborList::widen_active_bands() {
@@ -561,13 +607,17 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
     }
   newborn_.clear();
 
+  frame_ = choose_frame(p, box, walls);
+  frame_elapsed_s_ = 0.0;
   next_skin_m_.reset();
   if (settings_.automatic_skin && !population_changed && steps_since_rebuild_ > 0) {
     next_skin_m_ = steer_skin(p, double(steps_since_rebuild_) / std::max(previous_skin_m_, 1e-300));
   } else if (settings_.automatic_skin && settings_.step_s > 0.0) {
     // No interval observed for this population: predict it, skin/2 at the largest speed.
     double max_speed2 = 0.0;
-    for (const Motion& m : p.motion) max_speed2 = std::max(max_speed2, norm2(m.velocity_m_per_s));
+    for (std::size_t i = 0; i < p.size(); ++i)
+      max_speed2 =
+          std::max(max_speed2, frame_speed2(frame_, p.position_m[i], p.motion[i].velocity_m_per_s));
     if (max_speed2 > 0.0)
       next_skin_m_ = steer_skin(p, 1.0 / (2.0 * std::sqrt(max_speed2) * settings_.step_s));
   }

@@ -12,6 +12,7 @@
 #include "checkpoint/archive.h"
 #include "contact/contact_law.h"
 #include "contact/walls.h"
+#include "dem/motion_frame.h"
 #include "particles/particle_store.h"
 #include "search/hashed_grid.h"
 #include "search/nbs_grid.h"
@@ -90,6 +91,10 @@ struct NeighborSettings {
   std::optional<int> grid_levels;        // absent = automatic, or 2 when k is given
   double step_s = 0.0;  // DEM time step, to predict a new population's list lifetime; 0 = unknown
   SearchMethod method = SearchMethod::Hashed;
+  // Measure motion in a frame turning with the particles (dem/motion_frame.h) where the walls
+  // allow it: a closed box, and every wall a surface of revolution about one axis or a plane
+  // normal to it (a mill's chamber). Elsewhere, or when false, the lab frame.
+  bool rotating_frame = true;
 };
 
 class NeighborList {
@@ -97,11 +102,12 @@ class NeighborList {
   NeighborList() = default;
   explicit NeighborList(const NeighborSettings& settings) : settings_(settings) {}
 
-  // Adds one step's largest displacement, max_speed·dt, to the running bound. While the bound
-  // stays under skin/2 no particle can have moved that far, and update() skips the O(N) exact
-  // check. Each block of kSpeedBlockSlots slots (dem/integrator.h) keeps a bound of its own from
-  // its own largest speed, so that the gap bands open block by block: a few fast particles then
-  // open them only around themselves.
+  // Adds one step's largest displacement to the running bound: max_speed·dt, the speed relative to
+  // motion_frame() (the kick-drift passes report it so), plus what the frame's turn adds
+  // (dem/motion_frame.h). While the bound stays under skin/2 no particle can have moved that far,
+  // and update() skips the O(N) exact check. Each block of kSpeedBlockSlots slots
+  // (dem/integrator.h) keeps a bound of its own from its own largest speed, so that the gap bands
+  // open block by block: a few fast particles then open them only around themselves.
   void note_motion(const std::vector<double>& block_max_speed_m_per_s, double max_speed_m_per_s,
                    double dt);
 
@@ -131,6 +137,11 @@ class NeighborList {
 
   // True when the cheap motion bound says the next update() may rebuild anyway.
   bool rebuild_likely() const { return motion_bound_m_ > 0.5 * settings_.skin_m; }
+
+  // The frame this list measures motion in, chosen at each rebuild: turning about the walls' common
+  // axis at the particles' mean angular velocity about it (a least-squares fit), or the lab frame.
+  // Speeds reported to note_motion() must be relative to it.
+  const MotionFrame& motion_frame() const { return frame_; }
 
   double skin_m() const { return settings_.skin_m; }
   const NeighborSettings& settings() const { return settings_; }
@@ -180,10 +191,14 @@ class NeighborList {
            active_bands_, block_bound_m_, block_bounds_valid_, partner_block_start_,
            partner_blocks_, band_block_start_, block_active_, blocks_joined_, active_ranges_);
     io_all(a, reorder_spacing_m_, motion_since_reorder_m_, newborn_ghost_ratio_, stats_);
+    io_all(a, frame_, frame_elapsed_s_);
   }
 
  private:
-  // Largest displacement since the last build; stops early once past skin/2.
+  // The frame for the list about to be built from the particles as they are now.
+  MotionFrame choose_frame(const ParticleStore& particles, const PeriodicBox& box,
+                           const std::vector<Wall>& walls) const;
+  // Largest displacement since the last build, in the list's frame; stops early once past skin/2.
   double max_displacement_m(const ParticleStore& particles, const PeriodicBox& box) const;
   void rebuild(const ParticleStore& particles, const PeriodicBox& box,
                const std::vector<Wall>& walls, bool population_changed);
@@ -256,6 +271,12 @@ class NeighborList {
   double newborn_ghost_ratio_ =
       0.15;  // overlap / smaller diameter past which a birth contact is a ghost
   NeighborStats stats_;
+  MotionFrame frame_;             // lab frame until the first rebuild
+  double frame_elapsed_s_ = 0.0;  // time since the last rebuild, over which the frame has turned
 };
+
+// The axis every wall is a surface of revolution about (or, for a plane, normal to), as a frame
+// turning at 0: none when there is no curved wall, or when the walls share no axis exactly.
+std::optional<MotionFrame> common_wall_axis(const std::vector<Wall>& walls);
 
 }  // namespace millsim

@@ -115,6 +115,20 @@ TEST(SceneJson, GridDivisionIsAutoOrInRange) {
   EXPECT_EQ(bad[0].allowed, "expected \"auto\" or an integer in [1, 4]");
 }
 
+TEST(SceneJson, RotatingFrameIsOnUnlessSetFalseAndMustBeABool) {
+  json doc = valid_scene();
+  InputErrors errors;
+  EXPECT_TRUE(parse_scene(doc, ".", errors).search.rotating_frame);
+  doc["search"] = {{"rotating_frame", false}};
+  EXPECT_FALSE(parse_scene(doc, ".", errors).search.rotating_frame);
+  EXPECT_TRUE(errors.empty()) << format_input_errors("scene", errors);
+  doc["search"] = {{"rotating_frame", "yes"}};
+  const InputErrors bad = errors_of(doc);
+  ASSERT_EQ(bad.size(), 1u);
+  EXPECT_EQ(bad[0].path, "/search/rotating_frame");
+  EXPECT_EQ(bad[0].value, "\"yes\"");
+}
+
 TEST(SceneJson, SkinIsAutoOrANonNegativeLength) {
   json doc = valid_scene();
   InputErrors errors;

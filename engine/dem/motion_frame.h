@@ -1,0 +1,54 @@
+// MotionFrame: a frame turning at a constant rate about a fixed axis, in which the neighbour list
+// measures how far particles have moved since its last build (search/neighbor_list.h).
+//
+// Why a frame may turn: a list stays valid while no two particles can have closed the gaps it
+// left out, and a rotation about any axis keeps every distance between particles. In a frame
+// turning at Ω, the displacement of particle i since the build at time 0 is
+// d_i(t) = x_i(t) − c − R(Ω t)(x_i(0) − c), and for any two particles
+// |x_i(t) − x_j(t)| ≥ |x_i(0) − x_j(0)| − |d_i| − |d_j|: the usual rule (rebuild once some
+// |d_i| may exceed half the skin) holds in the turning frame as in the lab. Against a wall the same
+// holds when the wall is a surface of revolution about the frame's axis (or a plane normal to it):
+// its gap to a point does not change as the point turns about the axis. In a spiral jet mill the
+// particles' strand runs round the mantle at tens of m/s; in a frame turning with it they move
+// much less, and a list lasts longer.
+//
+// What a step adds to d_i (velocity Verlet's drift x ← x + v½ dt, the frame turning by Ω dt):
+//   |Δd_i| ≤ dt |v½ − Ω a × (x_i − c)| + |Ω| dt |d_i| + ½ (Ω dt)² ρ_max,
+// x_i before the drift, ρ_max a bound on any particle's distance from the axis; the last two terms
+// come from the frame's turn (the first from carrying the displacement itself round, the second
+// the chord of the arc). The kick-drift passes report the first term's speed (frame_speed2); the
+// list adds the other two (NeighborList::note_motion).
+#pragma once
+
+#include <cmath>
+
+#include "core/vec3.h"
+
+namespace millsim {
+
+struct MotionFrame {
+  Vec3 center_m;                 // a point of the axis
+  Vec3 axis{0.0, 0.0, 1.0};      // unit
+  double omega_rad_per_s = 0.0;  // 0: the lab frame
+  double radius_bound_m = 0.0;   // no particle lies farther from the axis (the chord term)
+};
+
+// Velocity relative to the frame of a particle at x moving at v: v − Ω a × (x − c). In the lab
+// frame (Ω = 0) exactly v.
+inline Vec3 frame_velocity(const MotionFrame& f, const Vec3& x_m, const Vec3& v_m_per_s) {
+  return v_m_per_s - cross(f.axis, x_m - f.center_m) * f.omega_rad_per_s;
+}
+inline double frame_speed2(const MotionFrame& f, const Vec3& x_m, const Vec3& v_m_per_s) {
+  return norm2(frame_velocity(f, x_m, v_m_per_s));
+}
+
+// Where the frame has carried the point x0 after time t: c + R(Ω t)(x0 − c) (Rodrigues).
+inline Vec3 frame_carried(const MotionFrame& f, const Vec3& x0_m, double t_s) {
+  const double angle = f.omega_rad_per_s * t_s;
+  if (angle == 0.0) return x0_m;
+  const Vec3 r = x0_m - f.center_m;
+  const double c = std::cos(angle), s = std::sin(angle);
+  return f.center_m + r * c + cross(f.axis, r) * s + f.axis * (dot(f.axis, r) * (1.0 - c));
+}
+
+}  // namespace millsim
