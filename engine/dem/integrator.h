@@ -72,13 +72,14 @@ inline double kick_drift(ParticleStore& p, double dt, const Vec3& gravity,
   Motion* motion = p.motion.data();
   const Load* load = p.load.data();
   Load* previous_load = p.previous_load.data();
+  const FrameSpeed frame_speed(frame);
   return kick_in_blocks(p.size(), block_max_speed_m_per_s, [&](std::size_t i) {
     const Motion m = motion[i];
     const Load l = load[i];
     previous_load[i] = {gravity * p.mass_kg[i], {}};
     const Vec3 dv = l.force_n * (half * p.inv_mass_per_kg[i]);
     const Vec3 v_half = m.velocity_m_per_s + dv;
-    const double speed2 = frame_speed2(frame, x[i], v_half);
+    const double speed2 = frame_speed.speed2(x[i], v_half);
     x[i] += v_half * dt;
     motion[i] = {v_half + dv,
                  m.angular_velocity_rad_per_s + l.torque_n_m * (dt * p.inv_inertia_per_kg_m2[i])};
@@ -116,6 +117,7 @@ inline double kick_then_kick_drift(ParticleStore& p, double dt, const Vec3& grav
   Motion* motion = p.motion.data();
   const Load* load = p.load.data();
   Load* previous_load = p.previous_load.data();
+  const FrameSpeed frame_speed(frame);
   return kick_in_blocks(p.size(), block_max_speed_m_per_s, [&](std::size_t i) {
     const Motion m = motion[i];
     const Load l = load[i], l_old = previous_load[i];
@@ -126,7 +128,7 @@ inline double kick_then_kick_drift(ParticleStore& p, double dt, const Vec3& grav
                        (l.torque_n_m - l_old.torque_n_m) * (half * p.inv_inertia_per_kg_m2[i]);
     const Vec3 dv = l.force_n * half_inv_mass;
     const Vec3 v_half = v_end + dv;
-    const double speed2 = frame_speed2(frame, x[i], v_half);
+    const double speed2 = frame_speed.speed2(x[i], v_half);
     x[i] += v_half * dt;
     motion[i] = {v_half + dv, w_end + l.torque_n_m * (dt * p.inv_inertia_per_kg_m2[i])};
     return speed2;
@@ -219,6 +221,7 @@ double kick_drift_listed(ParticleStore& p, const std::vector<std::uint32_t>& slo
   Motion* motion = p.motion.data();
   Load* load = p.load.data();
   Load* previous_load = p.previous_load.data();
+  const FrameSpeed frame_speed(frame);
   auto kick_drift_one = [&](std::uint32_t i, Vec3& sum) {
     const Motion m = motion[i];
     const Load l = load[i];
@@ -226,7 +229,7 @@ double kick_drift_listed(ParticleStore& p, const std::vector<std::uint32_t>& slo
     load[i] = next_load(i, sum);
     const Vec3 dv = l.force_n * (half * p.inv_mass_per_kg[i]);
     const Vec3 v_half = m.velocity_m_per_s + dv;
-    const double speed2 = frame_speed2(frame, x[i], v_half);
+    const double speed2 = frame_speed.speed2(x[i], v_half);
     x[i] += v_half * dt;
     motion[i] = {v_half + dv,
                  m.angular_velocity_rad_per_s + l.torque_n_m * (dt * p.inv_inertia_per_kg_m2[i])};

@@ -42,6 +42,25 @@ inline double frame_speed2(const MotionFrame& f, const Vec3& x_m, const Vec3& v_
   return norm2(frame_velocity(f, x_m, v_m_per_s));
 }
 
+// The frame as the kick-drift passes read it, once per pass: its angular velocity vector w = Ω a
+// and w × c held by value (read through a reference, the frame's fields were reloaded at every
+// particle, since the pass's stores might alias them: the mill's kick-drift took 25 % longer),
+// and whether it turns at all (in the lab frame a pass computes |v|² alone, the same bits as
+// frame_speed2).
+struct FrameSpeed {
+  Vec3 w_rad_per_s, w_cross_center_m_per_s;
+  bool turning;
+  explicit FrameSpeed(const MotionFrame& f)
+      : w_rad_per_s(f.axis * f.omega_rad_per_s),
+        w_cross_center_m_per_s(cross(w_rad_per_s, f.center_m)),
+        turning(f.omega_rad_per_s != 0.0) {}
+  // |v − w × (x − c)|², w × (x − c) taken as w × x − w × c.
+  double speed2(const Vec3& x_m, const Vec3& v_m_per_s) const {
+    return turning ? norm2(v_m_per_s - (cross(w_rad_per_s, x_m) - w_cross_center_m_per_s))
+                   : norm2(v_m_per_s);
+  }
+};
+
 // Where the frame has carried the point x0 after time t: c + R(Ω t)(x0 − c) (Rodrigues).
 inline Vec3 frame_carried(const MotionFrame& f, const Vec3& x0_m, double t_s) {
   const double angle = f.omega_rad_per_s * t_s;

@@ -66,10 +66,11 @@ double bound_speeds(const ParticleStore& p, const std::vector<std::uint32_t>& sl
   const double credit_s = 0.5 * double(m.max_wait_steps) * dt;
   const double chord_speed =
       frame.omega_rad_per_s * frame.omega_rad_per_s * credit_s * frame.radius_bound_m;
+  const FrameSpeed frame_speed(frame);
   block_speed2.assign((p.size() + kSpeedBlockSlots - 1) / kSpeedBlockSlots, 0.0);
   return for_listed_speeds(slots, block_speed2, [&](std::uint32_t i, Vec3&) {
     const double speed =
-        norm(frame_velocity(frame, p.position_m[i], p.motion[i].velocity_m_per_s)) +
+        std::sqrt(frame_speed.speed2(p.position_m[i], p.motion[i].velocity_m_per_s)) +
         credit_s * norm(p.load[i].force_n) * p.inv_mass_per_kg[i] + chord_speed;
     return speed * speed;
   });
