@@ -128,6 +128,7 @@ int main(int argc, char** argv) {
   std::optional<double> skin_dmin;
   std::optional<int> subcells;
   std::optional<int> levels;
+  bool skin_by_speed = true;
   for (int k = 2; k < argc; ++k) {
     const std::string a = argv[k];
     if (a == "--steps" && k + 1 < argc)
@@ -144,6 +145,8 @@ int main(int argc, char** argv) {
       k_scan = true;
     else if (a == "--search-scan")
       search_scan = true;
+    else if (a == "--no-skin-by-speed")
+      skin_by_speed = false;
     else if (a == "--checkpoint" && k + 1 < argc)
       checkpoint_dir = argv[++k];
     else if (a == "--threads" && k + 1 < argc)
@@ -155,6 +158,7 @@ int main(int argc, char** argv) {
   }
   try {
     SceneConfig scene = scene_from_particle_file(argv[1], steps);
+    scene.search.skin_by_speed = skin_by_speed;
     if (skin_dmin) {
       double d_min = 1e300;
       for (const ParticleSpec& p : read_particle_file(argv[1]).particles)

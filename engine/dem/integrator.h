@@ -60,26 +60,27 @@ double kick_in_blocks(std::size_t n, std::vector<double>& block_max_speed_m_per_
   return std::sqrt(max_speed2);
 }
 
-// Returns the largest drift speed |v½| of the step relative to `frame` (dem/motion_frame.h, at
-// the position before the drift), which bounds every particle's displacement in that frame, and
-// the largest of each block of kSpeedBlockSlots slots in `block_max_speed_m_per_s`, which bounds
-// that block's (search/neighbor_list.h). Positions are not wrapped here: the neighbour list wraps
+// Returns the largest drift speed |v½| of the step as `report` counts it (dem/motion_frame.h:
+// relative to the list's frame at the position before the drift, scaled per slot), which bounds
+// every particle's displacement in that frame in units of its share of the skin, and the largest
+// of each block of kSpeedBlockSlots slots in `block_max_speed_m_per_s`, which bounds that block's
+// (search/neighbor_list.h). Positions are not wrapped here: the neighbour list wraps
 // them when it rebuilds and keeps each pair's periodic image until then.
 inline double kick_drift(ParticleStore& p, double dt, const Vec3& gravity,
-                         std::vector<double>& block_max_speed_m_per_s, const MotionFrame& frame) {
+                         std::vector<double>& block_max_speed_m_per_s, const SpeedReport& report) {
   const double half = 0.5 * dt;
   Vec3* x = p.position_m.data();
   Motion* motion = p.motion.data();
   const Load* load = p.load.data();
   Load* previous_load = p.previous_load.data();
-  const FrameSpeed frame_speed(frame);
+  const FrameSpeed frame_speed(report);
   return kick_in_blocks(p.size(), block_max_speed_m_per_s, [&](std::size_t i) {
     const Motion m = motion[i];
     const Load l = load[i];
     previous_load[i] = {gravity * p.mass_kg[i], {}};
     const Vec3 dv = l.force_n * (half * p.inv_mass_per_kg[i]);
     const Vec3 v_half = m.velocity_m_per_s + dv;
-    const double speed2 = frame_speed.speed2(x[i], v_half);
+    const double speed2 = frame_speed.speed2(i, x[i], v_half);
     x[i] += v_half * dt;
     motion[i] = {v_half + dv,
                  m.angular_velocity_rad_per_s + l.torque_n_m * (dt * p.inv_inertia_per_kg_m2[i])};
@@ -111,13 +112,13 @@ inline void kick(ParticleStore& p, double dt) {
 // longer. tests/engine/determinism_test.cpp holds the two paths to the same bits.
 inline double kick_then_kick_drift(ParticleStore& p, double dt, const Vec3& gravity,
                                    std::vector<double>& block_max_speed_m_per_s,
-                                   const MotionFrame& frame) {
+                                   const SpeedReport& report) {
   const double half = 0.5 * dt;
   Vec3* x = p.position_m.data();
   Motion* motion = p.motion.data();
   const Load* load = p.load.data();
   Load* previous_load = p.previous_load.data();
-  const FrameSpeed frame_speed(frame);
+  const FrameSpeed frame_speed(report);
   return kick_in_blocks(p.size(), block_max_speed_m_per_s, [&](std::size_t i) {
     const Motion m = motion[i];
     const Load l = load[i], l_old = previous_load[i];
@@ -128,7 +129,7 @@ inline double kick_then_kick_drift(ParticleStore& p, double dt, const Vec3& grav
                        (l.torque_n_m - l_old.torque_n_m) * (half * p.inv_inertia_per_kg_m2[i]);
     const Vec3 dv = l.force_n * half_inv_mass;
     const Vec3 v_half = v_end + dv;
-    const double speed2 = frame_speed.speed2(x[i], v_half);
+    const double speed2 = frame_speed.speed2(i, x[i], v_half);
     x[i] += v_half * dt;
     motion[i] = {v_half + dv, w_end + l.torque_n_m * (dt * p.inv_inertia_per_kg_m2[i])};
     return speed2;
@@ -208,20 +209,20 @@ double for_listed_speeds(const std::vector<std::uint32_t>& slots,
   return max_speed2;
 }
 
-// Kick-drift of the listed slots by `dt`; returns the largest |v½|² relative to `frame` (as
+// Kick-drift of the listed slots by `dt`; returns the largest |v½|² as `report` counts it (as
 // kick_drift) and raises block_max_speed2[slot / kSpeedBlockSlots] to each particle's. Each
 // particle's next force pass starts from next_load(i, sum) (gravity, plus what the caller keeps
 // applied; `sum` and `piece_sums` as in for_listed_speeds, for a caller that adds something up).
 template <class NextLoad>
 double kick_drift_listed(ParticleStore& p, const std::vector<std::uint32_t>& slots, double dt,
-                         std::vector<double>& block_max_speed2, const MotionFrame& frame,
+                         std::vector<double>& block_max_speed2, const SpeedReport& report,
                          NextLoad&& next_load, std::vector<Vec3>* piece_sums = nullptr) {
   const double half = 0.5 * dt;
   Vec3* x = p.position_m.data();
   Motion* motion = p.motion.data();
   Load* load = p.load.data();
   Load* previous_load = p.previous_load.data();
-  const FrameSpeed frame_speed(frame);
+  const FrameSpeed frame_speed(report);
   auto kick_drift_one = [&](std::uint32_t i, Vec3& sum) {
     const Motion m = motion[i];
     const Load l = load[i];
@@ -229,7 +230,7 @@ double kick_drift_listed(ParticleStore& p, const std::vector<std::uint32_t>& slo
     load[i] = next_load(i, sum);
     const Vec3 dv = l.force_n * (half * p.inv_mass_per_kg[i]);
     const Vec3 v_half = m.velocity_m_per_s + dv;
-    const double speed2 = frame_speed.speed2(x[i], v_half);
+    const double speed2 = frame_speed.speed2(i, x[i], v_half);
     x[i] += v_half * dt;
     motion[i] = {v_half + dv,
                  m.angular_velocity_rad_per_s + l.torque_n_m * (dt * p.inv_inertia_per_kg_m2[i])};
@@ -241,9 +242,9 @@ double kick_drift_listed(ParticleStore& p, const std::vector<std::uint32_t>& slo
 // The same, each next force pass starting from gravity, m·g.
 inline double kick_drift_listed(ParticleStore& p, const std::vector<std::uint32_t>& slots,
                                 double dt, const Vec3& gravity,
-                                std::vector<double>& block_max_speed2, const MotionFrame& frame) {
+                                std::vector<double>& block_max_speed2, const SpeedReport& report) {
   const double* mass = p.mass_kg.data();
-  return kick_drift_listed(p, slots, dt, block_max_speed2, frame, [&](std::uint32_t i, Vec3&) {
+  return kick_drift_listed(p, slots, dt, block_max_speed2, report, [&](std::uint32_t i, Vec3&) {
     return Load{gravity * mass[i], {}};
   });
 }

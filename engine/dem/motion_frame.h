@@ -21,6 +21,7 @@
 #pragma once
 
 #include <cmath>
+#include <cstddef>
 
 #include "core/vec3.h"
 
@@ -42,22 +43,35 @@ inline double frame_speed2(const MotionFrame& f, const Vec3& x_m, const Vec3& v_
   return norm2(frame_velocity(f, x_m, v_m_per_s));
 }
 
-// The frame as the kick-drift passes read it, once per pass: its angular velocity vector w = Ω a
-// and w × c held by value (read through a reference, the frame's fields were reloaded at every
+// What the kick-drift passes report each particle's speed against: the list's frame, and per
+// slot the square of the factor its speed counts with, 1/κ_i² (null: 1 for every slot). A
+// particle whose share of the skin is κ_i times the others' (NeighborList, "skin by speed")
+// reports its speed divided by κ_i, so one bound, in units of the common share, covers all.
+struct SpeedReport {
+  MotionFrame frame;
+  const double* scale2 = nullptr;
+};
+
+// The report as a pass reads it, once per pass: the frame's angular velocity vector w = Ω a and
+// w × c held by value (read through a reference, the frame's fields were reloaded at every
 // particle, since the pass's stores might alias them: the mill's kick-drift took 25 % longer),
-// and whether it turns at all (in the lab frame a pass computes |v|² alone, the same bits as
-// frame_speed2).
+// whether it turns at all, and the scales. In the lab frame without scales a pass computes |v|²
+// alone, the same bits as frame_speed2.
 struct FrameSpeed {
   Vec3 w_rad_per_s, w_cross_center_m_per_s;
   bool turning;
-  explicit FrameSpeed(const MotionFrame& f)
-      : w_rad_per_s(f.axis * f.omega_rad_per_s),
-        w_cross_center_m_per_s(cross(w_rad_per_s, f.center_m)),
-        turning(f.omega_rad_per_s != 0.0) {}
-  // |v − w × (x − c)|², w × (x − c) taken as w × x − w × c.
-  double speed2(const Vec3& x_m, const Vec3& v_m_per_s) const {
-    return turning ? norm2(v_m_per_s - (cross(w_rad_per_s, x_m) - w_cross_center_m_per_s))
-                   : norm2(v_m_per_s);
+  const double* scale2;
+  explicit FrameSpeed(const SpeedReport& r)
+      : w_rad_per_s(r.frame.axis * r.frame.omega_rad_per_s),
+        w_cross_center_m_per_s(cross(w_rad_per_s, r.frame.center_m)),
+        turning(r.frame.omega_rad_per_s != 0.0),
+        scale2(r.scale2) {}
+  // Slot i at x moving at v: |v − w × (x − c)|² (w × (x − c) taken as w × x − w × c), scaled.
+  double speed2(std::size_t i, const Vec3& x_m, const Vec3& v_m_per_s) const {
+    const double s2 = turning
+                          ? norm2(v_m_per_s - (cross(w_rad_per_s, x_m) - w_cross_center_m_per_s))
+                          : norm2(v_m_per_s);
+    return scale2 ? s2 * scale2[i] : s2;
   }
 };
 

@@ -184,6 +184,8 @@ struct SearchConfig {
   // Measure the list's motion in a frame turning with the particles where the walls allow it
   // (search/neighbor_list.h, NeighborSettings::rotating_frame).
   bool rotating_frame = true;
+  // The fastest particles get a larger share of the skin (NeighborSettings::skin_by_speed).
+  bool skin_by_speed = true;
 };
 
 // How a particle–particle impact maps onto the single-particle (wall) impact the strength

@@ -610,6 +610,7 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
                         "the conventional NBS has no sub-grid: leave subcells and levels at "
                         "\"auto\" or 1, or use method \"hashed\""});
     scene.search.rotating_frame = r.boolean("rotating_frame", true);
+    scene.search.skin_by_speed = r.boolean("skin_by_speed", true);
     r.finish();
   }
   if (const json* v = top.child("breakage")) {

@@ -12,6 +12,8 @@ namespace millsim {
 namespace {
 
 constexpr std::size_t kReorderMinParticles = 4096;
+// Skin by speed: the largest share of the skin a particle may have, in units of the common one.
+constexpr double kLargestShare = 4.0;
 
 struct KeyedHistory {
   std::uint64_t a, b;  // stable ids (particle ids, or particle id and wall index)
@@ -126,6 +128,41 @@ MotionFrame NeighborList::choose_frame(const ParticleStore& p, const PeriodicBox
   return f;
 }
 
+void NeighborList::choose_shares(const ParticleStore& p) {
+  speed_scale2_.clear(), search_radius_m_.clear();
+  const std::size_t n = p.size();
+  if (!settings_.skin_by_speed || n < 2 || !(settings_.skin_m > 0.0)) return;
+  // The 99th percentile of the speeds relative to the frame (counted, never timed).
+  std::vector<double>& speed = speed_scratch_;
+  speed.resize(n);
+  for (std::size_t i = 0; i < n; ++i)
+    speed[i] = std::sqrt(frame_speed2(frame_, p.position_m[i], p.motion[i].velocity_m_per_s));
+  std::vector<double>& sorted = sorted_speed_scratch_;
+  sorted = speed;
+  const std::size_t q = n - 1 - n / 100;
+  std::nth_element(sorted.begin(), sorted.begin() + std::ptrdiff_t(q), sorted.end());
+  const double reference = sorted[q];
+  if (!(reference > 0.0)) return;
+  // κ_i = u_i / u_99, at most 4, and no larger than keeps r_i + (κ_i − 1) skin/2 within the
+  // largest radius (the grid's cells stay as they were).
+  const double half_skin = 0.5 * settings_.skin_m;
+  const double r_max = *std::max_element(p.radius_m.begin(), p.radius_m.end());
+  bool any = false;
+  std::vector<double> share(n, 1.0);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (speed[i] <= reference) continue;
+    const double room = 1.0 + (r_max - p.radius_m[i]) / half_skin;
+    share[i] = std::min({speed[i] / reference, kLargestShare, room});
+    any = any || share[i] > 1.0;
+  }
+  if (!any) return;
+  speed_scale2_.resize(n), search_radius_m_.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    speed_scale2_[i] = 1.0 / (share[i] * share[i]);
+    search_radius_m_[i] = p.radius_m[i] + (share[i] - 1.0) * half_skin;
+  }
+}
+
 double NeighborList::max_displacement_m(const ParticleStore& p, const PeriodicBox& box) const {
   // Per block of slots on the engine's threads, each block stopping once past skin/2. Below
   // skin/2 the figure is the exact largest displacement on any count; past it only the rebuild
@@ -133,6 +170,7 @@ double NeighborList::max_displacement_m(const ParticleStore& p, const PeriodicBo
   const double limit2 = 0.25 * settings_.skin_m * settings_.skin_m;
   const MotionFrame& f = frame_;
   const double t = frame_elapsed_s_;
+  const double* scale2 = speed_scale2_.size() == p.size() ? speed_scale2_.data() : nullptr;
   const std::size_t block =
       worth_threads(p.size()) ? block_items(16384) : std::max<std::size_t>(1, p.size());
   std::vector<double> block_max2((p.size() + block - 1) / block, 0.0);
@@ -140,7 +178,8 @@ double NeighborList::max_displacement_m(const ParticleStore& p, const PeriodicBo
     double max2 = 0.0;
     for (std::size_t i = begin; i < end && max2 <= limit2; ++i)
       max2 = std::max(max2, norm2(box.minimum_image(
-                                p.position_m[i] - frame_carried(f, reference_position_m_[i], t))));
+                                p.position_m[i] - frame_carried(f, reference_position_m_[i], t))) *
+                                (scale2 ? scale2[i] : 1.0));
     block_max2[b] = max2;
   });
   double max2 = 0.0;
@@ -207,6 +246,7 @@ void NeighborList::sort_pairs(const ParticleStore& p, const PeriodicBox& box) {
   //    periodic image, gap band and overlap, the bucket's count per band, and the speed blocks its
   //    second partners lie in (other than its own), in order of first appearance.
   const double band_width = 0.25 * settings_.skin_m;
+  const bool shared = speed_scale2_.size() == p.size();
   image_scratch_.resize(count);
   band_scratch_.resize(count);
   bucket_band_pairs_.assign(buckets * kGapBands, 0);
@@ -235,7 +275,11 @@ void NeighborList::sort_pairs(const ParticleStore& p, const PeriodicBox& box) {
       image_scratch_[k] = std::uint8_t(image);
       const double dist2 = norm2(d - image_shift_[image]), reach = p.radius_m[i] + p.radius_m[j];
       const double gap = std::sqrt(dist2) - p.radius_m[i] - p.radius_m[j];
-      const int band = band_width > 0.0 ? std::clamp(int(gap / band_width), 0, kGapBands - 1) : 0;
+      // A pair with a partner of more than the common share of the skin closes faster than the
+      // blocks' bounds (in shares) say: it is looked at from the start, in the closest band.
+      const bool faster = shared && (speed_scale2_[i] < 1.0 || speed_scale2_[j] < 1.0);
+      const int band =
+          band_width > 0.0 && !faster ? std::clamp(int(gap / band_width), 0, kGapBands - 1) : 0;
       band_scratch_[k] = std::uint8_t(band | (dist2 < reach * reach ? kOverlappingBit : 0));
       ++band_pairs[band];
       const std::uint32_t block_j = std::uint32_t(j / kSpeedBlockSlots);
@@ -515,8 +559,13 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
     settings_.skin_m = population_changed || !next_skin_m_
                            ? automatic_skin_m(p.radius_m, settings_.max_skin_m)
                            : *next_skin_m_;
+  frame_ = choose_frame(p, box, walls);
+  frame_elapsed_s_ = 0.0;
+  choose_shares(p);
+  const std::vector<double>& search_radius =
+      search_radius_m_.empty() ? p.radius_m : search_radius_m_;
   if (settings_.method == SearchMethod::Nbs) {
-    nbs_.find_pairs(p.position_m, p.radius_m, box, settings_.skin_m, pairs);
+    nbs_.find_pairs(p.position_m, search_radius, box, settings_.skin_m, pairs);
     stats_.last_search = {};
     stats_.last_search.distance_tests = nbs_.stats().distance_tests;
     stats_.last_search.cells = nbs_.stats().cells;
@@ -525,7 +574,7 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
   } else {
     const GridDivision split = division(p, box, population_changed);
     grid_.find_pairs(
-        p.position_m, p.radius_m, box,
+        p.position_m, search_radius, box,
         {settings_.skin_m, split.subcells_per_axis, split.levels, settings_.cell_size_m}, pairs);
     stats_.last_search = grid_.stats();
   }
@@ -578,7 +627,7 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
         if (walls.empty()) return;
         for (std::size_t i = begin; i < end; ++i)
           for (std::size_t w = 0; w < walls.size(); ++w)
-            if (wall_gap_m(walls[w], p.position_m[i]) < p.radius_m[i] + settings_.skin_m)
+            if (wall_gap_m(walls[w], p.position_m[i]) < search_radius[i] + settings_.skin_m)
               found.push_back(std::uint32_t(i)), found.push_back(std::uint32_t(w));
       });
   wall_particle.clear(), wall_index.clear();
@@ -607,8 +656,6 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
     }
   newborn_.clear();
 
-  frame_ = choose_frame(p, box, walls);
-  frame_elapsed_s_ = 0.0;
   next_skin_m_.reset();
   if (settings_.automatic_skin && !population_changed && steps_since_rebuild_ > 0) {
     next_skin_m_ = steer_skin(p, double(steps_since_rebuild_) / std::max(previous_skin_m_, 1e-300));

@@ -95,6 +95,9 @@ struct NeighborSettings {
   // allow it: a closed box, and every wall a surface of revolution about one axis or a plane
   // normal to it (a mill's chamber). Elsewhere, or when false, the lab frame.
   bool rotating_frame = true;
+  // Give the fastest particles (relative to the frame) a larger share of the skin, in proportion
+  // to their speed: the list then lives as long as the bulk allows, not its fastest few.
+  bool skin_by_speed = true;
 };
 
 class NeighborList {
@@ -135,6 +138,11 @@ class NeighborList {
   // Separation of pair k's partners: x_i − x_j − pair_shift(k).
   const Vec3& pair_shift(std::size_t k) const { return image_shift_[pair_image[k]]; }
 
+  // Whether the list was built for the population as it is (no particle added or removed since).
+  bool current(const ParticleStore& particles) const {
+    return particles.population_version == population_version_;
+  }
+
   // True when the cheap motion bound says the next update() may rebuild anyway.
   bool rebuild_likely() const { return motion_bound_m_ > 0.5 * settings_.skin_m; }
 
@@ -142,6 +150,16 @@ class NeighborList {
   // axis at the particles' mean angular velocity about it (a least-squares fit), or the lab frame.
   // Speeds reported to note_motion() must be relative to it.
   const MotionFrame& motion_frame() const { return frame_; }
+  // How speeds must be reported to note_motion(): relative to the frame, each particle's divided
+  // by its share of the skin κ_i (skin by speed: at each rebuild, particles faster than the
+  // population's 99th percentile of speed relative to the frame get κ_i = their speed over it, at
+  // most 4, and every pair is listed within r_i + r_j + (κ_i + κ_j) skin/2). Until the next
+  // rebuild after a population change, no scales (every speed counts whole: a wider bound).
+  SpeedReport speed_report(const ParticleStore& particles) const {
+    const bool scaled =
+        !speed_scale2_.empty() && particles.size() == speed_scale2_.size() && current(particles);
+    return {frame_, scaled ? speed_scale2_.data() : nullptr};
+  }
 
   double skin_m() const { return settings_.skin_m; }
   const NeighborSettings& settings() const { return settings_; }
@@ -191,7 +209,7 @@ class NeighborList {
            active_bands_, block_bound_m_, block_bounds_valid_, partner_block_start_,
            partner_blocks_, band_block_start_, block_active_, blocks_joined_, active_ranges_);
     io_all(a, reorder_spacing_m_, motion_since_reorder_m_, newborn_ghost_ratio_, stats_);
-    io_all(a, frame_, frame_elapsed_s_);
+    io_all(a, frame_, frame_elapsed_s_, speed_scale2_);
   }
 
  private:
@@ -273,6 +291,15 @@ class NeighborList {
   NeighborStats stats_;
   MotionFrame frame_;             // lab frame until the first rebuild
   double frame_elapsed_s_ = 0.0;  // time since the last rebuild, over which the frame has turned
+  // Skin by speed: per slot 1/κ_i² (empty: κ = 1 for all). The motion bounds are in units of the
+  // common share skin/2; a pair with a partner of κ > 1 lies in the closest gap band, looked at
+  // from the start (the bands open by the blocks' bounds, which are in shares).
+  std::vector<double> speed_scale2_;
+  std::vector<double> speed_scratch_, sorted_speed_scratch_;
+  // The shares for the list about to be built; the search radii (r_i + (κ_i − 1) skin/2) in
+  // search_radius_m_ when any share exceeds 1.
+  void choose_shares(const ParticleStore& particles);
+  std::vector<double> search_radius_m_;
 };
 
 // The axis every wall is a surface of revolution about (or, for a plane, normal to), as a frame

@@ -56,21 +56,23 @@ void list_slots(const ParticleStore& p, const NeighborList& neighbors, bool fres
   m.speeds_valid = false;
 }
 
-// The largest speed² per slot block of `slots`, each |v| + ½ max_wait dt |F| / m, with v relative
-// to the frame. In a turning frame one lumped step of h ≤ max_wait dt also cuts the frame's arc
-// over h, ½ (Ω h)² ρ_max (dem/motion_frame.h): over its h that is at most ½ Ω² max_wait dt ρ_max
-// of speed. (The displacement the frame carries round is the list's own term, note_motion.)
+// The largest speed² per slot block of `slots`, each |v| + ½ max_wait dt |F| / m, with v as
+// `report` counts it (relative to the list's frame, scaled per slot; the other terms unscaled,
+// which only widens the bound). In a turning frame one lumped step of h ≤ max_wait dt also cuts the
+// frame's arc over h, ½ (Ω h)² ρ_max (dem/motion_frame.h): over its h that is at most ½ Ω² max_wait
+// dt ρ_max of speed. (The displacement the frame carries round is the list's own term,
+// note_motion.)
 double bound_speeds(const ParticleStore& p, const std::vector<std::uint32_t>& slots, double dt,
-                    const MultiRate& m, const MotionFrame& frame,
+                    const MultiRate& m, const SpeedReport& report,
                     std::vector<double>& block_speed2) {
   const double credit_s = 0.5 * double(m.max_wait_steps) * dt;
-  const double chord_speed =
-      frame.omega_rad_per_s * frame.omega_rad_per_s * credit_s * frame.radius_bound_m;
-  const FrameSpeed frame_speed(frame);
+  const double chord_speed = report.frame.omega_rad_per_s * report.frame.omega_rad_per_s *
+                             credit_s * report.frame.radius_bound_m;
+  const FrameSpeed frame_speed(report);
   block_speed2.assign((p.size() + kSpeedBlockSlots - 1) / kSpeedBlockSlots, 0.0);
   return for_listed_speeds(slots, block_speed2, [&](std::uint32_t i, Vec3&) {
     const double speed =
-        std::sqrt(frame_speed.speed2(p.position_m[i], p.motion[i].velocity_m_per_s)) +
+        std::sqrt(frame_speed.speed2(i, p.position_m[i], p.motion[i].velocity_m_per_s)) +
         credit_s * norm(p.load[i].force_n) * p.inv_mass_per_kg[i] + chord_speed;
     return speed * speed;
   });
@@ -138,26 +140,26 @@ std::int64_t max_wait_steps(double dt, double relaxation_s) {
   return std::clamp<std::int64_t>(std::int64_t(std::min(steps, 1e9)), 1, kMaxFreeFlightSteps);
 }
 
-void bound_waiting_speeds(const ParticleStore& p, double dt, const MotionFrame& frame,
+void bound_waiting_speeds(const ParticleStore& p, double dt, const SpeedReport& report,
                           MultiRate& m) {
-  m.free_max_speed2 = bound_speeds(p, m.waiting, dt, m, frame, m.free_block_speed2);
+  m.free_max_speed2 = bound_speeds(p, m.waiting, dt, m, report, m.free_block_speed2);
   for (RiderLevel& level : m.riders)
     if (!level.slots.empty())
-      level.max_speed2 = bound_speeds(p, level.slots, dt, m, frame, level.block_speed2);
+      level.max_speed2 = bound_speeds(p, level.slots, dt, m, report, level.block_speed2);
   combine_waiting_bounds(m);
   m.speeds_valid = true;
 }
 
-void bound_rider_speeds(const ParticleStore& p, double dt, int level, const MotionFrame& frame,
+void bound_rider_speeds(const ParticleStore& p, double dt, int level, const SpeedReport& report,
                         MultiRate& m) {
   RiderLevel& l = m.riders[std::size_t(level - 1)];
-  l.max_speed2 = bound_speeds(p, l.slots, dt, m, frame, l.block_speed2);
+  l.max_speed2 = bound_speeds(p, l.slots, dt, m, report, l.block_speed2);
   combine_waiting_bounds(m);
 }
 
 Vec3 kick_drift_keeping_fluid(ParticleStore& p, const std::vector<std::uint32_t>& slots, double dt,
                               const Vec3& gravity, std::vector<double>& block_max_speed2,
-                              const MotionFrame& frame, double& max_speed2) {
+                              const SpeedReport& report, double& max_speed2) {
   const double* mass = p.mass_kg.data();
   const HeldFluidForce* held = p.fluid_held.data();
   Vec3* impulse = p.fluid_impulse_n_s.data();
@@ -166,7 +168,7 @@ Vec3 kick_drift_keeping_fluid(ParticleStore& p, const std::vector<std::uint32_t>
   static thread_local std::vector<Vec3> calling_thread_piece_sums;
   std::vector<Vec3>& booked_per_piece = calling_thread_piece_sums;
   max_speed2 = kick_drift_listed(
-      p, slots, dt, block_max_speed2, frame,
+      p, slots, dt, block_max_speed2, report,
       [&](std::uint32_t i, Vec3& booked_here) {
         const Vec3 step_impulse = held[i].exchange_n * dt;
         impulse[i] += step_impulse;

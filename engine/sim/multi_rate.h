@@ -183,19 +183,19 @@ void mark_free_flight(ParticleStore& p, const NeighborList& neighbors, MultiRate
 // Re-lists the sets from the flags when slots moved (a breakage or an outlet removed some).
 void relist_if_moved(const ParticleStore& p, const NeighborList& neighbors, MultiRate& m);
 // The waiting particles' (free flight and riders) speed bounds per slot block, from their
-// current state, relative to the neighbour list's frame (dem/motion_frame.h).
-void bound_waiting_speeds(const ParticleStore& p, double dt, const MotionFrame& frame,
+// current state, as the neighbour list counts speeds (dem/motion_frame.h, SpeedReport).
+void bound_waiting_speeds(const ParticleStore& p, double dt, const SpeedReport& report,
                           MultiRate& m);
 // The same for one rider level only (after its catch-up), the others' bounds kept.
-void bound_rider_speeds(const ParticleStore& p, double dt, int level, const MotionFrame& frame,
+void bound_rider_speeds(const ParticleStore& p, double dt, int level, const SpeedReport& report,
                         MultiRate& m);
 
 // kick_drift_listed (dem/integrator.h) for particles that keep their fluid force: each one's
 // next force starts from gravity plus the kept force, and the kept exchange's impulse over the
-// step is booked for the gas (returned summed). Returns the largest |v½|² relative to `frame`
+// step is booked for the gas (returned summed). Returns the largest |v½|² as `report` counts it
 // in `max_speed2`.
 Vec3 kick_drift_keeping_fluid(ParticleStore& p, const std::vector<std::uint32_t>& slots, double dt,
                               const Vec3& gravity, std::vector<double>& block_max_speed2,
-                              const MotionFrame& frame, double& max_speed2);
+                              const SpeedReport& report, double& max_speed2);
 
 }  // namespace millsim

@@ -347,7 +347,7 @@ Simulation::Simulation(const SceneConfig& scene, SimulationStart start)
       {std::clamp(scene.search.skin_m.value_or(0.0), 0.0, max_skin), automatic_skin, max_skin,
        scene.search.cell_size_m, scene.search.subcells_per_axis, scene.search.grid_levels,
        time_.step_s, scene.search.conventional_nbs ? SearchMethod::Nbs : SearchMethod::Hashed,
-       scene.search.rotating_frame});
+       scene.search.rotating_frame, scene.search.skin_by_speed});
   neighbors_.update(particles_, box_, walls_, true);
 
   for (double m : particles_.mass_kg) initial_mass_kg_ += m;
@@ -595,7 +595,7 @@ void Simulation::catch_up_free_flight() {
   profile_.time(Phase::FreeFlight, [&] {
     m.block_speed2.assign((particles_.size() + kSpeedBlockSlots - 1) / kSpeedBlockSlots, 0.0);
     kick_drift_listed(particles_, m.waiting, h, gravity_m_per_s2_, m.block_speed2,
-                      neighbors_.motion_frame());
+                      neighbors_.speed_report(particles_));
     if (gas_) gas_->add_fluid_forces(particles_, m.waiting, h);
     kick_listed(particles_, m.waiting, h);
   });
@@ -624,10 +624,10 @@ void Simulation::catch_up_riders(int level) {
       double max2 = 0.0;
       gas_->add_held_impulse(kick_drift_keeping_fluid(particles_, l.slots, h, gravity_m_per_s2_,
                                                       scratch_block_speed2,
-                                                      neighbors_.motion_frame(), max2));
+                                                      neighbors_.speed_report(particles_), max2));
     } else {
       kick_drift_listed(particles_, l.slots, h, gravity_m_per_s2_, scratch_block_speed2,
-                        neighbors_.motion_frame());
+                        neighbors_.speed_report(particles_));
     }
     ContactStepStats stats;
     stats.record_impacts = contact_stats_.record_impacts;
@@ -652,7 +652,7 @@ void Simulation::catch_up_riders(int level) {
       contact_stats_.max_overlap_partner = 0;
       contact_stats_.max_overlap_wall = stats.max_overlap_wall;
     }
-    bound_rider_speeds(particles_, time_.step_s, level, neighbors_.motion_frame(), m);
+    bound_rider_speeds(particles_, time_.step_s, level, neighbors_.speed_report(particles_), m);
   });
   ++m.stats.rider_catch_ups;
   m.stats.rider_steps += double(l.slots.size());
@@ -696,7 +696,7 @@ std::optional<StepFailure> Simulation::step_multi_rate() {
   MultiRate& m = multi_rate_;
   if (kick_pending_) profile_.time(Phase::Kick, [&] { kick(particles_, dt); });
   kick_pending_ = false;
-  if (!m.speeds_valid) bound_waiting_speeds(particles_, dt, neighbors_.motion_frame(), m);
+  if (!m.speeds_valid) bound_waiting_speeds(particles_, dt, neighbors_.speed_report(particles_), m);
   // The stepping particles' fluid force: evaluated this step, or the kept one applied.
   const bool refresh =
       !gas_ || m.fluid_refresh_due || step_index_ + 1 - m.fluid_refreshed_step >= m.max_wait_steps;
@@ -706,11 +706,11 @@ std::optional<StepFailure> Simulation::step_multi_rate() {
     double stepping_max2 = 0.0;
     if (refresh) {
       stepping_max2 = kick_drift_listed(particles_, m.stepping, dt, gravity_m_per_s2_,
-                                        m.block_speed2, neighbors_.motion_frame());
+                                        m.block_speed2, neighbors_.speed_report(particles_));
     } else {
-      gas_->add_held_impulse(kick_drift_keeping_fluid(particles_, m.stepping, dt, gravity_m_per_s2_,
-                                                      m.block_speed2, neighbors_.motion_frame(),
-                                                      stepping_max2));
+      gas_->add_held_impulse(
+          kick_drift_keeping_fluid(particles_, m.stepping, dt, gravity_m_per_s2_, m.block_speed2,
+                                   neighbors_.speed_report(particles_), stepping_max2));
       m.stats.held_fluid_steps += double(m.stepping.size());
     }
     const double max2 = std::max(stepping_max2, m.waiting_max_speed2);
@@ -728,10 +728,10 @@ std::optional<StepFailure> Simulation::step_multi_rate() {
     catch_up_free_flight();
     profile_.time(Phase::KickDrift, [&] {
       kick_drift_listed(particles_, m.waiting, dt, gravity_m_per_s2_, m.block_speed2,
-                        neighbors_.motion_frame());
+                        neighbors_.speed_report(particles_));
       for (RiderLevel& level : m.riders)
         kick_drift_listed(particles_, level.slots, dt, gravity_m_per_s2_, m.block_speed2,
-                          neighbors_.motion_frame());
+                          neighbors_.speed_report(particles_));
     });
     ++m.stats.full_steps;
   }
@@ -800,10 +800,11 @@ std::optional<StepFailure> Simulation::step_once(bool may_defer) {
   const double dt = time_.step_s;
   double max_speed = 0.0;
   profile_.time(Phase::KickDrift, [&] {
-    max_speed = kick_pending_ ? kick_then_kick_drift(particles_, dt, gravity_m_per_s2_,
-                                                     block_max_speed_, neighbors_.motion_frame())
-                              : kick_drift(particles_, dt, gravity_m_per_s2_, block_max_speed_,
-                                           neighbors_.motion_frame());
+    max_speed = kick_pending_
+                    ? kick_then_kick_drift(particles_, dt, gravity_m_per_s2_, block_max_speed_,
+                                           neighbors_.speed_report(particles_))
+                    : kick_drift(particles_, dt, gravity_m_per_s2_, block_max_speed_,
+                                 neighbors_.speed_report(particles_));
     forces_prepared_ = true;
     kick_pending_ = false;
   });

@@ -19,8 +19,9 @@ SceneConfig wide_gas() {
 }
 
 TEST(Determinism, SameSceneAndSeedGiveBitIdenticalRuns) {
+  // 800 steps: with skin by speed the lists outlive 400 (two builds), and the steering must act.
   Simulation a(wide_gas()), b(wide_gas());
-  for (int step = 0; step < 400; ++step) {
+  for (int step = 0; step < 800; ++step) {
     ASSERT_FALSE(a.step().has_value());
     ASSERT_FALSE(b.step().has_value());
   }

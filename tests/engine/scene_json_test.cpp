@@ -115,18 +115,24 @@ TEST(SceneJson, GridDivisionIsAutoOrInRange) {
   EXPECT_EQ(bad[0].allowed, "expected \"auto\" or an integer in [1, 4]");
 }
 
-TEST(SceneJson, RotatingFrameIsOnUnlessSetFalseAndMustBeABool) {
-  json doc = valid_scene();
-  InputErrors errors;
-  EXPECT_TRUE(parse_scene(doc, ".", errors).search.rotating_frame);
-  doc["search"] = {{"rotating_frame", false}};
-  EXPECT_FALSE(parse_scene(doc, ".", errors).search.rotating_frame);
-  EXPECT_TRUE(errors.empty()) << format_input_errors("scene", errors);
-  doc["search"] = {{"rotating_frame", "yes"}};
-  const InputErrors bad = errors_of(doc);
-  ASSERT_EQ(bad.size(), 1u);
-  EXPECT_EQ(bad[0].path, "/search/rotating_frame");
-  EXPECT_EQ(bad[0].value, "\"yes\"");
+TEST(SceneJson, RotatingFrameAndSkinBySpeedAreOnUnlessSetFalseAndMustBeBools) {
+  for (const char* key : {"rotating_frame", "skin_by_speed"}) {
+    auto flag = [&](const SceneConfig& s) {
+      return std::string(key) == "rotating_frame" ? s.search.rotating_frame
+                                                  : s.search.skin_by_speed;
+    };
+    json doc = valid_scene();
+    InputErrors errors;
+    EXPECT_TRUE(flag(parse_scene(doc, ".", errors))) << key;
+    doc["search"] = {{key, false}};
+    EXPECT_FALSE(flag(parse_scene(doc, ".", errors))) << key;
+    EXPECT_TRUE(errors.empty()) << format_input_errors("scene", errors);
+    doc["search"] = {{key, "yes"}};
+    const InputErrors bad = errors_of(doc);
+    ASSERT_EQ(bad.size(), 1u) << key;
+    EXPECT_EQ(bad[0].path, std::string("/search/") + key);
+    EXPECT_EQ(bad[0].value, "\"yes\"");
+  }
 }
 
 TEST(SceneJson, SkinIsAutoOrANonNegativeLength) {

@@ -4,6 +4,7 @@
 // and the outlet tally: particles + outlet + dust = fed, to 1e-12.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -77,6 +78,68 @@ TEST_P(SpiralJetMillRates, GrindsBySuccessiveBreakageAndConservesMass) {
 
 INSTANTIATE_TEST_SUITE_P(Stepping, SpiralJetMillRates, ::testing::Bool(),
                          [](const auto& info) { return info.param ? "MultiRate" : "SingleRate"; });
+
+// The neighbour list in the mill, with everything that lets it skip work on: multi-rate stepping,
+// the frame turning with the strand and skin by speed (docs/contact-search.md). Its guarantee,
+// checked by brute force (a sweep along x over all pairs) every 100 steps for the first 1 ms of
+// grinding (the fragments of the first breakages, some thousands, fill its second half): every
+// two particles that overlap are a candidate pair of the list. (Not the contact counts:
+// fragments born overlapping are ghosts, overlapping without a contact.)
+TEST(SpiralJetMill, EveryOverlappingPairIsACandidateOfTheList) {
+  MILLSIM_RELEASE_ONLY("tests/engine/motion_frame_test.cpp");
+  SceneConfig scene =
+      load_scene(std::filesystem::path(MILLSIM_SOURCE_DIR) / "cases/spiral_jet_mill.json");
+  scene.gas->spin_up_s = 0.006;
+  scene.time.end_s = 1e-3;
+  ASSERT_TRUE(scene.time.multi_rate && scene.search.rotating_frame && scene.search.skin_by_speed);
+  Simulation sim(scene);
+  std::uint64_t checks = 0, overlapping = 0, scaled = 0, turning = 0;
+  std::vector<std::size_t> order;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> listed;
+  while (sim.step_index() < sim.total_steps()) {
+    const auto failure =
+        sim.advance(std::min<std::int64_t>(100, sim.total_steps() - sim.step_index()));
+    ASSERT_FALSE(failure.has_value()) << failure->detail;
+    const ParticleStore& p = sim.particles();
+    const NeighborList& nl = sim.neighbors();
+    if (!nl.current(p) || p.size() < 2) continue;  // a population change: the next step rebuilds
+    ++checks;
+    scaled += nl.speed_report(p).scale2 ? 1 : 0;
+    turning += nl.motion_frame().omega_rad_per_s != 0.0 ? 1 : 0;
+    listed.clear();
+    for (std::size_t k = 0; k < nl.pairs.size(); ++k)
+      listed.push_back({std::min(nl.pairs.first[k], nl.pairs.second[k]),
+                        std::max(nl.pairs.first[k], nl.pairs.second[k])});
+    std::sort(listed.begin(), listed.end());
+    order.resize(p.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::sort(order.begin(), order.end(),
+              [&](std::size_t a, std::size_t b) { return p.position_m[a].x < p.position_m[b].x; });
+    const double r_max = *std::max_element(p.radius_m.begin(), p.radius_m.end());
+    for (std::size_t a = 0; a < order.size(); ++a)
+      for (std::size_t b = a + 1; b < order.size(); ++b) {
+        const std::size_t i = order[a], j = order[b];
+        if (p.position_m[j].x - p.position_m[i].x > 2.0 * r_max) break;
+        const double reach = p.radius_m[i] + p.radius_m[j];
+        if (norm2(p.position_m[i] - p.position_m[j]) >= reach * reach) continue;
+        ++overlapping;
+        const std::pair<std::uint32_t, std::uint32_t> pair{std::uint32_t(std::min(i, j)),
+                                                           std::uint32_t(std::max(i, j))};
+        ASSERT_TRUE(std::binary_search(listed.begin(), listed.end(), pair))
+            << "particles " << p.id[i] << " and " << p.id[j] << " overlap unlisted at step "
+            << sim.step_index();
+      }
+  }
+  std::printf(
+      "%llu checks (%llu in a turning frame, %llu with shares of the skin), %llu "
+      "overlapping pairs seen\n",
+      (unsigned long long)checks, (unsigned long long)turning, (unsigned long long)scaled,
+      (unsigned long long)overlapping);
+  EXPECT_GT(checks, 1000u);
+  EXPECT_GT(turning, checks / 2) << "the frame must turn";
+  EXPECT_GT(scaled, checks / 2) << "skin by speed must be at work";
+  EXPECT_GT(overlapping, 0u);
+}
 
 // Particles of 20, 50 and 150 µm released with the gas's velocity at mid-height in the mill's
 // spun-up vortex (no feed): each is carried round by drag, alone, so under multi-rate stepping it
