@@ -53,16 +53,6 @@ TEST(MotionFrame, CarriesPointsRoundItsAxisAndSeesASolidBodyRotationAtRest) {
   EXPECT_EQ(frame_speed2(lab, x, {1.0, 2.0, 3.0}), 14.0);
 }
 
-MillConfig chamber() {
-  MillConfig m;
-  m.axis_point_m = {0.01, 0.01, 0.0};
-  m.radius_m = 0.01;
-  m.height_m = 0.004;
-  m.outlet.radius_m = 0.0025;
-  m.outlet.depth_m = 0.0015;
-  return m;
-}
-
 std::vector<Wall> walls_of(const std::vector<NamedSurface>& surfaces) {
   std::vector<Wall> walls;
   for (const NamedSurface& s : surfaces) walls.push_back({s.name, s.surface, 0});
@@ -70,11 +60,12 @@ std::vector<Wall> walls_of(const std::vector<NamedSurface>& surfaces) {
 }
 
 TEST(MotionFrame, WallsShareAnAxisOnlyWhenEveryOneTurnsIntoItself) {
-  const std::vector<Wall> mill = walls_of(mill_surfaces(chamber()));
+  const std::vector<Wall> mill = walls_of(mill_surfaces(test::small_mill_chamber()));
   const std::optional<MotionFrame> axis = common_wall_axis(mill);
   ASSERT_TRUE(axis.has_value());
   EXPECT_EQ(norm2(cross(axis->axis, Vec3{0, 0, 1})), 0.0);
-  EXPECT_EQ(norm2(cross(axis->center_m - chamber().axis_point_m, Vec3{0, 0, 1})), 0.0);
+  EXPECT_EQ(norm2(cross(axis->center_m - test::small_mill_chamber().axis_point_m, Vec3{0, 0, 1})),
+            0.0);
   EXPECT_EQ(axis->omega_rad_per_s, 0.0);
 
   std::vector<Wall> with_lid = mill;  // a plane normal to the axis turns into itself
@@ -99,7 +90,7 @@ SceneConfig spinning_strand(std::optional<double> skin, bool rotating_frame, int
                             bool quiet = false) {
   SceneConfig s =
       test::empty_scene({0, 0, 0}, {0.02, 0.02, 0.004}, test::table1_material(0.5, 0.3));
-  s.mill = chamber();
+  s.mill = test::small_mill_chamber();
   InputErrors errors;
   finish_mill_scene(s, errors);
   EXPECT_TRUE(errors.empty());

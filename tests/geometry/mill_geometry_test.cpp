@@ -168,12 +168,7 @@ TEST(Surface, CertainlyBeyondNeverCallsApartWhatTheGapTouches) {
 
 // A small spiral-jet-mill geometry for the tests: chamber R = 10 mm, 4 mm high.
 MillConfig test_mill() {
-  MillConfig m;
-  m.axis_point_m = {0.01, 0.01, 0.0};
-  m.radius_m = 0.01;
-  m.height_m = 0.004;
-  m.outlet.radius_m = 0.0025;
-  m.outlet.depth_m = 0.0015;
+  MillConfig m = test::small_mill_chamber();
   for (int k = 0; k < 4; ++k) {
     NozzleConfig n;
     n.name = "n";

@@ -84,6 +84,16 @@ SceneConfig periodic_random_gas(double L, std::int64_t count, const SizeDistribu
   return s;
 }
 
+MillConfig small_mill_chamber() {
+  MillConfig m;
+  m.axis_point_m = {0.01, 0.01, 0.0};
+  m.radius_m = 0.01;
+  m.height_m = 0.004;
+  m.outlet.radius_m = 0.0025;
+  m.outlet.depth_m = 0.0015;
+  return m;
+}
+
 void add_particle(SceneConfig& scene, Vec3 position_m, Vec3 velocity_m_per_s, double diameter_m,
                   int material) {
   SourceConfig source;

@@ -29,6 +29,10 @@ SceneConfig periodic_random_gas(double box_length_m, std::int64_t count,
                                 const SizeDistribution& sizes, double velocity_spread_m_per_s,
                                 const MaterialConfig& material, std::uint64_t seed);
 
+// A small mill chamber (geometry/mill.h): 10 mm radius, 4 mm high, its axis at (10, 10) mm, an
+// outlet tube of 2.5 mm radius reaching 1.5 mm down; no nozzles.
+MillConfig small_mill_chamber();
+
 // Adds one list source with a particle.
 void add_particle(SceneConfig& scene, Vec3 position_m, Vec3 velocity_m_per_s, double diameter_m,
                   int material = 0);
