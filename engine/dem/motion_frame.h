@@ -14,10 +14,11 @@
 //
 // What a step adds to d_i (velocity Verlet's drift x ← x + v½ dt, the frame turning by Ω dt):
 //   |Δd_i| ≤ dt |v½ − Ω a × (x_i − c)| + |Ω| dt |d_i| + ½ (Ω dt)² ρ_max,
-// x_i before the drift, ρ_max a bound on any particle's distance from the axis; the last two terms
-// come from the frame's turn (the first from carrying the displacement itself round, the second
-// the chord of the arc). The kick-drift passes report the first term's speed (frame_speed2); the
-// list adds the other two (NeighborList::note_motion).
+// x_i before the drift, ρ_max the largest distance of a build position from the axis (the frame
+// carries each build position round at its own distance); the last two terms come from the
+// frame's turn (the first from carrying the displacement itself round, the second the chord of the
+// arc). The kick-drift passes report the first term's speed (FrameSpeed below); the list adds the
+// other two (NeighborList::note_motion).
 #pragma once
 
 #include <cmath>
@@ -31,7 +32,7 @@ struct MotionFrame {
   Vec3 center_m;                 // a point of the axis
   Vec3 axis{0.0, 0.0, 1.0};      // unit
   double omega_rad_per_s = 0.0;  // 0: the lab frame
-  double radius_bound_m = 0.0;   // no particle lies farther from the axis (the chord term)
+  double radius_bound_m = 0.0;   // no build position lies farther from the axis (the chord term)
 };
 
 // Velocity relative to the frame of a particle at x moving at v: v − Ω a × (x − c). In the lab

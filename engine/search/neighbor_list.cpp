@@ -148,9 +148,12 @@ void NeighborList::choose_shares(const ParticleStore& p) {
   const double half_skin = 0.5 * settings_.skin_m;
   const double r_max = *std::max_element(p.radius_m.begin(), p.radius_m.end());
   bool any = false;
-  std::vector<double> share(n, 1.0);
+  std::vector<double>& share = speed;  // each speed becomes its share
   for (std::size_t i = 0; i < n; ++i) {
-    if (speed[i] <= reference) continue;
+    if (speed[i] <= reference) {
+      share[i] = 1.0;
+      continue;
+    }
     const double room = 1.0 + (r_max - p.radius_m[i]) / half_skin;
     share[i] = std::min({speed[i] / reference, kLargestShare, room});
     any = any || share[i] > 1.0;

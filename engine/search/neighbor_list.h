@@ -1,8 +1,10 @@
 // NeighborList: candidate particle pairs and particle–wall pairs within a skin, rebuilt only when
-// some particle has moved more than skin/2 since the last build (or particles were added or
-// removed). Owns the tangential spring history of each candidate, aligned with the lists, and
-// carries it across rebuilds by stable particle id. The contact set derived from it (overlap > 0)
-// is exactly the all-pairs contact set: the rebuild rule guarantees no touching pair is missing.
+// some particle has moved more than its share of it since the last build (skin/2, more for the
+// fastest particles: skin by speed), measured in a frame turning with the particles where the
+// walls allow (a mill's chamber; dem/motion_frame.h), or when particles were added or removed.
+// Owns the tangential spring history of each candidate, aligned with the lists, and carries it
+// across rebuilds by stable particle id. The contact set derived from it (overlap > 0) is exactly
+// the all-pairs contact set: the rebuild rule guarantees no touching pair is missing.
 #pragma once
 
 #include <cstdint>
@@ -216,6 +218,9 @@ class NeighborList {
   // The frame for the list about to be built from the particles as they are now.
   MotionFrame choose_frame(const ParticleStore& particles, const PeriodicBox& box,
                            const std::vector<Wall>& walls) const;
+  // The shares of the skin for the list about to be built (speed_scale2_), and the search radii
+  // r_i + (κ_i − 1) skin/2 (search_radius_m_) when any share exceeds 1.
+  void choose_shares(const ParticleStore& particles);
   // Largest displacement since the last build, in the list's frame; stops early once past skin/2.
   double max_displacement_m(const ParticleStore& particles, const PeriodicBox& box) const;
   void rebuild(const ParticleStore& particles, const PeriodicBox& box,
@@ -295,11 +300,8 @@ class NeighborList {
   // common share skin/2; a pair with a partner of κ > 1 lies in the closest gap band, looked at
   // from the start (the bands open by the blocks' bounds, which are in shares).
   std::vector<double> speed_scale2_;
+  std::vector<double> search_radius_m_;  // of choose_shares, for the rebuild's search
   std::vector<double> speed_scratch_, sorted_speed_scratch_;
-  // The shares for the list about to be built; the search radii (r_i + (κ_i − 1) skin/2) in
-  // search_radius_m_ when any share exceeds 1.
-  void choose_shares(const ParticleStore& particles);
-  std::vector<double> search_radius_m_;
 };
 
 // The axis every wall is a surface of revolution about (or, for a plane, normal to), as a frame
