@@ -29,11 +29,7 @@ inline bool ghost_pushes(const ParticleStore& p, NeighborList& nl, std::size_t k
   if constexpr (kPeriodic) d -= nl.pair_shift(k);
   const double dist2 = norm2(d), rsum = p.radius_m[i] + p.radius_m[j];
   if (dist2 >= rsum * rsum) return true;
-  const double overlap = rsum - std::sqrt(dist2);
-  double& memory = nl.history_pool[nl.pair_history[k]][0];
-  if (overlap > memory) return true;
-  memory = overlap;
-  return false;
+  return ghost_overlap_m(rsum - std::sqrt(dist2), nl.history_pool[nl.pair_history[k]][0]) > 0.0;
 }
 
 // The wall's springs at the particle's contact point: R_e from the surface's curvature there.

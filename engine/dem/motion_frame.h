@@ -76,13 +76,27 @@ struct FrameSpeed {
   }
 };
 
-// Where the frame has carried the point x0 after time t: c + R(Ω t)(x0 − c) (Rodrigues).
+// The frame's turn over time t, its cosine and sine taken once for every point it carries:
+// carried(x0) = c + R(Ω t)(x0 − c) (Rodrigues).
+class FrameTurn {
+ public:
+  FrameTurn(const MotionFrame& f, double t_s)
+      : f_(f), angle_(f.omega_rad_per_s * t_s), cos_(std::cos(angle_)), sin_(std::sin(angle_)) {}
+  Vec3 carried(const Vec3& x0_m) const {
+    if (angle_ == 0.0) return x0_m;
+    const Vec3 r = x0_m - f_.center_m;
+    return f_.center_m + r * cos_ + cross(f_.axis, r) * sin_ +
+           f_.axis * (dot(f_.axis, r) * (1.0 - cos_));
+  }
+
+ private:
+  MotionFrame f_;
+  double angle_, cos_, sin_;
+};
+
+// Where the frame has carried the point x0 after time t (one point; FrameTurn for many).
 inline Vec3 frame_carried(const MotionFrame& f, const Vec3& x0_m, double t_s) {
-  const double angle = f.omega_rad_per_s * t_s;
-  if (angle == 0.0) return x0_m;
-  const Vec3 r = x0_m - f.center_m;
-  const double c = std::cos(angle), s = std::sin(angle);
-  return f.center_m + r * c + cross(f.axis, r) * s + f.axis * (dot(f.axis, r) * (1.0 - c));
+  return FrameTurn(f, t_s).carried(x0_m);
 }
 
 }  // namespace millsim

@@ -171,18 +171,17 @@ double NeighborList::max_displacement_m(const ParticleStore& p, const PeriodicBo
   // skin/2 the figure is the exact largest displacement on any count; past it only the rebuild
   // it triggers is used. In a turning frame, from where the frame has carried each reference.
   const double limit2 = 0.25 * settings_.skin_m * settings_.skin_m;
-  const MotionFrame& f = frame_;
-  const double t = frame_elapsed_s_;
-  const double* scale2 = speed_scale2_.size() == p.size() ? speed_scale2_.data() : nullptr;
+  const FrameTurn turn(frame_, frame_elapsed_s_);
+  const double* scale2 = speed_report(p).scale2;
   const std::size_t block =
       worth_threads(p.size()) ? block_items(16384) : std::max<std::size_t>(1, p.size());
   std::vector<double> block_max2((p.size() + block - 1) / block, 0.0);
   parallel_ranges(p.size(), block, [&](std::size_t begin, std::size_t end, std::size_t b) {
     double max2 = 0.0;
     for (std::size_t i = begin; i < end && max2 <= limit2; ++i)
-      max2 = std::max(max2, norm2(box.minimum_image(
-                                p.position_m[i] - frame_carried(f, reference_position_m_[i], t))) *
-                                (scale2 ? scale2[i] : 1.0));
+      max2 = std::max(
+          max2, norm2(box.minimum_image(p.position_m[i] - turn.carried(reference_position_m_[i]))) *
+                    (scale2 ? scale2[i] : 1.0));
     block_max2[b] = max2;
   });
   double max2 = 0.0;
