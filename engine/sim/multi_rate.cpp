@@ -159,7 +159,7 @@ void bound_rider_speeds(const ParticleStore& p, double dt, int level, const Spee
 
 Vec3 kick_drift_keeping_fluid(ParticleStore& p, const std::vector<std::uint32_t>& slots, double dt,
                               const Vec3& gravity, std::vector<double>& block_max_speed2,
-                              const SpeedReport& report, double& max_speed2) {
+                              const SpeedReport& report, double& max_speed2, bool kick_first) {
   const double* mass = p.mass_kg.data();
   const HeldFluidForce* held = p.fluid_held.data();
   Vec3* impulse = p.fluid_impulse_n_s.data();
@@ -167,15 +167,21 @@ Vec3 kick_drift_keeping_fluid(ParticleStore& p, const std::vector<std::uint32_t>
   // same sum on any thread count.
   static thread_local std::vector<Vec3> calling_thread_piece_sums;
   std::vector<Vec3>& booked_per_piece = calling_thread_piece_sums;
-  max_speed2 = kick_drift_listed(
-      p, slots, dt, block_max_speed2, report,
-      [&](std::uint32_t i, Vec3& booked_here) {
-        const Vec3 step_impulse = held[i].exchange_n * dt;
-        impulse[i] += step_impulse;
-        booked_here += step_impulse;
-        return Load{gravity * mass[i] + held[i].force_n, {}};
-      },
-      &booked_per_piece);
+  const auto next_load = [&](std::uint32_t i, Vec3& booked_here) {
+    const Vec3 step_impulse = held[i].exchange_n * dt;
+    impulse[i] += step_impulse;
+    booked_here += step_impulse;
+    return Load{gravity * mass[i] + held[i].force_n, {}};
+  };
+  const auto prefetch = [&](std::uint32_t i) {
+    prefetch_element(mass, i);
+    prefetch_element(held, i);
+    prefetch_element<true>(impulse, i);
+  };
+  max_speed2 = kick_first ? kick_drift_listed<true>(p, slots, dt, block_max_speed2, report,
+                                                    next_load, &booked_per_piece, prefetch)
+                          : kick_drift_listed<false>(p, slots, dt, block_max_speed2, report,
+                                                     next_load, &booked_per_piece, prefetch);
   Vec3 booked;
   for (const Vec3& b : booked_per_piece) booked += b;
   return booked;

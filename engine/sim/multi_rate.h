@@ -193,9 +193,11 @@ void bound_rider_speeds(const ParticleStore& p, double dt, int level, const Spee
 // kick_drift_listed (dem/integrator.h) for particles that keep their fluid force: each one's
 // next force starts from gravity plus the kept force, and the kept exchange's impulse over the
 // step is booked for the gas (returned summed). Returns the largest |v½|² as `report` counts it
-// in `max_speed2`.
+// in `max_speed2`. With `kick_first`, the last step's closing kick comes first in the same pass
+// (kick_drift_listed's kKickFirst).
 Vec3 kick_drift_keeping_fluid(ParticleStore& p, const std::vector<std::uint32_t>& slots, double dt,
                               const Vec3& gravity, std::vector<double>& block_max_speed2,
-                              const SpeedReport& report, double& max_speed2);
+                              const SpeedReport& report, double& max_speed2,
+                              bool kick_first = false);
 
 }  // namespace millsim

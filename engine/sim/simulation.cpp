@@ -561,12 +561,18 @@ std::optional<StepFailure> Simulation::step() {
 std::optional<StepFailure> Simulation::advance(std::int64_t steps) {
   finish_start();  // AfterSpinUp without the caller's spin-up: all of it now
   std::optional<StepFailure> failure;
-  for (std::int64_t s = 0; s < steps && !failure; ++s) failure = step_once(s + 1 < steps);
+  for (std::int64_t s = 0; s < steps && !failure; ++s)
+    failure = step_once(carry_kicks_ && s + 1 < steps);
+  finish_stepping_kick();
   catch_up_free_flight();
   return failure;
 }
 
 void Simulation::prepare_multi_rate() {
+  // The sets are about to change: the stepping particles' pending kick is that of the old set.
+  if (multi_rate_.marked_rebuilds != neighbors_.stats().rebuilds ||
+      multi_rate_.lists_version != particles_.population_version)
+    finish_stepping_kick();
   if (multi_rate_.marked_rebuilds != neighbors_.stats().rebuilds) {
     // The list was rebuilt, which happens only with every particle complete.
     mark_free_flight(particles_, neighbors_, multi_rate_, rider_rule_ ? &*rider_rule_ : nullptr,
@@ -576,6 +582,12 @@ void Simulation::prepare_multi_rate() {
   } else {
     relist_if_moved(particles_, neighbors_, multi_rate_);
   }
+}
+
+void Simulation::finish_stepping_kick() {
+  if (!stepping_kick_pending_) return;
+  stepping_kick_pending_ = false;
+  profile_.time(Phase::Kick, [&] { kick_listed(particles_, multi_rate_.stepping, time_.step_s); });
 }
 
 void Simulation::catch_up_free_flight() {
@@ -691,11 +703,14 @@ void Simulation::take_rider_events() {
   m.rider_events.clear();
 }
 
-std::optional<StepFailure> Simulation::step_multi_rate() {
+std::optional<StepFailure> Simulation::step_multi_rate(bool may_defer) {
   const double dt = time_.step_s;
   MultiRate& m = multi_rate_;
   if (kick_pending_) profile_.time(Phase::Kick, [&] { kick(particles_, dt); });
   kick_pending_ = false;
+  // The last step's closing kick of the stepping particles, done in their kick-drift's pass.
+  const bool kick_first = stepping_kick_pending_;
+  stepping_kick_pending_ = false;
   if (!m.speeds_valid) bound_waiting_speeds(particles_, dt, neighbors_.speed_report(particles_), m);
   // The stepping particles' fluid force: evaluated this step, or the kept one applied.
   const bool refresh =
@@ -705,12 +720,16 @@ std::optional<StepFailure> Simulation::step_multi_rate() {
     m.block_speed2 = m.waiting_block_speed2;
     double stepping_max2 = 0.0;
     if (refresh) {
-      stepping_max2 = kick_drift_listed(particles_, m.stepping, dt, gravity_m_per_s2_,
-                                        m.block_speed2, neighbors_.speed_report(particles_));
+      const SpeedReport report = neighbors_.speed_report(particles_);
+      stepping_max2 = kick_first
+                          ? kick_drift_listed<true>(particles_, m.stepping, dt, gravity_m_per_s2_,
+                                                    m.block_speed2, report)
+                          : kick_drift_listed<false>(particles_, m.stepping, dt, gravity_m_per_s2_,
+                                                     m.block_speed2, report);
     } else {
       gas_->add_held_impulse(
           kick_drift_keeping_fluid(particles_, m.stepping, dt, gravity_m_per_s2_, m.block_speed2,
-                                   neighbors_.speed_report(particles_), stepping_max2));
+                                   neighbors_.speed_report(particles_), stepping_max2, kick_first));
       m.stats.held_fluid_steps += double(m.stepping.size());
     }
     const double max2 = std::max(stepping_max2, m.waiting_max_speed2);
@@ -761,15 +780,23 @@ std::optional<StepFailure> Simulation::step_multi_rate() {
     ++m.stats.fluid_refreshes;
   }
   const bool limiter = limiter_due();
+  // As step_once: while nothing looks at the stepping particles before the next step's
+  // kick-drift, their closing kick waits for it (whatever reads them first calls
+  // finish_stepping_kick: the breakage when something may break, outlets and feeds, the gas,
+  // the health check, a change of the sets, the end of advance()).
+  const bool defer =
+      may_defer && !full && !limiter && !(gas_ && gas_->due(step_index_)) && !health_due();
   profile_.time(Phase::Kick, [&] {
     if (full)
       kick(particles_, dt);
-    else
+    else if (!defer)
       kick_listed(particles_, m.stepping, dt);
     if (limiter)
       limiter_events_ += apply_penetration_limiter(contact_stats_, materials_, box_, walls_,
                                                    neighbors_, particles_);
   });
+  stepping_kick_pending_ = defer;
+  carried_kicks_ += defer ? 1 : 0;
   if (full) {
     m.waiting_since_step = step_index_, m.speeds_valid = false;
     for (RiderLevel& level : m.riders) level.since_step = step_index_, level.touching_walls = 0;
@@ -782,21 +809,26 @@ std::optional<StepFailure> Simulation::step_multi_rate() {
   if (impact_spectrum_ && !contact_stats_.impacts.empty()) tally_impacts();
   if (breakage_ || !outlets_.empty() || !feeders_.empty()) process_population();
   if (gas_ && gas_->due(step_index_)) {
+    finish_stepping_kick();
     catch_up_free_flight();
     m.speeds_valid = false;  // the drag response changes velocities
     if (auto failure = advance_gas()) return failure;
   }
   if (step_index_ - m.waiting_since_step >= m.max_wait_steps) catch_up_free_flight();
   std::optional<StepFailure> failure;
-  if (health_due()) profile_.time(Phase::Health, [&] { failure = check_health(); });
+  if (health_due()) {
+    finish_stepping_kick();  // a rider's overlap may have called for it after the kick
+    profile_.time(Phase::Health, [&] { failure = check_health(); });
+  }
   return failure;
 }
 
 std::optional<StepFailure> Simulation::step_once(bool may_defer) {
   if (multi_rate_on_) {
     prepare_multi_rate();
-    if (!multi_rate_.waiting.empty() || multi_rate_.any_riders()) return step_multi_rate();
+    if (!multi_rate_.waiting.empty() || multi_rate_.any_riders()) return step_multi_rate(may_defer);
   }
+  finish_stepping_kick();
   const double dt = time_.step_s;
   double max_speed = 0.0;
   profile_.time(Phase::KickDrift, [&] {
@@ -825,6 +857,7 @@ std::optional<StepFailure> Simulation::step_once(bool may_defer) {
   const bool gas_due = gas_ && gas_->due(step_index_);
   if (may_defer && !limiter && !population && !gas_due && !health_due()) {
     kick_pending_ = true;  // done by the next step's kick-drift
+    ++carried_kicks_;
     return std::nullopt;
   }
   profile_.time(Phase::Kick, [&] {
@@ -922,6 +955,9 @@ void Simulation::process_population() {
     for (std::uint32_t k : c.walls_over_limit)
       crushed.push_back({neighbors_.wall_particle[k], true});
     for (std::uint32_t i : rider_crushed_) crushed.push_back({i, true});
+    // A breakage moves fragments with their parents' velocities: complete them first.
+    if (stepping_kick_pending_ && breakage_->may_break(c.impacts, crushed, walls_, particles_))
+      finish_stepping_kick();
     // A breakage moves slots, after which the riders' wall candidates (listed by slot) are stale
     // until the rebuild: the riders are brought up to date first, while they are not.
     if (multi_rate_on_ && multi_rate_.any_riders() &&
@@ -948,7 +984,8 @@ void Simulation::process_population() {
   const bool apply_now = particles_.population_version != version || neighbors_.rebuild_likely() ||
                          step_index_ - last_population_step_ >= kMaxDeferredSteps;
   if (!apply_now) return;
-  catch_up_free_flight();  // outlets read every position, and a rebuild may follow
+  finish_stepping_kick();  // outlets read velocities, and a rebuild may follow
+  catch_up_free_flight();
   last_population_step_ = step_index_;
   profile_.time(Phase::Population, [&] {
     if (!outlets_.empty())

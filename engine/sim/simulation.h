@@ -116,6 +116,12 @@ class Simulation {
   // The state is complete on return. With multi-rate stepping (sim/multi_rate.h) the particles
   // in free flight wait between the times something reads them, and are caught up on return.
   std::optional<StepFailure> advance(std::int64_t steps);
+  // Whether advance() carries closing kicks into the next step (the default). Off, every step
+  // closes its own: the same numbers, more slowly (tests hold the two to the same bits).
+  void carry_closing_kicks(bool on) { carry_kicks_ = on; }
+  // Steps whose closing kick was carried into the next one, since this object was built (a count
+  // for tests and profiles; not in checkpoints).
+  std::uint64_t carried_kicks() const { return carried_kicks_; }
 
   std::int64_t step_index() const { return step_index_; }
   double time_s() const { return double(step_index_) * time_.step_s; }
@@ -204,8 +210,12 @@ class Simulation {
   // One step; with `may_defer` its closing kick may be left for the next step (advance()).
   std::optional<StepFailure> step_once(bool may_defer);
   // One step of the particles that are not in free flight (sim/multi_rate.h); a full step of all
-  // when the neighbour list is about to measure motion.
-  std::optional<StepFailure> step_multi_rate();
+  // when the neighbour list is about to measure motion. With `may_defer`, the stepping particles'
+  // closing kick may be left for the next step's kick-drift, as step_once's.
+  std::optional<StepFailure> step_multi_rate(bool may_defer);
+  // The stepping particles' closing kick, if the last multi-rate step left it: called by
+  // whatever reads their velocities or changes the sets before the next step's kick-drift.
+  void finish_stepping_kick();
   // After a rebuild: which particles are in free flight now.
   void prepare_multi_rate();
   // Brings the particles in free flight and the wall riders up to the current step in one long
@@ -256,7 +266,12 @@ class Simulation {
   bool forces_prepared_ = false;         // previous_load holds gravity only (dem/integrator.h)
   bool loads_listed_ = false;            // a listed kick-drift prepared each stepped load itself
   bool kick_pending_ = false;            // the last step's closing kick is still to do (advance())
-  double energy_added_j_ = 0.0;          // energy of particles added minus removed since the start
+  // The same for multi-rate's stepping particles (kick_listed of multi_rate_.stepping). Never set
+  // between two calls of advance(), so not in checkpoints.
+  bool stepping_kick_pending_ = false;
+  bool carry_kicks_ = true;  // carry_closing_kicks()
+  std::uint64_t carried_kicks_ = 0;
+  double energy_added_j_ = 0.0;  // energy of particles added minus removed since the start
   std::optional<Breakage> breakage_;
   std::optional<GasCoupling> gas_;
   std::vector<OutletConfig> outlets_;
