@@ -147,24 +147,6 @@ inline double kick_then_kick_drift(ParticleStore& p, double dt, const Vec3& grav
 // and in which they sum what they sum (so the sums are the same on any thread count).
 inline constexpr std::size_t kListPieceEntries = 4096;
 
-// A listed pass reads its particles' records at scattered slots, which the hardware prefetcher
-// does not follow: it asks for the records of the entry kListPrefetchAhead places ahead while it
-// works on the current one (in the mill the listed kick-drift took 10.5 ns per particle, mostly
-// waiting on loads from the last-level cache).
-inline constexpr std::size_t kListPrefetchAhead = 8;
-
-// Prefetches the cache lines of element i of `column` (for writing when `write`).
-template <bool write = false, class T>
-inline void prefetch_element(const T* column, std::uint32_t i) {
-  const char* begin = reinterpret_cast<const char*>(column + i);
-  __builtin_prefetch(begin, write ? 1 : 0);
-  if constexpr (sizeof(T) > 8) __builtin_prefetch(begin + sizeof(T) - 1, write ? 1 : 0);
-}
-
-struct NoPrefetch {
-  void operator()(std::uint32_t) const {}
-};
-
 // Runs speed2 = visit(i, sum) for every listed slot i, the list cut into pieces of
 // kListPieceEntries spread over the engine's threads; raises block_max_speed2[i /
 // kSpeedBlockSlots] to each speed2 and returns the largest. `sum` is the piece's own Vec3, for a
@@ -172,11 +154,11 @@ struct NoPrefetch {
 // for the caller to add in piece order: the same sum on any thread count. Maxima are exact in
 // any order. Each piece keeps its maxima and its sum in registers and writes them once per slot
 // block (the lists are in slot order) and once at its end: threads never write one cache line
-// per particle. prefetch(i) is called for the slot kListPrefetchAhead entries ahead of each.
-template <class Visit, class Prefetch = NoPrefetch>
+// per particle.
+template <class Visit>
 double for_listed_speeds(const std::vector<std::uint32_t>& slots,
                          std::vector<double>& block_max_speed2, Visit&& visit,
-                         std::vector<Vec3>* piece_sums = nullptr, Prefetch&& prefetch = {}) {
+                         std::vector<Vec3>* piece_sums = nullptr) {
   const std::size_t n = slots.size();
   const std::size_t piece_entries = block_items(kListPieceEntries);
   const std::size_t pieces = (n + piece_entries - 1) / piece_entries;
@@ -187,7 +169,6 @@ double for_listed_speeds(const std::vector<std::uint32_t>& slots,
     double piece_max = 0.0, block_max = 0.0;
     std::size_t block = ~std::size_t(0);
     for (std::size_t k = begin; k < end; ++k) {
-      if (k + kListPrefetchAhead < end) prefetch(slots[k + kListPrefetchAhead]);
       const std::uint32_t i = slots[k];
       const double speed2 = visit(i, sum);
       if (i / kSpeedBlockSlots != block) {
@@ -236,12 +217,10 @@ double for_listed_speeds(const std::vector<std::uint32_t>& slots,
 // comes first in the same pass: per particle the operations of kick_listed and then of the
 // kick-drift, in that order, so the same numbers with the state read once
 // (Simulation::step_multi_rate carries the stepping particles' closing kick this way).
-// prefetch_next_load(i) prefetches what next_load(i) reads.
-template <bool kKickFirst = false, class NextLoad, class Prefetch = NoPrefetch>
+template <bool kKickFirst = false, class NextLoad>
 double kick_drift_listed(ParticleStore& p, const std::vector<std::uint32_t>& slots, double dt,
                          std::vector<double>& block_max_speed2, const SpeedReport& report,
-                         NextLoad&& next_load, std::vector<Vec3>* piece_sums = nullptr,
-                         Prefetch&& prefetch_next_load = {}) {
+                         NextLoad&& next_load, std::vector<Vec3>* piece_sums = nullptr) {
   const double half = 0.5 * dt;
   Vec3* x = p.position_m.data();
   Motion* motion = p.motion.data();
@@ -267,17 +246,7 @@ double kick_drift_listed(ParticleStore& p, const std::vector<std::uint32_t>& slo
                  m.angular_velocity_rad_per_s + l.torque_n_m * (dt * p.inv_inertia_per_kg_m2[i])};
     return speed2;
   };
-  auto prefetch = [&](std::uint32_t i) {
-    prefetch_element<true>(x, i);
-    prefetch_element<true>(motion, i);
-    prefetch_element<true>(load, i);
-    prefetch_element<true>(previous_load, i);
-    prefetch_element(p.inv_mass_per_kg.data(), i);
-    prefetch_element(p.inv_inertia_per_kg_m2.data(), i);
-    if (frame_speed.scale2) prefetch_element(frame_speed.scale2, i);
-    prefetch_next_load(i);
-  };
-  return for_listed_speeds(slots, block_max_speed2, kick_drift_one, piece_sums, prefetch);
+  return for_listed_speeds(slots, block_max_speed2, kick_drift_one, piece_sums);
 }
 
 // The same, each next force pass starting from gravity, m·g.
@@ -286,12 +255,10 @@ double kick_drift_listed(ParticleStore& p, const std::vector<std::uint32_t>& slo
                          const Vec3& gravity, std::vector<double>& block_max_speed2,
                          const SpeedReport& report) {
   const double* mass = p.mass_kg.data();
-  return kick_drift_listed<kKickFirst>(
-      p, slots, dt, block_max_speed2, report,
-      [&](std::uint32_t i, Vec3&) {
-        return Load{gravity * mass[i], {}};
-      },
-      nullptr, [&](std::uint32_t i) { prefetch_element(mass, i); });
+  return kick_drift_listed<kKickFirst>(p, slots, dt, block_max_speed2, report,
+                                       [&](std::uint32_t i, Vec3&) {
+                                         return Load{gravity * mass[i], {}};
+                                       });
 }
 
 // The closing kick of the listed slots by `dt`.
@@ -303,14 +270,6 @@ inline void kick_listed(ParticleStore& p, const std::vector<std::uint32_t>& slot
   parallel_ranges(slots.size(), block_items(kListPieceEntries),
                   [&](std::size_t begin, std::size_t end, std::size_t) {
                     for (std::size_t k = begin; k < end; ++k) {
-                      if (k + kListPrefetchAhead < end) {
-                        const std::uint32_t ahead = slots[k + kListPrefetchAhead];
-                        prefetch_element<true>(motion, ahead);
-                        prefetch_element(load, ahead);
-                        prefetch_element(previous_load, ahead);
-                        prefetch_element(p.inv_mass_per_kg.data(), ahead);
-                        prefetch_element(p.inv_inertia_per_kg_m2.data(), ahead);
-                      }
                       const std::uint32_t i = slots[k];
                       const Load l = load[i], l_old = previous_load[i];
                       motion[i].velocity_m_per_s +=

@@ -173,15 +173,10 @@ Vec3 kick_drift_keeping_fluid(ParticleStore& p, const std::vector<std::uint32_t>
     booked_here += step_impulse;
     return Load{gravity * mass[i] + held[i].force_n, {}};
   };
-  const auto prefetch = [&](std::uint32_t i) {
-    prefetch_element(mass, i);
-    prefetch_element(held, i);
-    prefetch_element<true>(impulse, i);
-  };
   max_speed2 = kick_first ? kick_drift_listed<true>(p, slots, dt, block_max_speed2, report,
-                                                    next_load, &booked_per_piece, prefetch)
+                                                    next_load, &booked_per_piece)
                           : kick_drift_listed<false>(p, slots, dt, block_max_speed2, report,
-                                                     next_load, &booked_per_piece, prefetch);
+                                                     next_load, &booked_per_piece);
   Vec3 booked;
   for (const Vec3& b : booked_per_piece) booked += b;
   return booked;
