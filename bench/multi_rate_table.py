@@ -23,6 +23,11 @@ def ks(a, b):
     return max(abs(x - y) for x, y in zip(fa, fb))
 
 
+def um(x):
+    """A diameter in um, or a dash where the product is empty."""
+    return "-" if x is None else f"{x * 1e6:.2f}"
+
+
 def stepping_s(r):
     """A run's time stepping: the sum of its phase seconds without the output's."""
     phases = r["phase_seconds"]

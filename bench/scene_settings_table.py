@@ -12,7 +12,7 @@ import pathlib
 import statistics
 import sys
 
-from multi_rate_table import ks, load_runs, print_seed_scatter, stepping_s
+from multi_rate_table import ks, load_runs, print_seed_scatter, stepping_s, um
 
 
 def main():
@@ -35,8 +35,8 @@ def main():
             speed_up = stepping_s(ref) / stepping_s(r) if ref else float("nan")
             speed_ups[name].append(speed_up)
             print(f"| {name} | {seed} | {r['time_step_s'] * 1e9:.2f} | {stepping_s(r):.1f} "
-                  f"| {speed_up:.2f} | {p['d10_m'] * 1e6:.2f} / {p['d50_m'] * 1e6:.2f} / "
-                  f"{p['d90_m'] * 1e6:.2f} | {'/'.join(str(g) for g in gens)} "
+                  f"| {speed_up:.2f} | {um(p['d10_m'])} / {um(p['d50_m'])} / {um(p['d90_m'])} "
+                  f"| {'/'.join(str(g) for g in gens)} "
                   f"| {r['contacts'].get('penetration_limiter_events', 0)} "
                   f"| {r['contacts'].get('max_overlap_ratio', float('nan')):.4f} "
                   f"| {ks(r, ref) if ref else float('nan'):.4f} |")

@@ -11,7 +11,7 @@ seed-to-seed scatter (KS between every two seeds).
 import pathlib
 import sys
 
-from multi_rate_table import ks, load_runs, print_seed_scatter, stepping_s
+from multi_rate_table import ks, load_runs, print_seed_scatter, stepping_s, um
 
 
 def main():
@@ -29,8 +29,8 @@ def main():
         limiter = r["contacts"].get("penetration_limiter_events", 0)
         speed_up = stepping_s(ref) / stepping_s(r) if ref else float("nan")
         print(f"| {name[3:]} | {seed} | {r['time_step_s'] * 1e9:.2f} | {stepping_s(r):.1f} "
-              f"| {speed_up:.2f} | {p['d10_m'] * 1e6:.2f} / {p['d50_m'] * 1e6:.2f} / "
-              f"{p['d90_m'] * 1e6:.2f} | {'/'.join(str(g) for g in gens)} | {overlap:.4f} "
+              f"| {speed_up:.2f} | {um(p['d10_m'])} / {um(p['d50_m'])} / {um(p['d90_m'])} "
+              f"| {'/'.join(str(g) for g in gens)} | {overlap:.4f} "
               f"| {limiter} | {ks(r, ref) if ref else float('nan'):.4f} |")
     print_seed_scatter(runs, reference, f"{reference[3:]} steps per contact,")
 
