@@ -213,14 +213,14 @@ double for_listed_speeds(const std::vector<std::uint32_t>& slots,
 // kick_drift) and raises block_max_speed2[slot / kSpeedBlockSlots] to each particle's. Each
 // particle's next force pass starts from next_load(i, sum) (gravity, plus what the caller keeps
 // applied; `sum` and `piece_sums` as in for_listed_speeds, for a caller that adds something up).
-// With kKickFirst, each particle's closing kick of the last step (kick_listed, by the same `dt`)
-// comes first in the same pass: per particle the operations of kick_listed and then of the
+// With `kick_first`, each particle's closing kick of the last step (kick_listed, by the same
+// `dt`) comes first in the same pass: per particle the operations of kick_listed and then of the
 // kick-drift, in that order, so the same numbers with the state read once
 // (Simulation::step_multi_rate carries the stepping particles' closing kick this way).
-template <bool kKickFirst = false, class NextLoad>
-double kick_drift_listed(ParticleStore& p, const std::vector<std::uint32_t>& slots, double dt,
-                         std::vector<double>& block_max_speed2, const SpeedReport& report,
-                         NextLoad&& next_load, std::vector<Vec3>* piece_sums = nullptr) {
+template <bool kKickFirst, class NextLoad>
+double kick_drift_listed_as(ParticleStore& p, const std::vector<std::uint32_t>& slots, double dt,
+                            std::vector<double>& block_max_speed2, const SpeedReport& report,
+                            NextLoad&& next_load, std::vector<Vec3>* piece_sums) {
   const double half = 0.5 * dt;
   Vec3* x = p.position_m.data();
   Motion* motion = p.motion.data();
@@ -249,16 +249,30 @@ double kick_drift_listed(ParticleStore& p, const std::vector<std::uint32_t>& slo
   return for_listed_speeds(slots, block_max_speed2, kick_drift_one, piece_sums);
 }
 
-// The same, each next force pass starting from gravity, m·g.
-template <bool kKickFirst = false>
+// The same with kKickFirst = kick_first (the closing kick carried or not: one pass each).
+template <class NextLoad>
 double kick_drift_listed(ParticleStore& p, const std::vector<std::uint32_t>& slots, double dt,
-                         const Vec3& gravity, std::vector<double>& block_max_speed2,
-                         const SpeedReport& report) {
+                         std::vector<double>& block_max_speed2, const SpeedReport& report,
+                         NextLoad&& next_load, std::vector<Vec3>* piece_sums = nullptr,
+                         bool kick_first = false) {
+  return kick_first ? kick_drift_listed_as<true>(p, slots, dt, block_max_speed2, report, next_load,
+                                                 piece_sums)
+                    : kick_drift_listed_as<false>(p, slots, dt, block_max_speed2, report, next_load,
+                                                  piece_sums);
+}
+
+// The same, each next force pass starting from gravity, m·g.
+inline double kick_drift_listed(ParticleStore& p, const std::vector<std::uint32_t>& slots,
+                                double dt, const Vec3& gravity,
+                                std::vector<double>& block_max_speed2, const SpeedReport& report,
+                                bool kick_first = false) {
   const double* mass = p.mass_kg.data();
-  return kick_drift_listed<kKickFirst>(p, slots, dt, block_max_speed2, report,
-                                       [&](std::uint32_t i, Vec3&) {
-                                         return Load{gravity * mass[i], {}};
-                                       });
+  return kick_drift_listed(
+      p, slots, dt, block_max_speed2, report,
+      [&](std::uint32_t i, Vec3&) {
+        return Load{gravity * mass[i], {}};
+      },
+      nullptr, kick_first);
 }
 
 // The closing kick of the listed slots by `dt`.

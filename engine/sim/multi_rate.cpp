@@ -173,10 +173,8 @@ Vec3 kick_drift_keeping_fluid(ParticleStore& p, const std::vector<std::uint32_t>
     booked_here += step_impulse;
     return Load{gravity * mass[i] + held[i].force_n, {}};
   };
-  max_speed2 = kick_first ? kick_drift_listed<true>(p, slots, dt, block_max_speed2, report,
-                                                    next_load, &booked_per_piece)
-                          : kick_drift_listed<false>(p, slots, dt, block_max_speed2, report,
-                                                     next_load, &booked_per_piece);
+  max_speed2 = kick_drift_listed(p, slots, dt, block_max_speed2, report, next_load,
+                                 &booked_per_piece, kick_first);
   Vec3 booked;
   for (const Vec3& b : booked_per_piece) booked += b;
   return booked;

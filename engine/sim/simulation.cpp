@@ -720,12 +720,9 @@ std::optional<StepFailure> Simulation::step_multi_rate(bool may_defer) {
     m.block_speed2 = m.waiting_block_speed2;
     double stepping_max2 = 0.0;
     if (refresh) {
-      const SpeedReport report = neighbors_.speed_report(particles_);
-      stepping_max2 = kick_first
-                          ? kick_drift_listed<true>(particles_, m.stepping, dt, gravity_m_per_s2_,
-                                                    m.block_speed2, report)
-                          : kick_drift_listed<false>(particles_, m.stepping, dt, gravity_m_per_s2_,
-                                                     m.block_speed2, report);
+      stepping_max2 =
+          kick_drift_listed(particles_, m.stepping, dt, gravity_m_per_s2_, m.block_speed2,
+                            neighbors_.speed_report(particles_), kick_first);
     } else {
       gas_->add_held_impulse(
           kick_drift_keeping_fluid(particles_, m.stepping, dt, gravity_m_per_s2_, m.block_speed2,
@@ -828,7 +825,6 @@ std::optional<StepFailure> Simulation::step_once(bool may_defer) {
     prepare_multi_rate();
     if (!multi_rate_.waiting.empty() || multi_rate_.any_riders()) return step_multi_rate(may_defer);
   }
-  finish_stepping_kick();
   const double dt = time_.step_s;
   double max_speed = 0.0;
   profile_.time(Phase::KickDrift, [&] {
@@ -955,14 +951,18 @@ void Simulation::process_population() {
     for (std::uint32_t k : c.walls_over_limit)
       crushed.push_back({neighbors_.wall_particle[k], true});
     for (std::uint32_t i : rider_crushed_) crushed.push_back({i, true});
-    // A breakage moves fragments with their parents' velocities: complete them first.
-    if (stepping_kick_pending_ && breakage_->may_break(c.impacts, crushed, walls_, particles_))
+    // Before anything may break: a breakage moves fragments with their parents' velocities (the
+    // stepping particles' pending kick first), and it moves slots, after which the riders' wall
+    // candidates (listed by slot) are stale until the rebuild (the riders brought up to date
+    // while they are not).
+    const bool riders = multi_rate_on_ && multi_rate_.any_riders();
+    if ((stepping_kick_pending_ || riders) &&
+        breakage_->may_break(c.impacts, crushed, walls_, particles_)) {
       finish_stepping_kick();
-    // A breakage moves slots, after which the riders' wall candidates (listed by slot) are stale
-    // until the rebuild: the riders are brought up to date first, while they are not.
-    if (multi_rate_on_ && multi_rate_.any_riders() &&
-        breakage_->may_break(c.impacts, crushed, walls_, particles_))
-      for (int level = 1; level <= int(multi_rate_.riders.size()); ++level) catch_up_riders(level);
+      if (riders)
+        for (int level = 1; level <= int(multi_rate_.riders.size()); ++level)
+          catch_up_riders(level);
+    }
     profile_.time(Phase::Breakage, [&] {
       breakage_->process(c.impacts, crushed, time_.step_s, time_s(), walls_, box_, particles_,
                          next_id_, newborn, removed, added);
