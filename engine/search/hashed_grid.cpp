@@ -621,7 +621,8 @@ void HashedGrid::find_pairs(const std::vector<Vec3>& x, const std::vector<double
 }
 
 void spatial_order(const std::vector<Vec3>& x, const PeriodicBox& box,
-                   std::vector<std::uint32_t>& order, SortScratch& scratch) {
+                   std::vector<std::uint32_t>& order, SortScratch& scratch,
+                   const std::uint8_t* behind) {
   // Morton (Z-order) key of each particle's cell, cells of about one mean spacing: neighbours in
   // space are neighbours in memory along all three axes, not just the fastest one.
   Vec3 lo = box.min_m, hi = box.max_m;
@@ -655,6 +656,8 @@ void spatial_order(const std::vector<Vec3>& x, const PeriodicBox& box,
             const double c = std::clamp((x[i][a] - lo[a]) / edge, 0.0, double((1 << 21) - 1));
             key |= spread(std::uint64_t(c)) << a;
           }
+          // (The Morton key takes bits 0–62.)
+          if (behind && behind[i] != 0) key |= std::uint64_t(1) << 63;
           keys[i] = key;
           order[i] = std::uint32_t(i);
         }

@@ -139,9 +139,12 @@ class HashedGrid {
 };
 
 // A spatially coherent order of all particles (Morton order of cells of about one mean
-// spacing), for ParticleStore::permute, written into `order`.
+// spacing), for ParticleStore::permute, written into `order`. With `behind` (one flag per
+// particle), the particles flagged non-zero come after all the others, each part in Morton
+// order: multi-rate stepping keeps the particles that take the contact step together in memory.
 void spatial_order(const std::vector<Vec3>& x, const PeriodicBox& box,
-                   std::vector<std::uint32_t>& order, SortScratch& scratch);
+                   std::vector<std::uint32_t>& order, SortScratch& scratch,
+                   const std::uint8_t* behind = nullptr);
 
 // One cell probe (hash or direct table) costs about as many distance tests as this in the
 // search's cost model (bench_step --search-scan).

@@ -233,5 +233,29 @@ TEST(HashedGrid, GivenDivisionIsKept) {
   EXPECT_EQ(choose_grid_division(r, 0.0, 1e-12, {}, 1), (GridDivision{1, 1}));
 }
 
+// Multi-rate stepping orders the particles that step first: with flags, the order is the plain
+// Morton order with the flagged particles moved behind the others, each part keeping its Morton
+// order (a stable partition of the plain order), and without any flag set it is the plain order.
+TEST(SpatialOrder, FlaggedParticlesComeBehindEachPartInMortonOrder) {
+  const Cloud c = random_cloud(5000, 10.0, 1e-2, false, true, 11);
+  SortScratch scratch;
+  std::vector<std::uint32_t> plain, partitioned;
+  spatial_order(c.x, c.box, plain, scratch);
+  std::vector<std::uint8_t> flag(c.x.size(), 0);
+  spatial_order(c.x, c.box, partitioned, scratch, flag.data());
+  EXPECT_EQ(partitioned, plain);
+  std::mt19937_64 rng(3);
+  for (std::uint8_t& f : flag) f = std::uint8_t(rng() % 3);  // 1 and 2 both mean behind
+  spatial_order(c.x, c.box, partitioned, scratch, flag.data());
+  std::vector<std::uint32_t> expected = plain;
+  std::stable_partition(expected.begin(), expected.end(),
+                        [&](std::uint32_t i) { return flag[i] == 0; });
+  EXPECT_EQ(partitioned, expected);
+  // Every particle once.
+  std::vector<std::uint32_t> sorted = plain;
+  std::sort(sorted.begin(), sorted.end());
+  for (std::size_t k = 0; k < sorted.size(); ++k) ASSERT_EQ(sorted[k], k);
+}
+
 }  // namespace
 }  // namespace millsim
