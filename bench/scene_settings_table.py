@@ -4,7 +4,9 @@ without the output), speed-up against the first variant's run of the same seed, 
 product d10/d50/d90, breakage events by generation, the penetration limiter's events, the deepest
 overlap at the end (in diameters) and the KS distance of its product (outlet + dust, by mass) to
 the first variant's run of the same seed; then each variant's seed-to-seed scatter (KS between
-every two seeds) and the medians.
+every two seeds) and the medians; then, per variant against the first, the breakage counts
+(events by generation, crushes, limiter events) as the mean of the paired per-seed differences
+with its 95 % interval (Student's t), beside the first variant's own seed-to-seed spread.
 
     python3 bench/scene_settings_table.py OUT_DIR NAME [NAME ...]
 """
@@ -13,6 +15,40 @@ import statistics
 import sys
 
 from multi_rate_table import ks, load_runs, print_seed_scatter, stepping_s, um
+
+
+# Two-sided 95 % quantiles of Student's t by degrees of freedom (1-30; beyond, the normal's).
+T95 = [12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179,
+       2.160, 2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060,
+       2.056, 2.052, 2.048, 2.045, 2.042]
+
+
+def counts(r):
+    """The breakage counts compared between variants: events of generation 0, 1, 2 and >= 3,
+    all events, crushes, limiter events."""
+    b = r["breakage"]
+    gens = list(b.get("events_by_generation", [])) + [0, 0, 0]
+    return {"gen 0": gens[0], "gen 1": gens[1], "gen 2": gens[2], "gen >= 3": sum(gens[3:]),
+            "events": b.get("events", 0), "crushes": b.get("crush_events", 0),
+            "limiter": r["contacts"].get("penetration_limiter_events", 0)}
+
+
+def print_paired_counts(runs, reference, name):
+    seeds = sorted(seed for (n, seed) in runs if n == name and (reference, seed) in runs)
+    if len(seeds) < 2:
+        return
+    print(f"\n{name} against {reference}, paired over {len(seeds)} seeds "
+          "(mean difference, 95 % interval; the reference's mean and seed-to-seed sd):")
+    print(f"| count | {reference} mean (sd) | {name} mean | difference | 95 % interval |")
+    print("| --- | --- | --- | --- | --- |")
+    for key in counts(runs[(reference, seeds[0])]):
+        ref = [counts(runs[(reference, s)])[key] for s in seeds]
+        var = [counts(runs[(name, s)])[key] for s in seeds]
+        diff = [v - r for v, r in zip(var, ref)]
+        mean = statistics.mean(diff)
+        half = T95[min(len(diff) - 2, len(T95) - 1)] * statistics.stdev(diff) / len(diff) ** 0.5
+        print(f"| {key} | {statistics.mean(ref):.1f} ({statistics.stdev(ref):.1f}) "
+              f"| {statistics.mean(var):.1f} | {mean:+.1f} | {mean - half:+.1f} to {mean + half:+.1f} |")
 
 
 def main():
@@ -47,6 +83,8 @@ def main():
             print(f"{name}: speed-up median {statistics.median(ups):.2f} "
                   f"(range {min(ups):.2f}-{max(ups):.2f}) over {len(ups)} seeds")
         print_seed_scatter(runs, name, f"{name}:")
+    for name in names[1:]:
+        print_paired_counts(runs, reference, name)
 
 
 if __name__ == "__main__":

@@ -93,10 +93,11 @@ TEST(SpiralJetMill, EveryOverlappingPairIsACandidateOfTheList) {
   scene.time.end_s = 1e-3;
   ASSERT_TRUE(scene.time.multi_rate && scene.search.rotating_frame && scene.search.skin_by_speed);
   Simulation sim(scene);
-  std::uint64_t checks = 0, overlapping = 0, scaled = 0, turning = 0;
+  std::uint64_t windows = 0, checks = 0, overlapping = 0, scaled = 0, turning = 0;
   std::vector<std::size_t> order;
   std::vector<std::pair<std::uint32_t, std::uint32_t>> listed;
   while (sim.step_index() < sim.total_steps()) {
+    ++windows;
     const auto failure =
         sim.advance(std::min<std::int64_t>(100, sim.total_steps() - sim.step_index()));
     ASSERT_FALSE(failure.has_value()) << failure->detail;
@@ -135,7 +136,8 @@ TEST(SpiralJetMill, EveryOverlappingPairIsACandidateOfTheList) {
       "overlapping pairs seen\n",
       (unsigned long long)checks, (unsigned long long)turning, (unsigned long long)scaled,
       (unsigned long long)overlapping);
-  EXPECT_GT(checks, 1000u);
+  EXPECT_GT(checks, 500u);
+  EXPECT_GT(checks, 3 * windows / 4) << "most windows end with a current list";
   EXPECT_GT(turning, checks / 2) << "the frame must turn";
   EXPECT_GT(scaled, checks / 2) << "skin by speed must be at work";
   EXPECT_GT(overlapping, 0u);
