@@ -875,8 +875,15 @@ bool Simulation::limiter_due() const {
          !(contact_stats_.pairs_over_limit.empty() && contact_stats_.walls_over_limit.empty());
 }
 
+// The guard's checks read every particle, and under multi-rate stepping a checked step closes
+// the stepping particles' kick instead of carrying it: every 64 steps (a run's state cannot run
+// away in 64 steps unseen: an overlap past the guard is checked at once, and a non-finite force
+// or a particle through a wall stays so until checked).
+constexpr std::int64_t kHealthCheckSteps = 64;
+static_assert(256 % kHealthCheckSteps == 0, "the energy check runs on every fourth checked step");
+
 bool Simulation::health_due() const {
-  return step_index_ % 16 == 0 || step_index_ == total_steps_ ||
+  return step_index_ % kHealthCheckSteps == 0 || step_index_ == total_steps_ ||
          contact_stats_.max_overlap_ratio > 2.0 * contact_.penetration_limit;
 }
 
