@@ -3,9 +3,10 @@
 seconds, without the gas spin-up), product d10/d50/d90, breakage events by generation and the
 share of particle-steps waited, and per variant the KS distance of its product (outlet + dust,
 by mass) to the single-rate run of the same seed, against the single-rate runs' own scatter
-(KS between seeds).
+(KS between seeds). REFERENCE names the reference variant (default "single"): speed-ups and KS
+distances are against its run of the same seed.
 
-    python3 bench/multi_rate_table.py OUT_DIR
+    python3 bench/multi_rate_table.py OUT_DIR [REFERENCE]
 """
 import itertools
 import json
@@ -55,12 +56,14 @@ def print_seed_scatter(runs, name, label):
 
 def main():
     out = pathlib.Path(sys.argv[1])
+    reference = sys.argv[2] if len(sys.argv) > 2 else "single"
     runs = load_runs(out)
+    print(f"\nAgainst {reference}:\n")
     print("| run | seed | time stepping s | speed-up | d10 / d50 / d90 um | events by generation "
-          "| waited share | KS to single-rate |")
+          f"| waited share | KS to {reference} |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")
     for (name, seed), r in sorted(runs.items()):
-        single = runs.get(("single", seed))
+        single = runs.get((reference, seed))
         t = stepping_s(r)
         t_single = stepping_s(single) if single else float("nan")
         p = r["outlet_psd"]
@@ -69,7 +72,7 @@ def main():
         print(f"| {name} | {seed} | {t:.1f} | {t_single / t:.2f} | {p['d10_m'] * 1e6:.1f} / "
               f"{p['d50_m'] * 1e6:.1f} / {p['d90_m'] * 1e6:.1f} | {'/'.join(str(g) for g in gens)} "
               f"| {waited:.3f} | {ks(r, single) if single else float('nan'):.4f} |")
-    print_seed_scatter(runs, "single", "single-rate")
+    print_seed_scatter(runs, reference, reference)
 
 
 if __name__ == "__main__":
