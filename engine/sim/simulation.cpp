@@ -876,9 +876,9 @@ bool Simulation::limiter_due() const {
 }
 
 // The guard's checks read every particle, and under multi-rate stepping a checked step closes
-// the stepping particles' kick instead of carrying it: every 64 steps (a run's state cannot run
-// away in 64 steps unseen: an overlap past the guard is checked at once, and a non-finite force
-// or a particle through a wall stays so until checked).
+// the stepping particles' kick instead of carrying it: every 64 steps. An overlap past the guard
+// is checked at the step it appears (a run blowing up passes it first), and a non-finite state
+// stays non-finite until it is seen.
 constexpr std::int64_t kHealthCheckSteps = 64;
 static_assert(256 % kHealthCheckSteps == 0, "the energy check runs on every fourth checked step");
 
