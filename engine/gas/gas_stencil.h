@@ -30,13 +30,10 @@ void keep_if_accepted(Stencil& s, std::size_t node, double weight, Accept& accep
   ++s.count;
 }
 
-// The weights scaled to sum to 1 (the refused nodes' share given to the kept ones). Where they
-// already sum to exactly 1 (most interior points) the divisions would change nothing and are
-// skipped.
+// The weights scaled to sum to 1 (the refused nodes' share given to the kept ones).
 inline Stencil renormalised(Stencil s) {
   double total = 0.0;
   for (int k = 0; k < s.count; ++k) total += s.weight[k];
-  if (total == 1.0) return s;
   for (int k = 0; k < s.count; ++k) s.weight[k] /= total;
   return s;
 }

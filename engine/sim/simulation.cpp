@@ -880,7 +880,8 @@ bool Simulation::limiter_due() const {
 // is checked at the step it appears (a run blowing up passes it first), and a non-finite state
 // stays non-finite until it is seen.
 constexpr std::int64_t kHealthCheckSteps = 64;
-static_assert(256 % kHealthCheckSteps == 0, "the energy check runs on every fourth checked step");
+// The energy balance (a sum over every particle and contact) on every fourth checked step.
+constexpr std::int64_t kEnergyCheckSteps = 4 * kHealthCheckSteps;
 
 bool Simulation::health_due() const {
   return step_index_ % kHealthCheckSteps == 0 || step_index_ == total_steps_ ||
@@ -1190,7 +1191,7 @@ std::optional<StepFailure> Simulation::check_health() {
                               dt_text,
                               ": raise /contact/max_impact_speed_m_per_s, lower the reduced-"
                               "stiffness threshold, or lower the step")};
-  if (check_energy_ && step_index_ % 256 == 0) {
+  if (check_energy_ && step_index_ % kEnergyCheckSteps == 0) {
     const double growth = energy().total_j() - energy_reference_j_ - energy_added_j_;
     if (growth > 0.05 * energy_scale_j_)
       return StepFailure{
