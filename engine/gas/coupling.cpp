@@ -404,7 +404,9 @@ void GasCoupling::deposit(const ParticleStore& p, double interval_s) {
   update_volume_fraction(g, gas.volume_fraction());
   gas.volume_fraction_changed();
   const double volume = g.cell_volume_m3();
-  const auto push = [&](const Vec3& x_raw, const Vec3& impulse, double beta, double read_fraction) {
+  // response: where a dragging particle's entries go (return_drag_response reads them back).
+  const auto push = [&](const Vec3& x_raw, const Vec3& impulse, double beta, double read_fraction,
+                        ResponseStencil* response) {
     Vec3 x = x_raw;
     box_.wrap(x);
     for (int a = 0; a < 3; ++a) {
@@ -415,20 +417,26 @@ void GasCoupling::deposit(const ParticleStore& p, double interval_s) {
         source[au][f] -= impulse[a] * s.weight[k] / (volume * interval_s);
         stats_.deposited_impulse_n_s[a] -= impulse[a] * s.weight[k];
         if (beta <= 0.0) continue;
-        const double b = beta * s.weight[k] * response_gain(a, f, read_fraction) / volume;
+        const double coefficient = beta * s.weight[k] * response_gain(a, f, read_fraction);
+        const double b = coefficient / volume;
         exchange[au][f] += b;
         seen[au][f] += b * velocity[au][f];
         drag_fraction_[au][f] += b * read_fraction;
+        response_face_.push_back(std::uint32_t(f));
+        response_coefficient_.push_back(coefficient);
       }
+      if (response) response->count[au] = std::uint8_t(beta > 0.0 ? s.count : 0);
     }
   };
-  read_fraction_.assign(p.size(), 1.0);
+  response_stencil_.assign(p.size(), ResponseStencil{});
+  response_face_.clear(), response_coefficient_.clear();
   for (std::size_t i = 0; i < p.size(); ++i) {
     const double beta = effective_beta(p, i, interval_s);
-    if (beta > 0.0) read_fraction_[i] = fluid_at(p.position_m[i]).volume_fraction;
-    push(p.position_m[i], p.fluid_impulse_n_s[i], beta, read_fraction_[i]);
+    const double read_fraction = beta > 0.0 ? fluid_at(p.position_m[i]).volume_fraction : 1.0;
+    response_stencil_[i].begin = std::uint32_t(response_face_.size());
+    push(p.position_m[i], p.fluid_impulse_n_s[i], beta, read_fraction, &response_stencil_[i]);
   }
-  for (const Released& r : released_) push(r.position_m, r.impulse_n_s, 0.0, 1.0);
+  for (const Released& r : released_) push(r.position_m, r.impulse_n_s, 0.0, 1.0, nullptr);
   released_.clear();
   // A solved face the particles drag on takes the ε they computed their drag at (weighted as B
   // is): the gas's pressure then falls by the drag over that ε, as in the bed itself. The mean of
@@ -462,22 +470,21 @@ Stencil GasCoupling::face_stencil(const Vec3& x, int a) const {
 
 // Gives each particle its share of the gas's implicit drag response: β_eff Σ w g Δ, g the
 // response gain and Δ the summed dt (u_new − u_old) of the faces it deposited on; the gas took
-// exactly the opposite.
-void GasCoupling::return_drag_response(ParticleStore& p, double cfd_step_s) {
+// exactly the opposite. The faces and β w g are deposit()'s, read back (the particles have not
+// moved since, nor has ε).
+void GasCoupling::return_drag_response(ParticleStore& p) {
   if (!incompressible_) return;  // the compressible exchange is explicit
   const std::array<std::vector<double>, 3>& response = incompressible_->drag_response_m();
+  const std::uint32_t* face = response_face_.data();
+  const double* coefficient = response_coefficient_.data();
   for (std::size_t i = 0; i < p.size(); ++i) {
-    const double beta = effective_beta(p, i, cfd_step_s);
-    if (beta <= 0.0) continue;
-    Vec3 x = p.position_m[i];
-    box_.wrap(x);
-    const double read_fraction = read_fraction_[i];  // as deposit() read it
+    const ResponseStencil& stencil = response_stencil_[i];
+    std::uint32_t e = stencil.begin;
+    if (stencil.count[0] + stencil.count[1] + stencil.count[2] == 0) continue;
     Vec3 impulse;
     for (int a = 0; a < 3; ++a) {
-      const Stencil s = face_stencil(x, a);
-      for (int k = 0; k < s.count; ++k)
-        impulse[a] += beta * s.weight[k] * response_gain(a, s.node[k], read_fraction) *
-                      response[std::size_t(a)][s.node[k]];
+      const double* r = response[std::size_t(a)].data();
+      for (int k = 0; k < stencil.count[a]; ++k, ++e) impulse[a] += coefficient[e] * r[face[e]];
     }
     p.motion[i].velocity_m_per_s += impulse * p.inv_mass_per_kg[i];
     stats_.particle_impulse_n_s += impulse;
@@ -509,7 +516,7 @@ std::optional<std::string> GasCoupling::advance(ParticleStore& p, double dem_ste
   for (int k = 0; k < substeps; ++k)
     if (auto failure = advance_gas(interval_s / substeps)) return failure;
   const auto t2 = Clock::now();
-  if (config_.two_way) return_drag_response(p, interval_s);
+  if (config_.two_way) return_drag_response(p);
   table_.clear();
   const int steps = choose_steps(dem_step_s);
   last_steps_ = steps;

@@ -204,7 +204,7 @@ class GasCoupling {
   std::optional<std::string> advance_gas(double dt);
   double gas_stable_step_s() const;
   Stencil face_stencil(const Vec3& wrapped_x, int axis) const;
-  void return_drag_response(ParticleStore& p, double cfd_step_s);
+  void return_drag_response(ParticleStore& p);
   int choose_steps(double dem_step_s) const;
 
   GasConfig config_;
@@ -224,8 +224,16 @@ class GasCoupling {
   std::vector<std::uint32_t> pass_missed_;
   std::int64_t next_cfd_step_ = 0;
   std::array<std::vector<double>, 3> drag_fraction_;  // Σ B ε_read per face (scratch of deposit)
-  // Per particle slot, the ε its drag was read at, from deposit() to return_drag_response().
-  std::vector<double> read_fraction_;
+  // What deposit() gave each particle slot's drag response, for return_drag_response() to read
+  // back (the same faces and numbers, without remaking the stencils): per slot, where its entries
+  // begin and how many it has per axis (none when β = 0); per entry, the face and (β w) g on it.
+  struct ResponseStencil {
+    std::uint32_t begin = 0;
+    std::uint8_t count[3] = {0, 0, 0};
+  };
+  std::vector<ResponseStencil> response_stencil_;
+  std::vector<std::uint32_t> response_face_;
+  std::vector<double> response_coefficient_;
   struct Released {
     Vec3 position_m, impulse_n_s, velocity_m_per_s;
   };
