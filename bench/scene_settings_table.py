@@ -5,8 +5,9 @@ product d10/d50/d90, breakage events by generation, the penetration limiter's ev
 overlap at the end (in diameters) and the KS distance of its product (outlet + dust, by mass) to
 the first variant's run of the same seed; then each variant's seed-to-seed scatter (KS between
 every two seeds) and the medians; then, per variant against the first, the breakage counts
-(events by generation, crushes, limiter events) as the mean of the paired per-seed differences
-with its 95 % interval (Student's t), beside the first variant's own seed-to-seed spread.
+(events by generation, crushes, limiter events) and the product (its mass, d10 and d50) as the
+mean of the paired per-seed differences with its 95 % interval (Student's t), beside the first
+variant's own seed-to-seed spread.
 
     python3 bench/scene_settings_table.py OUT_DIR NAME [NAME ...]
 """
@@ -24,13 +25,16 @@ T95 = [12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.
 
 
 def counts(r):
-    """The breakage counts compared between variants: events of generation 0, 1, 2 and >= 3,
-    all events, crushes, limiter events."""
+    """The figures compared between variants: events of generation 0, 1, 2 and >= 3, all events,
+    crushes, limiter events; the product's mass (ng), d10 and d50 (um)."""
     b = r["breakage"]
     gens = list(b.get("events_by_generation", [])) + [0, 0, 0]
+    p = r["outlet_psd"]
     return {"gen 0": gens[0], "gen 1": gens[1], "gen 2": gens[2], "gen >= 3": sum(gens[3:]),
             "events": b.get("events", 0), "crushes": b.get("crush_events", 0),
-            "limiter": r["contacts"].get("penetration_limiter_events", 0)}
+            "limiter": r["contacts"].get("penetration_limiter_events", 0),
+            "product ng": p["total_mass_kg"] * 1e9, "product d10 um": p["d10_m"] * 1e6,
+            "product d50 um": p["d50_m"] * 1e6}
 
 
 def print_paired_counts(runs, reference, name):
@@ -39,7 +43,7 @@ def print_paired_counts(runs, reference, name):
         return
     print(f"\n{name} against {reference}, paired over {len(seeds)} seeds "
           "(mean difference, 95 % interval; the reference's mean and seed-to-seed sd):")
-    print(f"| count | {reference} mean (sd) | {name} mean | difference | 95 % interval |")
+    print(f"| figure | {reference} mean (sd) | {name} mean | difference | 95 % interval |")
     print("| --- | --- | --- | --- | --- |")
     for key in counts(runs[(reference, seeds[0])]):
         ref = [counts(runs[(reference, s)])[key] for s in seeds]
@@ -47,8 +51,8 @@ def print_paired_counts(runs, reference, name):
         diff = [v - r for v, r in zip(var, ref)]
         mean = statistics.mean(diff)
         half = T95[min(len(diff) - 2, len(T95) - 1)] * statistics.stdev(diff) / len(diff) ** 0.5
-        print(f"| {key} | {statistics.mean(ref):.1f} ({statistics.stdev(ref):.1f}) "
-              f"| {statistics.mean(var):.1f} | {mean:+.1f} | {mean - half:+.1f} to {mean + half:+.1f} |")
+        print(f"| {key} | {statistics.mean(ref):.2f} ({statistics.stdev(ref):.2f}) "
+              f"| {statistics.mean(var):.2f} | {mean:+.2f} | {mean - half:+.2f} to {mean + half:+.2f} |")
 
 
 def main():
