@@ -5,16 +5,20 @@
 # build as the case ships (multi-rate stepping, 8 steps per contact, reduced stiffness below
 # 16.39 um), as shipped without reduced stiffness, and single-rate at 20 steps per contact
 # without reduced stiffness (this build's own reference, "single_here": the physics changed on
-# purpose since BASE, so accuracy is judged against it), each at seeds 7, 8 and 9, two runs at a
-# time on two cores (one per core). Then the table of bench/multi_rate_table.py: time stepping,
+# purpose since BASE, so accuracy is judged against it), each at the seeds given (7, 8 and 9 by
+# default), two runs at a time on two cores (one per core). Then the table of bench/multi_rate_table.py: time stepping,
 # product PSD, breakage events by generation, and the KS distance of each product to BASE's run
-# of the same seed against BASE's seed-to-seed scatter; then the same against single_here. About
-# 20 minutes on this machine; a benchmark, not CI.
-#   bash bench/multi_rate_mill.sh BASE_MILLSIM [OUT_DIR]
+# of the same seed against BASE's seed-to-seed scatter; then the same against single_here. Each
+# table gives the speed-up for the window and per simulated particle-millisecond, with medians.
+# About 20 minutes for the three default seeds on this machine; a benchmark, not CI.
+#   bash bench/multi_rate_mill.sh BASE_MILLSIM [OUT_DIR [SEED...]]
 set -euo pipefail
 cd "$(dirname "$0")/.."
-base=${1:?usage: bash bench/multi_rate_mill.sh BASE_MILLSIM [OUT_DIR]}
+base=${1:?usage: bash bench/multi_rate_mill.sh BASE_MILLSIM [OUT_DIR [SEED...]]}
 out=${2:-/tmp/millsim-multi-rate}
+shift $(($# < 2 ? $# : 2))
+seeds=("$@")
+((${#seeds[@]} > 0)) || seeds=(7 8 9)
 mkdir -p "$out"
 cp ./build/cli/millsim "$out/millsim"  # this build, copied: the tree may be rebuilt meanwhile
 new=$out/millsim
@@ -39,12 +43,12 @@ run() {  # run BINARY NAME SEED
   "$1" run "$out/$2-s$3.json" --out "$out/$2-s$3" >"$out/$2-s$3.log" 2>&1
 }
 
-for seed in 7 8 9; do
+for seed in "${seeds[@]}"; do
   for name in single single_here shipped shipped_without_reduced; do variant "$name" "$seed"; done
 done
 # One core runs the commit before and then this build as shipped; the other this build single-rate
 # and then without reduced stiffness (about the same time on each core).
-for seed in 7 8 9; do
+for seed in "${seeds[@]}"; do
   (run "$base" single "$seed" && run "$new" shipped "$seed") &
   run "$new" single_here "$seed"
   run "$new" shipped_without_reduced "$seed"
