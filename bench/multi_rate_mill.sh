@@ -6,9 +6,10 @@
 # 16.39 um), as shipped without reduced stiffness, and single-rate at 20 steps per contact
 # without reduced stiffness (this build's own reference, "single_here": the physics changed on
 # purpose since BASE, so accuracy is judged against it), each at the seeds given (7, 8 and 9 by
-# default), two runs at a time on two cores (one per core). Then the table of bench/multi_rate_table.py: time stepping,
-# product PSD, breakage events by generation, and the KS distance of each product to BASE's run
-# of the same seed against BASE's seed-to-seed scatter; then the same against single_here. Each
+# default), two runs at a time on two cores (one per core). Then the table of
+# bench/multi_rate_table.py: time stepping, product PSD, breakage events by generation, and the
+# KS distance of each product to BASE's run of the same seed against BASE's seed-to-seed
+# scatter; then the same against single_here. Each
 # table gives the speed-up for the window and per simulated particle-millisecond, with medians.
 # About 20 minutes for the three default seeds on this machine; a benchmark, not CI.
 #   bash bench/multi_rate_mill.sh BASE_MILLSIM [OUT_DIR [SEED...]]

@@ -7,7 +7,8 @@ the first variant's run of the same seed; then each variant's seed-to-seed scatt
 every two seeds) and the medians; then, per variant against the first, the breakage counts
 (events by generation, crushes, limiter events) and the product (its mass, d10 and d50) as the
 mean of the paired per-seed differences with its 95 % interval (Student's t), beside the first
-variant's own seed-to-seed spread.
+variant's own seed-to-seed spread; and the same figures unpaired, every seed of each variant
+(difference of the means, Welch's 95 % interval), for variants run at different seed counts.
 
     python3 bench/scene_settings_table.py OUT_DIR NAME [NAME ...]
 """
@@ -52,7 +53,40 @@ def print_paired_counts(runs, reference, name):
         mean = statistics.mean(diff)
         half = T95[min(len(diff) - 2, len(T95) - 1)] * statistics.stdev(diff) / len(diff) ** 0.5
         print(f"| {key} | {statistics.mean(ref):.2f} ({statistics.stdev(ref):.2f}) "
-              f"| {statistics.mean(var):.2f} | {mean:+.2f} | {mean - half:+.2f} to {mean + half:+.2f} |")
+              f"| {statistics.mean(var):.2f} | {mean:+.2f} "
+              f"| {mean - half:+.2f} to {mean + half:+.2f} |")
+
+
+def t95(degrees_of_freedom):
+    """Student's two-sided 95 % quantile at (the whole part of) the degrees of freedom."""
+    if degrees_of_freedom > len(T95):
+        return 1.960
+    return T95[max(int(degrees_of_freedom), 1) - 1]
+
+
+def print_unpaired_counts(runs, reference, name):
+    a_runs = [r for (n, _), r in sorted(runs.items()) if n == reference]
+    b_runs = [r for (n, _), r in sorted(runs.items()) if n == name]
+    if len(a_runs) < 2 or len(b_runs) < 2:
+        return
+    print(f"\n{name} ({len(b_runs)} seeds) against {reference} ({len(a_runs)} seeds), unpaired "
+          "(difference of the means, Welch's 95 % interval; each variant's mean and sd):")
+    print(f"| figure | {reference} mean (sd) | {name} mean (sd) | difference | 95 % interval |")
+    print("| --- | --- | --- | --- | --- |")
+    for key in counts(a_runs[0]):
+        a = [counts(r)[key] for r in a_runs]
+        b = [counts(r)[key] for r in b_runs]
+        va, vb = statistics.variance(a) / len(a), statistics.variance(b) / len(b)
+        diff = statistics.mean(b) - statistics.mean(a)
+        if va + vb == 0.0:
+            print(f"| {key} | {statistics.mean(a):.2f} (0) | {statistics.mean(b):.2f} (0) "
+                  f"| {diff:+.2f} | - |")
+            continue
+        dof = (va + vb) ** 2 / (va ** 2 / (len(a) - 1) + vb ** 2 / (len(b) - 1))
+        half = t95(dof) * (va + vb) ** 0.5
+        print(f"| {key} | {statistics.mean(a):.2f} ({statistics.stdev(a):.2f}) "
+              f"| {statistics.mean(b):.2f} ({statistics.stdev(b):.2f}) | {diff:+.2f} "
+              f"| {diff - half:+.2f} to {diff + half:+.2f} |")
 
 
 def main():
@@ -89,6 +123,7 @@ def main():
         print_seed_scatter(runs, name, f"{name}:")
     for name in names[1:]:
         print_paired_counts(runs, reference, name)
+        print_unpaired_counts(runs, reference, name)
 
 
 if __name__ == "__main__":

@@ -479,8 +479,8 @@ void GasCoupling::return_drag_response(ParticleStore& p) {
   const double* coefficient = response_coefficient_.data();
   for (std::size_t i = 0; i < p.size(); ++i) {
     const ResponseStencil& stencil = response_stencil_[i];
+    if (stencil.count[0] + stencil.count[1] + stencil.count[2] == 0) continue;  // β = 0
     std::uint32_t e = stencil.begin;
-    if (stencil.count[0] + stencil.count[1] + stencil.count[2] == 0) continue;
     Vec3 impulse;
     for (int a = 0; a < 3; ++a) {
       const double* r = response[std::size_t(a)].data();
