@@ -356,7 +356,8 @@ void NeighborList::note_motion(const std::vector<double>& block_max_speed_m_per_
   const double turn = std::abs(frame_.omega_rad_per_s) * dt;
   const double chord_m = 0.5 * turn * turn * frame_.radius_bound_m;
   frame_elapsed_s_ += dt;
-  motion_bound_m_ += max_speed_m_per_s * dt + turn * motion_bound_m_ + chord_m;
+  last_bound_increment_m_ = max_speed_m_per_s * dt + turn * motion_bound_m_ + chord_m;
+  motion_bound_m_ += last_bound_increment_m_;
   if (block_max_speed_m_per_s.size() != block_bound_m_.size()) {
     block_bounds_valid_ = false;  // the population changed: the next update() rebuilds
     return;

@@ -147,6 +147,12 @@ class NeighborList {
 
   // True when the cheap motion bound says the next update() may rebuild anyway.
   bool rebuild_likely() const { return motion_bound_m_ > 0.5 * settings_.skin_m; }
+  // True when, at the rate of the last step, the cheap bound will say so after one more step: the
+  // next update() will measure motion and most likely rebuild. A population change applied now
+  // takes the place of that rebuild instead of adding one (Simulation::process_population).
+  bool rebuild_expected_next_step() const {
+    return motion_bound_m_ + last_bound_increment_m_ > 0.5 * settings_.skin_m;
+  }
 
   // The frame this list measures motion in, chosen at each rebuild: turning about the walls' common
   // axis at the particles' mean angular velocity about it (a least-squares fit), or the lab frame.
@@ -211,7 +217,7 @@ class NeighborList {
            active_bands_, block_bound_m_, block_bounds_valid_, partner_block_start_,
            partner_blocks_, band_block_start_, block_active_, blocks_joined_, active_ranges_);
     io_all(a, reorder_spacing_m_, motion_since_reorder_m_, newborn_ghost_ratio_, stats_);
-    io_all(a, frame_, frame_elapsed_s_, speed_scale2_);
+    io_all(a, frame_, frame_elapsed_s_, speed_scale2_, last_bound_increment_m_);
   }
 
  private:
@@ -253,6 +259,7 @@ class NeighborList {
   double division_skin_m_ = -1.0;
   Vec3 image_shift_[27];
   double motion_bound_m_ = 0.0;
+  double last_bound_increment_m_ = 0.0;  // what the last note_motion() added to it
   std::uint64_t steps_since_rebuild_ = 0;
   double previous_skin_m_ = 0.0;       // skin of the list whose interval just ended
   std::optional<double> next_skin_m_;  // steered skin, applied at the next rebuild

@@ -985,16 +985,21 @@ void Simulation::process_population() {
   }
   rider_crushed_.clear();
   // Outlets and feeds change the population too, and each change costs a neighbour-list
-  // rebuild. They are applied when the list rebuilds anyway (a breakage event, or the motion
-  // bound), and at least every kMaxDeferredSteps steps: a particle past an outlet lingers, and
-  // fed mass waits, for at most that long. The feed's rate is kept exactly (mass accrues).
-  constexpr std::int64_t kMaxDeferredSteps = 64;
-  const bool apply_now = particles_.population_version != version || neighbors_.rebuild_likely() ||
+  // rebuild. They are applied when the list rebuilds anyway: with a breakage event, or once per
+  // list on the step before the motion bound is expected to rebuild it (their rebuild then takes
+  // the place of that one), and at least every kMaxDeferredSteps steps, longer than a list lives in
+  // the mill (75 steps): a particle past an outlet lingers, and fed mass waits, for at most that
+  // long. The feed's rate is kept exactly (mass accrues).
+  constexpr std::int64_t kMaxDeferredSteps = 256;
+  const std::uint64_t list = neighbors_.stats().rebuilds;
+  const bool apply_now = particles_.population_version != version ||
+                         (neighbors_.rebuild_expected_next_step() && population_list_ != list) ||
                          step_index_ - last_population_step_ >= kMaxDeferredSteps;
   if (!apply_now) return;
   finish_stepping_kick();  // outlets read velocities, and a rebuild may follow
   catch_up_free_flight();
   last_population_step_ = step_index_;
+  population_list_ = list;
   profile_.time(Phase::Population, [&] {
     if (!outlets_.empty())
       for (std::size_t i = particles_.size(); i-- > 0;) {

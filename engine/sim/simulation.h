@@ -284,8 +284,9 @@ class Simulation {
   double fed_mass_kg_ = 0.0;
   Vec3 fed_momentum_;      // Σ m v of the fed particles as they entered
   Vec3 initial_momentum_;  // held by the particles at the start (with the force in flight)
-  std::int64_t last_population_step_ = 0;  // when outlets and feeds were last applied
-  double feed_mass_bound_kg_ = 0.0;        // what the feeds can bring in over the run
+  std::int64_t last_population_step_ = 0;              // when outlets and feeds were last applied
+  std::uint64_t population_list_ = ~std::uint64_t(0);  // the list (rebuild count) they were at
+  double feed_mass_bound_kg_ = 0.0;                    // what the feeds can bring in over the run
   double feed_kinetic_bound_j_ = 0.0;
   double drag_relaxation_s_ = 1e300;  // Stokes τ of the smallest particle (gas scenes only)
   bool multi_rate_on_ = false;
@@ -330,7 +331,7 @@ void Simulation::checkpoint_io(A& a) {
   for (Feeder& f : feeders_) io(a, f);
   io_all(a, outlet_, outlet_mass_kg_, outlet_momentum_, initial_mass_kg_, fed_mass_kg_,
          last_population_step_, feed_mass_bound_kg_, feed_kinetic_bound_j_, drag_relaxation_s_,
-         impact_spectrum_, fed_momentum_, initial_momentum_);
+         impact_spectrum_, fed_momentum_, initial_momentum_, population_list_);
 }
 
 }  // namespace millsim

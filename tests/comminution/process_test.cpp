@@ -59,6 +59,42 @@ TEST(FeedAndOutlet, FeedRateIsDeliveredAndOutletMassBalances) {
   for (const Vec3& x : sim.particles().position_m) EXPECT_GE(x[2], -1e-4);
 }
 
+// Feeding costs no rebuilds of its own: the fed particles enter on the step before the list
+// would rebuild anyway, and that rebuild takes theirs. Every particle moves at one speed v, so
+// each list lives L = ⌈(skin/2) / (v dt)⌉ steps (the motion bound and the exact displacement
+// agree); a particle is due every 30 steps, far more often than L.
+TEST(FeedAndOutlet, FeedsWaitForTheListsOwnRebuild) {
+  SceneConfig s =
+      test::empty_scene({0, 0, 0}, {4e-3, 4e-3, 4e-3}, test::table1_material(), {true, true, true});
+  const double speed = 0.2, dt = 5e-7, skin = 2e-5;  // dt under the Rayleigh time, 7.7e-7 s
+  s.time.step_s = dt;
+  s.time.end_s = 3000 * dt;
+  s.search.skin_m = skin;
+  FeedConfig f;
+  f.name = "cloud";
+  f.region_min_m = {0, 0, 0};
+  f.region_max_m = {4e-3, 4e-3, 4e-3};
+  f.sizes.kind = SizeDistributionKind::Uniform;
+  f.sizes.min_m = f.sizes.max_m = 2e-4;
+  f.velocity_m_per_s = {speed, 0, 0};
+  const double particle_kg =
+      s.materials[0].density_kg_per_m3 * std::numbers::pi / 6.0 * std::pow(2e-4, 3);
+  f.mass_rate_kg_per_s = particle_kg / (30 * dt);
+  s.feeds.push_back(f);
+  Simulation sim(s);
+  while (sim.step_index() < sim.total_steps()) ASSERT_FALSE(sim.step());
+
+  const std::int64_t list_steps = std::int64_t(std::ceil(0.5 * skin / (speed * dt)));
+  ASSERT_NEAR(double(list_steps), 100.0, 1.0);  // (100 up to rounding)
+  const double steps = double(sim.total_steps());
+  // Applied every 64 steps (the rule before), the feed would rebuild 47 times.
+  EXPECT_LE(double(sim.neighbors().stats().rebuilds), steps / double(list_steps - 2) + 2.0);
+  // Fed mass waits at most one list: what was due until then has entered.
+  const double due_kg = f.mass_rate_kg_per_s * (steps - double(list_steps)) * dt;
+  EXPECT_GE(sim.mass_balance().fed_kg, due_kg - particle_kg);
+  EXPECT_LE(sim.mass_balance().fed_kg, f.mass_rate_kg_per_s * steps * dt * (1 + 1e-12));
+}
+
 json breakable_scene() {
   return json::parse(R"({
     "domain": {"min_m": [0,0,0], "max_m": [1e-3,1e-3,1e-3]},
