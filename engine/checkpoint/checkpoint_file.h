@@ -22,7 +22,8 @@ namespace millsim {
 // 2: multi-rate stepping state; 3: the impact spectrum and the breakage event log; 4: the run
 // loop's hold-up history; 5: the mass flows by size class (process/mass_flows.h); 6: the
 // neighbour list's turning frame (dem/motion_frame.h); 7: when outlets and feeds were last
-// applied, by list (Simulation::process_population).
+// applied, by list (Simulation::process_population), and the kept fluid forces' exchange booked
+// by count of steps (sim/multi_rate.h).
 inline constexpr std::uint32_t kCheckpointFormat = 7;
 
 struct CheckpointHeader {

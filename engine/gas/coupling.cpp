@@ -628,7 +628,7 @@ void GasCoupling::fluid_pass(ParticleStore& p, std::size_t count, SlotOf&& slot_
     Vec3 force = exchange;
     if (pressure) force -= st.pressure_gradient_pa_per_m * (std::numbers::pi / 6.0 * d * d * d);
     p.load[i].force_n += force;
-    if (keep) p.fluid_held[i] = {force, exchange};
+    if (keep) p.fluid_held_force_n[i] = force, p.fluid_held_exchange_n[i] = exchange;
     if (accumulate) {
       p.fluid_impulse_n_s[i] += exchange * dt;
       tally.impulse_n_s += exchange * dt;

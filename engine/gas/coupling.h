@@ -158,8 +158,9 @@ class GasCoupling {
   // The same for the listed slots only, over a step `step_s` of their own (multi-rate stepping,
   // sim/multi_rate.h), impulse kept. Per particle the same numbers as the pass over all.
   void add_fluid_forces(ParticleStore& p, const std::vector<std::uint32_t>& slots, double step_s);
-  // Every evaluation also keeps the force in p.fluid_held when the store has that column; a step
-  // that applies the kept force instead (sim/multi_rate.h) reports its impulse here.
+  // Every evaluation also keeps the force and its exchanged part in p.fluid_held_force_n and
+  // p.fluid_held_exchange_n when the store has those columns; the steps that apply the kept force
+  // instead (sim/multi_rate.h) report their impulse here when they book it.
   void add_held_impulse(const Vec3& impulse_n_s);
   // A particle leaves the run (outlet, breakage): its pending impulse still goes to the gas.
   void release(const ParticleStore& p, std::size_t slot);

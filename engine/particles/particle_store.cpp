@@ -67,7 +67,8 @@ std::size_t ParticleStore::add(const MaterialTable& materials, int material_inde
     fluid_cell.push_back({});
   }
   if (has_multi_rate_state) free_flight.push_back(0);  // complete now: it steps until a rebuild
-  if (has_multi_rate_state && has_fluid_state) fluid_held.push_back({});
+  if (has_multi_rate_state && has_fluid_state)
+    fluid_held_force_n.push_back({}), fluid_held_exchange_n.push_back({});
   ++population_version;
   return id.size() - 1;
 }

@@ -44,13 +44,6 @@ struct FluidCellRef {
   std::uint32_t generation = 0;
 };
 
-// The fluid force a particle that steps with the contacts keeps between two evaluations under
-// multi-rate stepping (sim/multi_rate.h): all of it, and the part exchanged with the gas.
-struct HeldFluidForce {
-  Vec3 force_n;
-  Vec3 exchange_n;
-};
-
 struct ParticleStore {
   // hot: read or written every step
   std::vector<Vec3> position_m;
@@ -91,7 +84,11 @@ struct ParticleStore {
   // candidate in the neighbour list, and so advanced on a long step of its own. Empty, and not a
   // column, unless enable_multi_rate_state().
   std::vector<std::uint8_t> free_flight;
-  std::vector<HeldFluidForce> fluid_held;  // with the gas state too: the last fluid force
+  // With the gas state too: the fluid force a particle that steps with the contacts keeps between
+  // two evaluations (sim/multi_rate.h), all of it and the part exchanged with the gas. Two
+  // columns: the step reads the first, the second only when the kept exchange is booked.
+  std::vector<Vec3> fluid_held_force_n;
+  std::vector<Vec3> fluid_held_exchange_n;
   bool has_multi_rate_state = false;
 
   // Bumped by every add and removal, so caches (the neighbour list) see a changed population.
@@ -118,7 +115,7 @@ struct ParticleStore {
       f(fluid_cell);
     }
     if (has_multi_rate_state) f(free_flight);
-    if (has_multi_rate_state && has_fluid_state) f(fluid_held);
+    if (has_multi_rate_state && has_fluid_state) f(fluid_held_force_n), f(fluid_held_exchange_n);
   }
 
   // Checkpoints (checkpoint/archive.h): the flags first, so the columns they add are read back.
@@ -152,7 +149,8 @@ struct ParticleStore {
   void enable_multi_rate_state() {
     has_multi_rate_state = true;
     free_flight.assign(size(), 0);
-    if (has_fluid_state) fluid_held.assign(size(), {});
+    if (has_fluid_state)
+      fluid_held_force_n.assign(size(), {}), fluid_held_exchange_n.assign(size(), {});
   }
 
   // Appends a particle and computes its contact constants; `stiffness_scale` multiplies its

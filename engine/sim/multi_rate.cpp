@@ -157,27 +157,39 @@ void bound_rider_speeds(const ParticleStore& p, double dt, int level, const Spee
   combine_waiting_bounds(m);
 }
 
-Vec3 kick_drift_keeping_fluid(ParticleStore& p, const std::vector<std::uint32_t>& slots, double dt,
-                              const Vec3& gravity, std::vector<double>& block_max_speed2,
-                              const SpeedReport& report, double& max_speed2, bool kick_first) {
+double kick_drift_keeping_fluid(ParticleStore& p, const std::vector<std::uint32_t>& slots,
+                                double dt, const Vec3& gravity,
+                                std::vector<double>& block_max_speed2, const SpeedReport& report,
+                                bool kick_first) {
   const double* mass = p.mass_kg.data();
-  const HeldFluidForce* held = p.fluid_held.data();
+  const Vec3* held = p.fluid_held_force_n.data();
+  return kick_drift_listed(
+      p, slots, dt, block_max_speed2, report,
+      [&](std::uint32_t i, Vec3&) {
+        return Load{gravity * mass[i] + held[i], {}};
+      },
+      nullptr, kick_first);
+}
+
+Vec3 book_held_exchange(ParticleStore& p, const std::vector<std::uint32_t>& slots, double held_s) {
+  const Vec3* exchange = p.fluid_held_exchange_n.data();
   Vec3* impulse = p.fluid_impulse_n_s.data();
-  // The impulse booked for the gas, summed per piece of the list and then in piece order: the
-  // same sum on any thread count.
+  const std::size_t piece = block_items(kListPieceEntries);
   static thread_local std::vector<Vec3> calling_thread_piece_sums;
-  std::vector<Vec3>& booked_per_piece = calling_thread_piece_sums;
-  const auto next_load = [&](std::uint32_t i, Vec3& booked_here) {
-    const Vec3 step_impulse = held[i].exchange_n * dt;
-    impulse[i] += step_impulse;
-    booked_here += step_impulse;
-    return Load{gravity * mass[i] + held[i].force_n, {}};
-  };
-  max_speed2 = kick_drift_listed(p, slots, dt, block_max_speed2, report, next_load,
-                                 &booked_per_piece, kick_first);
-  Vec3 booked;
-  for (const Vec3& b : booked_per_piece) booked += b;
-  return booked;
+  std::vector<Vec3>& piece_sums = calling_thread_piece_sums;
+  piece_sums.assign((slots.size() + piece - 1) / piece, Vec3{});
+  parallel_ranges(slots.size(), piece, [&](std::size_t begin, std::size_t end, std::size_t q) {
+    Vec3 sum;
+    for (std::size_t k = begin; k < end; ++k) {
+      const Vec3 booked = exchange[slots[k]] * held_s;
+      impulse[slots[k]] += booked;
+      sum += booked;
+    }
+    piece_sums[q] = sum;
+  });
+  Vec3 total;
+  for (const Vec3& sum : piece_sums) total += sum;
+  return total;
 }
 
 }  // namespace millsim

@@ -38,8 +38,13 @@
 // The particles that step keep their fluid force too (in gas scenes): it is evaluated at most
 // every max_wait_steps steps and on the step after a CFD step (which changed the gas), and in
 // between the step applies the kept force, so the drag and the DEM-cell lookup follow the
-// particle's time scale, not the contact's. The kept force enters the step's kick-drift, which
-// also books its impulse for the gas.
+// particle's time scale, not the contact's. The kept force enters the step's kick-drift. The
+// impulse it exchanges with the gas is the same every step while it is kept, so the steps only
+// count themselves (MultiRate::held_exchange_steps) and the count is booked into each particle's
+// impulse at once, k dt times the kept exchange (book_held_exchange), before anything reads the
+// impulses, replaces the kept forces or changes the stepping set or its slots: with the stepping
+// particles' deferred kick (Simulation::finish_stepping_kick), before a step that may rebuild the
+// list, and before the step that evaluates the force again.
 #pragma once
 
 #include <cstdint>
@@ -141,7 +146,10 @@ struct MultiRate {
   std::int64_t max_wait_steps = kMaxFreeFlightSteps;
   std::int64_t fluid_refreshed_step = 0;  // when the stepping particles' fluid force was evaluated
   bool fluid_refresh_due = true;          // a CFD step changed the gas since
-  std::int64_t gas_changed_step = -1;     // the step of the last CFD step
+  // Steps the stepping particles applied their kept fluid force since its exchange was last booked
+  // into their impulses (book_held_exchange).
+  std::int64_t held_exchange_steps = 0;
+  std::int64_t gas_changed_step = -1;  // the step of the last CFD step
   // Per slot block (dem/integrator.h): the waiting particles' speed bound, squared.
   std::vector<double> waiting_block_speed2;
   double waiting_max_speed2 = 0.0;
@@ -171,7 +179,7 @@ struct MultiRate {
            fluid_refreshed_step, fluid_refresh_due);
     io_all(a, waiting_block_speed2, waiting_max_speed2, speeds_valid, stats);
     io_all(a, riders_on, riders, stepping_wall_ranges, rider_ranges_valid, rider_events,
-           free_block_speed2, free_max_speed2, gas_changed_step);
+           free_block_speed2, free_max_speed2, gas_changed_step, held_exchange_steps);
   }
 };
 
@@ -191,13 +199,17 @@ void bound_rider_speeds(const ParticleStore& p, double dt, int level, const Spee
                         MultiRate& m);
 
 // kick_drift_listed (dem/integrator.h) for particles that keep their fluid force: each one's
-// next force starts from gravity plus the kept force, and the kept exchange's impulse over the
-// step is booked for the gas (returned summed). Returns the largest |v½|² as `report` counts it
-// in `max_speed2`. With `kick_first`, the last step's closing kick comes first in the same pass
-// (kick_drift_listed's kKickFirst).
-Vec3 kick_drift_keeping_fluid(ParticleStore& p, const std::vector<std::uint32_t>& slots, double dt,
-                              const Vec3& gravity, std::vector<double>& block_max_speed2,
-                              const SpeedReport& report, double& max_speed2,
-                              bool kick_first = false);
+// next force starts from gravity plus the kept force. Returns the largest |v½|² as `report`
+// counts it. With `kick_first`, the last step's closing kick comes first in the same pass
+// (kick_drift_listed's kKickFirst). The kept exchange's impulse is the caller's to book
+// (book_held_exchange).
+double kick_drift_keeping_fluid(ParticleStore& p, const std::vector<std::uint32_t>& slots,
+                                double dt, const Vec3& gravity,
+                                std::vector<double>& block_max_speed2, const SpeedReport& report,
+                                bool kick_first = false);
+
+// Adds the kept exchange over `held_s` to each listed particle's impulse for the gas; returns
+// the sum, added per piece of the list and then in piece order (the same on any thread count).
+Vec3 book_held_exchange(ParticleStore& p, const std::vector<std::uint32_t>& slots, double held_s);
 
 }  // namespace millsim

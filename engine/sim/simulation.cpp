@@ -548,6 +548,7 @@ void Simulation::compute_all_forces() {
 }
 
 void Simulation::refresh_forces() {
+  finish_stepping_kick();
   catch_up_free_flight();
   neighbors_.update(particles_, box_, walls_, true);
   compute_all_forces();
@@ -584,7 +585,18 @@ void Simulation::prepare_multi_rate() {
   }
 }
 
+void Simulation::book_stepping_exchange() {
+  MultiRate& m = multi_rate_;
+  if (m.held_exchange_steps == 0) return;
+  const double held_s = double(m.held_exchange_steps) * time_.step_s;
+  m.held_exchange_steps = 0;
+  profile_.time(Phase::Fluid, [&] {
+    gas_->add_held_impulse(book_held_exchange(particles_, m.stepping, held_s));
+  });
+}
+
 void Simulation::finish_stepping_kick() {
+  book_stepping_exchange();
   if (!stepping_kick_pending_) return;
   stepping_kick_pending_ = false;
   profile_.time(Phase::Kick, [&] { kick_listed(particles_, multi_rate_.stepping, time_.step_s); });
@@ -633,10 +645,9 @@ void Simulation::catch_up_riders(int level) {
     const bool refresh = gas_ && (l.fluid_refreshed_step <= m.gas_changed_step ||
                                   step_index_ - l.fluid_refreshed_step >= m.max_wait_steps);
     if (gas_ && !refresh) {
-      double max2 = 0.0;
-      gas_->add_held_impulse(kick_drift_keeping_fluid(particles_, l.slots, h, gravity_m_per_s2_,
-                                                      scratch_block_speed2,
-                                                      neighbors_.speed_report(particles_), max2));
+      kick_drift_keeping_fluid(particles_, l.slots, h, gravity_m_per_s2_, scratch_block_speed2,
+                               neighbors_.speed_report(particles_));
+      gas_->add_held_impulse(book_held_exchange(particles_, l.slots, h));
     } else {
       kick_drift_listed(particles_, l.slots, h, gravity_m_per_s2_, scratch_block_speed2,
                         neighbors_.speed_report(particles_));
@@ -715,6 +726,7 @@ std::optional<StepFailure> Simulation::step_multi_rate(bool may_defer) {
   // The stepping particles' fluid force: evaluated this step, or the kept one applied.
   const bool refresh =
       !gas_ || m.fluid_refresh_due || step_index_ + 1 - m.fluid_refreshed_step >= m.max_wait_steps;
+  if (refresh) book_stepping_exchange();  // the kept forces are about to be evaluated again
   double max_speed = 0.0;
   profile_.time(Phase::KickDrift, [&] {
     m.block_speed2 = m.waiting_block_speed2;
@@ -724,9 +736,10 @@ std::optional<StepFailure> Simulation::step_multi_rate(bool may_defer) {
           kick_drift_listed(particles_, m.stepping, dt, gravity_m_per_s2_, m.block_speed2,
                             neighbors_.speed_report(particles_), kick_first);
     } else {
-      gas_->add_held_impulse(
+      stepping_max2 =
           kick_drift_keeping_fluid(particles_, m.stepping, dt, gravity_m_per_s2_, m.block_speed2,
-                                   neighbors_.speed_report(particles_), stepping_max2, kick_first));
+                                   neighbors_.speed_report(particles_), kick_first);
+      ++m.held_exchange_steps;
       m.stats.held_fluid_steps += double(m.stepping.size());
     }
     const double max2 = std::max(stepping_max2, m.waiting_max_speed2);
@@ -741,6 +754,7 @@ std::optional<StepFailure> Simulation::step_multi_rate(bool may_defer) {
   // this step becomes a full one.
   const bool full = neighbors_.rebuild_likely();
   if (full) {
+    book_stepping_exchange();  // a rebuild may reorder the slots
     catch_up_free_flight();
     profile_.time(Phase::KickDrift, [&] {
       kick_drift_listed(particles_, m.waiting, dt, gravity_m_per_s2_, m.block_speed2,
@@ -824,6 +838,7 @@ std::optional<StepFailure> Simulation::step_once(bool may_defer) {
   if (multi_rate_on_) {
     prepare_multi_rate();
     if (!multi_rate_.waiting.empty() || multi_rate_.any_riders()) return step_multi_rate(may_defer);
+    book_stepping_exchange();
   }
   const double dt = time_.step_s;
   double max_speed = 0.0;
@@ -964,7 +979,7 @@ void Simulation::process_population() {
     // candidates (listed by slot) are stale until the rebuild (the riders brought up to date
     // while they are not).
     const bool riders = multi_rate_on_ && multi_rate_.any_riders();
-    if ((stepping_kick_pending_ || riders) &&
+    if ((stepping_kick_pending_ || multi_rate_.held_exchange_steps > 0 || riders) &&
         breakage_->may_break(c.impacts, crushed, walls_, particles_)) {
       finish_stepping_kick();
       if (riders)

@@ -214,8 +214,13 @@ class Simulation {
   // closing kick may be left for the next step's kick-drift, as step_once's.
   std::optional<StepFailure> step_multi_rate(bool may_defer);
   // The stepping particles' closing kick, if the last multi-rate step left it: called by
-  // whatever reads their velocities or changes the sets before the next step's kick-drift.
+  // whatever reads their velocities or changes the sets before the next step's kick-drift. Their
+  // held exchange is booked first (book_stepping_exchange).
   void finish_stepping_kick();
+  // The exchange the stepping particles' kept fluid forces made over the steps since it was last
+  // booked, into their impulses for the gas (sim/multi_rate.h: before anything reads the impulses,
+  // replaces the kept forces, or changes the stepping set or its slots).
+  void book_stepping_exchange();
   // After a rebuild: which particles are in free flight now.
   void prepare_multi_rate();
   // Brings the particles in free flight and the wall riders up to the current step in one long
