@@ -147,30 +147,24 @@ inline double kick_then_kick_drift(ParticleStore& p, double dt, const Vec3& grav
 // and in which they sum what they sum (so the sums are the same on any thread count).
 inline constexpr std::size_t kListPieceEntries = 4096;
 
-// Runs speed2 = visit(i, sum) for every listed slot i, the list cut into pieces of
-// kListPieceEntries spread over the engine's threads; raises block_max_speed2[i /
-// kSpeedBlockSlots] to each speed2 and returns the largest. `sum` is the piece's own Vec3, for a
-// visit that adds something up; the pieces' sums go to piece_sums when given (one per piece),
-// for the caller to add in piece order: the same sum on any thread count. Maxima are exact in
-// any order. Each piece keeps its maxima and its sum in registers and writes them once per slot
-// block (the lists are in slot order) and once at its end: threads never write one cache line
-// per particle.
+// Runs speed2 = visit(i) for every listed slot i, the list cut into pieces of kListPieceEntries
+// spread over the engine's threads; raises block_max_speed2[i / kSpeedBlockSlots] to each speed2
+// and returns the largest. Maxima are exact in any order. Each piece keeps its maxima in
+// registers and writes them once per slot block (the lists are in slot order) and once at its
+// end: threads never write one cache line per particle.
 template <class Visit>
 double for_listed_speeds(const std::vector<std::uint32_t>& slots,
-                         std::vector<double>& block_max_speed2, Visit&& visit,
-                         std::vector<Vec3>* piece_sums = nullptr) {
+                         std::vector<double>& block_max_speed2, Visit&& visit) {
   const std::size_t n = slots.size();
   const std::size_t piece_entries = block_items(kListPieceEntries);
   const std::size_t pieces = (n + piece_entries - 1) / piece_entries;
-  if (piece_sums) piece_sums->assign(pieces, Vec3{});
   // One piece; block_out: its block maxima (raised, never lowered). Returns its largest speed2.
-  auto run_piece = [&](std::size_t begin, std::size_t end, std::size_t piece, double* block_out) {
-    Vec3 sum;
+  auto run_piece = [&](std::size_t begin, std::size_t end, double* block_out) {
     double piece_max = 0.0, block_max = 0.0;
     std::size_t block = ~std::size_t(0);
     for (std::size_t k = begin; k < end; ++k) {
       const std::uint32_t i = slots[k];
-      const double speed2 = visit(i, sum);
+      const double speed2 = visit(i);
       if (i / kSpeedBlockSlots != block) {
         if (block != ~std::size_t(0)) block_out[block] = std::max(block_out[block], block_max);
         block = i / kSpeedBlockSlots, block_max = 0.0;
@@ -179,7 +173,6 @@ double for_listed_speeds(const std::vector<std::uint32_t>& slots,
       piece_max = std::max(piece_max, speed2);
     }
     if (block != ~std::size_t(0)) block_out[block] = std::max(block_out[block], block_max);
-    if (piece_sums) (*piece_sums)[piece] = sum;
     return piece_max;
   };
   double max_speed2 = 0.0;
@@ -187,7 +180,7 @@ double for_listed_speeds(const std::vector<std::uint32_t>& slots,
     for (std::size_t piece = 0; piece < pieces; ++piece)
       max_speed2 = std::max(
           max_speed2, run_piece(piece * piece_entries, std::min(n, (piece + 1) * piece_entries),
-                                piece, block_max_speed2.data()));
+                                block_max_speed2.data()));
     return max_speed2;
   }
   const std::size_t blocks = block_max_speed2.size();
@@ -198,7 +191,7 @@ double for_listed_speeds(const std::vector<std::uint32_t>& slots,
   piece_block.assign(pieces * stride, 0.0);  // per piece: its blocks' maxima, then its own
   parallel_ranges(n, piece_entries, [&](std::size_t begin, std::size_t end, std::size_t piece) {
     double* mine = piece_block.data() + piece * stride;
-    mine[blocks] = run_piece(begin, end, piece, mine);
+    mine[blocks] = run_piece(begin, end, mine);
   });
   for (std::size_t piece = 0; piece < pieces; ++piece) {
     const double* mine = piece_block.data() + piece * stride;
@@ -211,23 +204,22 @@ double for_listed_speeds(const std::vector<std::uint32_t>& slots,
 
 // Kick-drift of the listed slots by `dt`; returns the largest |v½|² as `report` counts it (as
 // kick_drift) and raises block_max_speed2[slot / kSpeedBlockSlots] to each particle's. Each
-// particle's next force pass starts from next_load(i, sum) (gravity, plus what the caller keeps
-// applied; `sum` and `piece_sums` as in for_listed_speeds, for a caller that adds something up).
-// With `kick_first`, each particle's closing kick of the last step (kick_listed, by the same
-// `dt`) comes first in the same pass: per particle the operations of kick_listed and then of the
-// kick-drift, in that order, so the same numbers with the state read once
+// particle's next force pass starts from next_load(i) (gravity, plus what the caller keeps
+// applied). With `kick_first`, each particle's closing kick of the last step (kick_listed, by the
+// same `dt`) comes first in the same pass: per particle the operations of kick_listed and then of
+// the kick-drift, in that order, so the same numbers with the state read once
 // (Simulation::step_multi_rate carries the stepping particles' closing kick this way).
 template <bool kKickFirst, class NextLoad>
 double kick_drift_listed_as(ParticleStore& p, const std::vector<std::uint32_t>& slots, double dt,
                             std::vector<double>& block_max_speed2, const SpeedReport& report,
-                            NextLoad&& next_load, std::vector<Vec3>* piece_sums) {
+                            NextLoad&& next_load) {
   const double half = 0.5 * dt;
   Vec3* x = p.position_m.data();
   Motion* motion = p.motion.data();
   Load* load = p.load.data();
   Load* previous_load = p.previous_load.data();
   const FrameSpeed frame_speed(report);
-  auto kick_drift_one = [&](std::uint32_t i, Vec3& sum) {
+  auto kick_drift_one = [&](std::uint32_t i) {
     Motion m = motion[i];
     const Load l = load[i];
     if constexpr (kKickFirst) {
@@ -237,7 +229,7 @@ double kick_drift_listed_as(ParticleStore& p, const std::vector<std::uint32_t>& 
           (l.torque_n_m - l_old.torque_n_m) * (half * p.inv_inertia_per_kg_m2[i]);
     }
     previous_load[i] = l;
-    load[i] = next_load(i, sum);
+    load[i] = next_load(i);
     const Vec3 dv = l.force_n * (half * p.inv_mass_per_kg[i]);
     const Vec3 v_half = m.velocity_m_per_s + dv;
     const double speed2 = frame_speed.speed2(i, x[i], v_half);
@@ -246,19 +238,17 @@ double kick_drift_listed_as(ParticleStore& p, const std::vector<std::uint32_t>& 
                  m.angular_velocity_rad_per_s + l.torque_n_m * (dt * p.inv_inertia_per_kg_m2[i])};
     return speed2;
   };
-  return for_listed_speeds(slots, block_max_speed2, kick_drift_one, piece_sums);
+  return for_listed_speeds(slots, block_max_speed2, kick_drift_one);
 }
 
 // The same with kKickFirst = kick_first (the closing kick carried or not: one pass each).
 template <class NextLoad>
 double kick_drift_listed(ParticleStore& p, const std::vector<std::uint32_t>& slots, double dt,
                          std::vector<double>& block_max_speed2, const SpeedReport& report,
-                         NextLoad&& next_load, std::vector<Vec3>* piece_sums = nullptr,
-                         bool kick_first = false) {
-  return kick_first ? kick_drift_listed_as<true>(p, slots, dt, block_max_speed2, report, next_load,
-                                                 piece_sums)
-                    : kick_drift_listed_as<false>(p, slots, dt, block_max_speed2, report, next_load,
-                                                  piece_sums);
+                         NextLoad&& next_load, bool kick_first = false) {
+  return kick_first
+             ? kick_drift_listed_as<true>(p, slots, dt, block_max_speed2, report, next_load)
+             : kick_drift_listed_as<false>(p, slots, dt, block_max_speed2, report, next_load);
 }
 
 // The same, each next force pass starting from gravity, m·g.
@@ -269,10 +259,10 @@ inline double kick_drift_listed(ParticleStore& p, const std::vector<std::uint32_
   const double* mass = p.mass_kg.data();
   return kick_drift_listed(
       p, slots, dt, block_max_speed2, report,
-      [&](std::uint32_t i, Vec3&) {
+      [&](std::uint32_t i) {
         return Load{gravity * mass[i], {}};
       },
-      nullptr, kick_first);
+      kick_first);
 }
 
 // The closing kick of the listed slots by `dt`.

@@ -70,7 +70,7 @@ double bound_speeds(const ParticleStore& p, const std::vector<std::uint32_t>& sl
                              credit_s * report.frame.radius_bound_m;
   const FrameSpeed frame_speed(report);
   block_speed2.assign((p.size() + kSpeedBlockSlots - 1) / kSpeedBlockSlots, 0.0);
-  return for_listed_speeds(slots, block_speed2, [&](std::uint32_t i, Vec3&) {
+  return for_listed_speeds(slots, block_speed2, [&](std::uint32_t i) {
     const double speed =
         std::sqrt(frame_speed.speed2(i, p.position_m[i], p.motion[i].velocity_m_per_s)) +
         credit_s * norm(p.load[i].force_n) * p.inv_mass_per_kg[i] + chord_speed;
@@ -165,10 +165,10 @@ double kick_drift_keeping_fluid(ParticleStore& p, const std::vector<std::uint32_
   const Vec3* held = p.fluid_held_force_n.data();
   return kick_drift_listed(
       p, slots, dt, block_max_speed2, report,
-      [&](std::uint32_t i, Vec3&) {
+      [&](std::uint32_t i) {
         return Load{gravity * mass[i] + held[i], {}};
       },
-      nullptr, kick_first);
+      kick_first);
 }
 
 Vec3 book_held_exchange(ParticleStore& p, const std::vector<std::uint32_t>& slots, double held_s) {
