@@ -172,12 +172,17 @@ std::map<std::string, CheckOutcome> run_locally(const RegressionSuite& suite, St
     if (check.is_study) {
       o.document = results_table(store, ids[i]);
     } else {
-      const std::vector<RunRecord> runs = store.runs(ids[i]);
-      o.document = json::parse(runs.at(0).result, nullptr, false);
-      if (o.document.is_discarded()) {
-        o.ok = false;
-        o.failure = "run " + runs[0].id + ": its result.json is not valid JSON";
+      for (const RunRecord& run : store.runs(ids[i])) {  // in seed order
+        json document = json::parse(run.result, nullptr, false);
+        if (document.is_discarded()) {
+          o.ok = false;
+          o.failure = "run " + run.id + ": its result.json is not valid JSON";
+          break;
+        }
+        o.repeat_documents.push_back(std::move(document));
       }
+      if (o.ok) o.document = o.repeat_documents.at(0);
+      if (check.repeats == 1) o.repeat_documents.clear();
     }
   }
   return outcomes;
@@ -242,10 +247,15 @@ std::map<std::string, CheckOutcome> run_on_server(const RegressionSuite& suite, 
                                 run["exit_code"], run.value("error", ""));
       }
     if (!o.ok) continue;
-    o.document =
-        check.is_study
-            ? remote.call("GET", "/v1/studies/" + id + "/results")
-            : remote.call("GET", "/v1/runs/" + runs.at(0)["id"].get<std::string>() + "/result");
+    if (check.is_study) {
+      o.document = remote.call("GET", "/v1/studies/" + id + "/results");
+      continue;
+    }
+    for (const json& run : runs)  // in seed order
+      o.repeat_documents.push_back(
+          remote.call("GET", "/v1/runs/" + run["id"].get<std::string>() + "/result"));
+    o.document = o.repeat_documents.at(0);
+    if (check.repeats == 1) o.repeat_documents.clear();
   }
   return outcomes;
 }

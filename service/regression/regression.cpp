@@ -12,6 +12,9 @@ namespace millsim {
 namespace {
 
 using nlohmann::json;
+
+// Repeats of one scene check: enough for a spread, few enough for a night.
+constexpr long long kMaxCheckRepeats = 64;
 using nlohmann::ordered_json;
 
 bool is_plain_name(const std::string& s) {
@@ -37,37 +40,46 @@ std::optional<double> number_at(const json& doc, const std::string& pointer) {
   return v->get<double>();
 }
 
+constexpr const char* kToleranceForms =
+    "\"exact\", {\"absolute\": x}, {\"relative\": x} or {\"sigmas\": k}";
+
 Tolerance parse_tolerance(const json* t, const std::string& path, InputErrors& errors) {
   Tolerance tol;
   if (!t) {
-    errors.push_back({path, "",
-                      "missing; expected \"exact\", {\"absolute\": x} or "
-                      "{\"relative\": x}"});
+    errors.push_back({path, "", std::string("missing; expected ") + kToleranceForms});
     return tol;
   }
   if (t->is_string() && t->get<std::string>() == "exact") {
     tol.kind = Tolerance::Kind::Exact;
     return tol;
   }
-  if (t->is_object() && t->size() == 1 && (t->contains("absolute") || t->contains("relative"))) {
-    const bool absolute = t->contains("absolute");
-    const json& v = absolute ? (*t)["absolute"] : (*t)["relative"];
-    if (!v.is_number() || !(v.get<double>() >= 0) || !std::isfinite(v.get<double>())) {
-      errors.push_back({path + (absolute ? "/absolute" : "/relative"), json_value_text(v),
-                        "expected a finite number >= 0"});
+  static const std::pair<const char*, Tolerance::Kind> kinds[] = {
+      {"absolute", Tolerance::Kind::Absolute},
+      {"relative", Tolerance::Kind::Relative},
+      {"sigmas", Tolerance::Kind::Sigmas}};
+  if (t->is_object() && t->size() == 1)
+    for (const auto& [key, kind] : kinds) {
+      if (!t->contains(key)) continue;
+      const json& v = (*t)[key];
+      const bool sigmas = kind == Tolerance::Kind::Sigmas;
+      if (!v.is_number() || !std::isfinite(v.get<double>()) ||
+          !(sigmas ? v.get<double>() > 0 : v.get<double>() >= 0)) {
+        errors.push_back(
+            {path + "/" + key, json_value_text(v),
+             sigmas ? "expected a finite number > 0" : "expected a finite number >= 0"});
+        return tol;
+      }
+      tol.kind = kind;
+      tol.value = v.get<double>();
       return tol;
     }
-    tol.kind = absolute ? Tolerance::Kind::Absolute : Tolerance::Kind::Relative;
-    tol.value = v.get<double>();
-    return tol;
-  }
-  errors.push_back({path, json_value_text(*t),
-                    "expected \"exact\", {\"absolute\": x} or {\"relative\": x} (one of them)"});
+  errors.push_back(
+      {path, json_value_text(*t), std::string("expected ") + kToleranceForms + " (one of them)"});
   return tol;
 }
 
 std::vector<RegressionQuantity> parse_quantities(JsonObjectReader& check, bool is_study,
-                                                 InputErrors& errors) {
+                                                 int repeats, InputErrors& errors) {
   std::vector<RegressionQuantity> out;
   const json* list = check.array("quantities");
   if (!list || list->empty()) {
@@ -108,6 +120,12 @@ std::vector<RegressionQuantity> parse_quantities(JsonObjectReader& check, bool i
     q.tolerance = parse_tolerance(r.child("tolerance"), r.path_of("tolerance"), errors);
     q.reason = r.required_string("reason");
     q.expect = r.optional_number("expect", NumberRange::any());
+    if (q.tolerance.kind == Tolerance::Kind::Sigmas && (repeats < 2 || q.expect))
+      errors.push_back({r.path_of("tolerance"), "{\"sigmas\": ...}",
+                        q.expect ? "a tolerance in sigmas compares with a baseline's spread, not "
+                                   "with expect; give an absolute or relative band"
+                                 : "a tolerance in sigmas needs a scene check with repeats >= 2 "
+                                   "(the spread of its runs)"});
     r.finish();
     if (!names.insert(q.name).second)
       errors.push_back({r.path_of("name"), "\"" + q.name + "\"",
@@ -117,13 +135,15 @@ std::vector<RegressionQuantity> parse_quantities(JsonObjectReader& check, bool i
   return out;
 }
 
-// A check's study spec: a scene check is a one-run study of its scene (with `set`, `limits`).
+// A check's study spec: a scene check is a study of its scene (with `set`, `limits`) of one run,
+// or of `repeats` runs with seeds scene.seed + 0, 1, ….
 json check_study_spec(const std::string& suite, const std::string& check, const json* scene,
-                      const json* set, const json* limits) {
+                      const json* set, const json* limits, int repeats) {
   json spec = {{"name", "regress:" + suite + "/" + check}};
   if (scene) spec["scene"] = *scene;
   if (set) spec["set"] = *set;
   if (limits) spec["limits"] = *limits;
+  if (repeats > 1) spec["repeats"] = repeats;
   return spec;
 }
 
@@ -200,6 +220,9 @@ std::string Tolerance::text() const {
       break;
     case Kind::Relative:
       std::snprintf(out, sizeof out, "rel %.3g", value);
+      break;
+    case Kind::Sigmas:
+      std::snprintf(out, sizeof out, "%.3g sigma", value);
       break;
   }
   return out;
@@ -294,7 +317,12 @@ RegressionSuite parse_regression_suite(const json& spec, const std::filesystem::
     const json* set = r.child("set");
     const json* limits = r.child("limits");
     check.is_study = study != nullptr;
-    check.quantities = parse_quantities(r, check.is_study, errors);
+    const bool has_repeats = r.has("repeats");
+    check.repeats = int(r.integer("repeats", 1, 1, kMaxCheckRepeats));
+    if (has_repeats && study)
+      errors.push_back({r.path_of("repeats"), json_value_text(*r.child("repeats")),
+                        "repeats belong to scene checks; a study check's study file sets its own"});
+    check.quantities = parse_quantities(r, check.is_study, check.repeats, errors);
     r.finish();
     if ((scene != nullptr) == (study != nullptr)) {
       errors.push_back(
@@ -317,7 +345,7 @@ RegressionSuite parse_regression_suite(const json& spec, const std::filesystem::
         base = p.parent_path();
         if (study_spec.is_object()) study_spec["name"] = "regress:" + suite.name + "/" + check.name;
       } else {
-        study_spec = check_study_spec(suite.name, check.name, scene, set, limits);
+        study_spec = check_study_spec(suite.name, check.name, scene, set, limits, check.repeats);
       }
       check.study = expand_study(study_spec, base, max_runs_per_check);
       check.submit_spec = inline_scene(check.study.spec, base);
@@ -326,8 +354,8 @@ RegressionSuite parse_regression_suite(const json& spec, const std::filesystem::
         errors.push_back({path + " " + err.path, err.value, err.allowed});
       continue;
     }
-    if (!check.is_study && check.study.runs.size() != 1)
-      errors.push_back({path, "", "a scene check is one run"});
+    if (!check.is_study && check.study.runs.size() != std::size_t(check.repeats))
+      errors.push_back({path, "", "a scene check is one run per repeat"});
     suite.checks.push_back(std::move(check));
   }
   top.finish();
@@ -345,6 +373,100 @@ RegressionSuite load_regression_suite(const std::filesystem::path& path, int max
 bool row_fails(const RegressionRow& row) {
   return row.verdict != "pass" && row.verdict != "skipped";
 }
+
+std::optional<RepeatedValue> measure_repeats(const CheckOutcome& outcome,
+                                             const RegressionQuantity& q, std::string& problem) {
+  const bool repeated = !outcome.repeat_documents.empty();
+  const std::size_t n = repeated ? outcome.repeat_documents.size() : 1;
+  RepeatedValue out;
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::optional<double> v =
+        measure_quantity(repeated ? outcome.repeat_documents[i] : outcome.document, q, problem);
+    if (!v) {
+      if (repeated) problem = concat("repeat ", i, " of ", n, ": ", problem);
+      return std::nullopt;
+    }
+    out.values.push_back(*v);
+  }
+  // Two passes (mean, then squares about it): no cancellation for values far from zero.
+  for (const double v : out.values) out.mean += v;
+  out.mean /= double(n);
+  double squares = 0.0;
+  for (const double v : out.values) squares += (v - out.mean) * (v - out.mean);
+  out.sd = n > 1 ? std::sqrt(squares / double(n - 1)) : 0.0;
+  return out;
+}
+
+namespace {
+
+// Whether `measured` lies within the tolerance of `reference` (not for Sigmas).
+bool within_band(const Tolerance& t, double measured, double reference) {
+  const double diff = std::abs(measured - reference);
+  switch (t.kind) {
+    case Tolerance::Kind::Exact:
+      return measured == reference;
+    case Tolerance::Kind::Absolute:
+      return diff <= t.value;
+    case Tolerance::Kind::Relative:
+      return diff <= t.value * std::abs(reference);
+    case Tolerance::Kind::Sigmas:
+      break;
+  }
+  return false;
+}
+
+// The baseline's spread of a repeated quantity: {sd, n}, or nothing.
+void read_reference_spread(const json& baseline, const std::string& check,
+                           const std::string& quantity, RegressionRow& row) {
+  if (!baseline.is_object() || !baseline.contains("spread")) return;
+  const json& spread = baseline["spread"];
+  if (!spread.is_object() || !spread.contains(check) || !spread[check].is_object() ||
+      !spread[check].contains(quantity))
+    return;
+  const json& s = spread[check][quantity];
+  if (!s.is_object() || !s.contains("sd") || !s["sd"].is_number() || !s.contains("n") ||
+      !s["n"].is_number_integer())
+    return;
+  row.reference_sd = s["sd"].get<double>();
+  row.reference_repeats = s["n"].get<int>();
+}
+
+// The verdict of a measured (mean) value against its reference; fills message on drift.
+void decide(const RegressionQuantity& q, RegressionRow& row) {
+  const double diff = std::abs(*row.measured - *row.reference);
+  std::string off = concat(", off by ", number_text(diff),
+                           *row.reference != 0.0
+                               ? " (" + number_text(diff / std::abs(*row.reference)) + " relative)"
+                               : std::string());
+  bool within = false;
+  if (q.tolerance.kind == Tolerance::Kind::Sigmas) {
+    if (!row.reference_sd || row.reference_repeats < 2) {
+      row.verdict = "no_baseline";
+      row.message =
+          "the baseline has no spread over repeats for this quantity: run `millsim regress "
+          "SUITE --update-baseline` to make one";
+      return;
+    }
+    const double standard_error =
+        std::sqrt(*row.reference_sd * *row.reference_sd / row.reference_repeats +
+                  *row.measured_sd * *row.measured_sd / row.repeats);
+    within = standard_error > 0 ? diff <= q.tolerance.value * standard_error : diff == 0.0;
+    off += standard_error > 0
+               ? concat(", ", number_text(diff / standard_error), " standard errors (sd ",
+                        number_text(row.measured_sd), " over ", row.repeats, " runs, baseline sd ",
+                        number_text(row.reference_sd), " over ", row.reference_repeats, ")")
+               : std::string(", with no spread in either");
+  } else {
+    within = within_band(q.tolerance, *row.measured, *row.reference);
+  }
+  row.verdict = within ? "pass" : "drift";
+  if (!within)
+    row.message = concat("measured ", row.repeats > 1 ? "mean " : "", number_text(row.measured),
+                         ", ", row.reference_kind, row.repeats > 1 ? " mean " : " ",
+                         number_text(row.reference), off, "; tolerance ", row.tolerance);
+}
+
+}  // namespace
 
 std::vector<RegressionRow> compare_with_baseline(
     const RegressionSuite& suite, const std::map<std::string, CheckOutcome>& outcomes,
@@ -369,6 +491,7 @@ std::vector<RegressionRow> compare_with_baseline(
             values[check.name][q.name].is_number())
           row.reference = values[check.name][q.name].get<double>();
         row.reference_kind = "baseline";
+        read_reference_spread(baseline, check.name, q.name, row);
       }
       if (found == outcomes.end() || !found->second.ok) {
         row.verdict = "failed";
@@ -377,8 +500,13 @@ std::vector<RegressionRow> compare_with_baseline(
         continue;
       }
       std::string problem;
-      row.measured = measure_quantity(found->second.document, q, problem);
-      if (!row.measured) {
+      const std::optional<RepeatedValue> value = measure_repeats(found->second, q, problem);
+      if (value) {
+        row.repeats = int(value->values.size());
+        row.measured = value->mean;
+        if (row.repeats > 1) row.measured_sd = value->sd;
+      }
+      if (!value) {
         row.verdict = "missing";
         row.message = problem;
       } else if (!row.reference) {
@@ -390,29 +518,25 @@ std::vector<RegressionRow> compare_with_baseline(
         row.message = "exact needs a baseline from this build; the baseline is from " +
                       build_summary(baseline.value("build", json::object())) + ", this is " +
                       build_summary(build);
+      } else if (q.expect && row.repeats > 1) {
+        // An analytic value holds in every run: the run farthest from it is the one compared.
+        std::size_t worst = 0;
+        for (std::size_t i = 1; i < value->values.size(); ++i)
+          if (std::abs(value->values[i] - *q.expect) > std::abs(value->values[worst] - *q.expect))
+            worst = i;
+        row.measured = value->values[worst];
+        row.measured_sd.reset();
+        row.verdict = within_band(q.tolerance, *row.measured, *q.expect) ? "pass" : "drift";
+        if (row.verdict == "drift")
+          row.message = concat(
+              "repeat ", worst, " of ", row.repeats, " (seed ",
+              check.study.runs.size() > worst ? std::to_string(check.study.runs[worst].seed)
+                                              : std::string("?"),
+              "): measured ", number_text(row.measured), ", expected ", number_text(row.reference),
+              ", off by ", number_text(std::abs(*row.measured - *q.expect)), "; tolerance ",
+              row.tolerance);
       } else {
-        const double diff = std::abs(*row.measured - *row.reference);
-        bool within = false;
-        switch (q.tolerance.kind) {
-          case Tolerance::Kind::Exact:
-            within = *row.measured == *row.reference;
-            break;
-          case Tolerance::Kind::Absolute:
-            within = diff <= q.tolerance.value;
-            break;
-          case Tolerance::Kind::Relative:
-            within = diff <= q.tolerance.value * std::abs(*row.reference);
-            break;
-        }
-        row.verdict = within ? "pass" : "drift";
-        if (!within)
-          row.message =
-              concat("measured ", number_text(row.measured), ", ", row.reference_kind, " ",
-                     number_text(row.reference), ", off by ", number_text(diff),
-                     row.reference != 0.0
-                         ? " (" + number_text(diff / std::abs(*row.reference)) + " relative)"
-                         : std::string(),
-                     "; tolerance ", row.tolerance);
+        decide(q, row);
       }
       rows.push_back(std::move(row));
     }
@@ -429,15 +553,19 @@ ordered_json regression_record(const RegressionSuite& suite, const std::vector<R
   for (const RegressionRow& r : rows) {
     failures += row_fails(r);
     skipped += r.verdict == "skipped";
-    list.push_back({{"check", r.check},
-                    {"quantity", r.quantity},
-                    {"reference", r.reference ? ordered_json(*r.reference) : ordered_json()},
-                    {"reference_kind", r.reference_kind},
-                    {"measured", r.measured ? ordered_json(*r.measured) : ordered_json()},
-                    {"tolerance", r.tolerance},
-                    {"verdict", r.verdict},
-                    {"message", r.message},
-                    {"reason", r.reason}});
+    list.push_back(
+        {{"check", r.check},
+         {"quantity", r.quantity},
+         {"reference", r.reference ? ordered_json(*r.reference) : ordered_json()},
+         {"reference_kind", r.reference_kind},
+         {"measured", r.measured ? ordered_json(*r.measured) : ordered_json()},
+         {"measured_sd", r.measured_sd ? ordered_json(*r.measured_sd) : ordered_json()},
+         {"reference_sd", r.reference_sd ? ordered_json(*r.reference_sd) : ordered_json()},
+         {"repeats", r.repeats},
+         {"tolerance", r.tolerance},
+         {"verdict", r.verdict},
+         {"message", r.message},
+         {"reason", r.reason}});
   }
   ordered_json base = nullptr;
   if (baseline.is_object())
@@ -489,7 +617,7 @@ InputErrors validate_regression_record(const json& record) {
       for (const char* key : {"check", "quantity", "verdict"})
         if (!row.contains(key) || !row[key].is_string())
           errors.push_back({path + "/" + key, "", "expected a string"});
-      for (const char* key : {"reference", "measured"})
+      for (const char* key : {"reference", "measured", "measured_sd", "reference_sd"})
         if (row.contains(key) && !row[key].is_null() && !row[key].is_number())
           errors.push_back({path + "/" + key, json_value_text(row[key]), "expected a number"});
       if (row.contains("verdict") && row["verdict"].is_string()) {
@@ -516,10 +644,18 @@ std::string drift_table_text(const json& record) {
       return r.contains(key) && r[key].is_number() ? number_text(r[key].get<double>())
                                                    : std::string("-");
     };
-    std::string reference = num("reference");
+    // A mean over repeats shows its runs' standard deviation: "2.1e-04 sd 1.1e-05".
+    auto with_sd = [&](const char* key, const char* sd_key) {
+      std::string text = num(key);
+      if (r.contains(sd_key) && r[sd_key].is_number())
+        text += " sd " + number_text(r[sd_key].get<double>());
+      return text;
+    };
+    std::string reference = with_sd("reference", "reference_sd");
     if (r.value("reference_kind", "") == "expected") reference += " (expected)";
-    cells.push_back({r.value("check", ""), r.value("quantity", ""), reference, num("measured"),
-                     r.value("tolerance", ""), r.value("verdict", "")});
+    cells.push_back({r.value("check", ""), r.value("quantity", ""), reference,
+                     with_sd("measured", "measured_sd"), r.value("tolerance", ""),
+                     r.value("verdict", "")});
   }
   std::vector<std::size_t> width(cells[0].size(), 0);
   for (const auto& row : cells)
@@ -577,19 +713,26 @@ std::string junit_xml(const json& record) {
 ordered_json make_baseline(const RegressionSuite& suite,
                            const std::map<std::string, CheckOutcome>& outcomes, const json& build,
                            const std::string& date) {
-  ordered_json values = ordered_json::object();
+  ordered_json values = ordered_json::object(), spread = ordered_json::object();
   for (const RegressionCheck& check : suite.checks) {
     const auto found = outcomes.find(check.name);
     if (found == outcomes.end() || !found->second.ok) continue;
-    ordered_json of_check = ordered_json::object();
+    ordered_json of_check = ordered_json::object(), spread_of_check = ordered_json::object();
     for (const RegressionQuantity& q : check.quantities) {
       std::string problem;
-      if (const std::optional<double> v = measure_quantity(found->second.document, q, problem))
-        of_check[q.name] = *v;
+      if (const std::optional<RepeatedValue> v = measure_repeats(found->second, q, problem)) {
+        of_check[q.name] = v->mean;
+        if (v->values.size() > 1)
+          spread_of_check[q.name] = {{"sd", v->sd}, {"n", v->values.size()}};
+      }
     }
     values[check.name] = of_check;
+    if (!spread_of_check.empty()) spread[check.name] = spread_of_check;
   }
-  return {{"suite", suite.name}, {"created", date}, {"build", build}, {"values", values}};
+  ordered_json out = {
+      {"suite", suite.name}, {"created", date}, {"build", build}, {"values", values}};
+  if (!spread.empty()) out["spread"] = spread;
+  return out;
 }
 
 std::string baseline_changes(const json& before, const json& after) {

@@ -1,9 +1,10 @@
 // Regression suites (docs/regression.md): a list of checks, each a scene (or a study) run through
 // the same queue and workers as studies, and the quantities to compare after it ran — picked by
-// JSON pointer or by a named derived quantity, each with a tolerance (absolute, relative or
-// exact) and a reason. This module owns the suite format, the baseline file, the comparison
-// into a drift table, and the record kept in the history (its JSON, text and JUnit forms).
-// Running the checks is the caller's (cli/cmd_regress.cpp): locally or through a server.
+// JSON pointer or by a named derived quantity, each with a tolerance (absolute, relative, exact,
+// or standard errors of the mean over a check's repeats) and a reason. This module owns the suite
+// format, the baseline file, the comparison into a drift table, and the record kept in the history
+// (its JSON, text and JUnit forms). Running the checks is the caller's (cli/cmd_regress.cpp):
+// locally or through a server.
 #pragma once
 
 #include <filesystem>
@@ -18,10 +19,12 @@
 namespace millsim {
 
 struct Tolerance {
-  enum class Kind { Absolute, Relative, Exact };
+  // Sigmas: |mean − baseline mean| ≤ value · √(s²/n + s_b²/n_b), the standard error of the
+  // difference of two means over a check's repeats (s, s_b: the sample standard deviations).
+  enum class Kind { Absolute, Relative, Exact, Sigmas };
   Kind kind = Kind::Relative;
   double value = 0.0;
-  std::string text() const;  // "abs 0.001", "rel 0.02", "exact"
+  std::string text() const;  // "abs 0.001", "rel 0.02", "exact", "4 sigma"
 };
 
 // Derived quantities a check may name instead of a pointer (on a scene's result.json).
@@ -39,7 +42,10 @@ struct RegressionQuantity {
 struct RegressionCheck {
   std::string name;
   bool is_study = false;  // quantities come from the study's results table, else from result.json
-  Study study;            // expanded and validated
+  // Runs of a scene check, seeds scene.seed + 0 … repeats − 1 (a study's `repeats`): its
+  // quantities are then the mean over them, and the baseline keeps their standard deviation.
+  int repeats = 1;
+  Study study;                 // expanded and validated
   nlohmann::json submit_spec;  // the same study with its scene inline (for a server)
   std::vector<RegressionQuantity> quantities;
 };
@@ -62,7 +68,19 @@ struct CheckOutcome {
   bool ok = false;
   std::string failure;      // e.g. "run s000004-r0 ended EXECUTOR_ERROR (exit 3): …"
   nlohmann::json document;  // the run's result.json, or the study's results table
+  // A scene check with repeats: every run's result.json in seed order (document is the first).
+  std::vector<nlohmann::json> repeat_documents;
 };
+
+// A quantity over a check's repeats: each run's value in seed order, their mean and sample
+// standard deviation (0 for one run).
+struct RepeatedValue {
+  std::vector<double> values;
+  double mean = 0.0, sd = 0.0;
+};
+// nullopt with `problem` (naming the repeat) when any run lacks the number.
+std::optional<RepeatedValue> measure_repeats(const CheckOutcome& outcome,
+                                             const RegressionQuantity& q, std::string& problem);
 
 // The quantity's value in `document`; nullopt with `problem` set when it is absent or not a
 // number.
@@ -74,7 +92,10 @@ struct RegressionRow {
   std::string quantity;
   std::optional<double> reference;  // the baseline's value, or the expected one
   std::string reference_kind;       // "baseline" or "expected"
-  std::optional<double> measured;
+  std::optional<double> measured;   // with repeats: the mean (against `expect`: the worst run)
+  // With repeats: the runs' standard deviation now and in the baseline, and the run counts.
+  std::optional<double> measured_sd, reference_sd;
+  int repeats = 1, reference_repeats = 0;
   std::string tolerance;
   std::string verdict;  // pass, drift, failed, missing, no_baseline, skipped
   std::string message;  // why, for anything but pass
@@ -108,7 +129,9 @@ std::string drift_table_text(const nlohmann::json& record);
 // JUnit XML: one testsuite, one testcase per quantity; failures carry the message.
 std::string junit_xml(const nlohmann::json& record);
 
-// A new baseline from what the checks measured (only complete checks); `date` ISO 8601.
+// A new baseline from what the checks measured (only complete checks); `date` ISO 8601. A check
+// with repeats keeps each quantity's mean in `values` and its spread in
+// `spread` {check: {quantity: {sd, n}}}.
 nlohmann::ordered_json make_baseline(const RegressionSuite& suite,
                                      const std::map<std::string, CheckOutcome>& outcomes,
                                      const nlohmann::json& build, const std::string& date);

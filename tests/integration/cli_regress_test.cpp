@@ -3,9 +3,11 @@
 // that drifted fails with a message naming check, quantity, baseline, measured and tolerance;
 // a run stopped by the stability guard is a failure; the JUnit file parses with the right
 // counts; a bad suite exits 2 listing every problem and stores nothing; the history shows a
-// quantity across runs.
+// quantity across runs; a check with repeats runs one seed each, keeps their spread in the
+// baseline and judges the mean in standard errors.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
@@ -146,6 +148,57 @@ TEST(CliRegress, AStoppedRunFailsAndKeepsTheBaseline) {
   EXPECT_NE(r.out.find("run stopped at step"), std::string::npos) << r.out;
   std::ifstream baseline(dir.path() / "nightly.baseline.json");
   EXPECT_EQ(json::parse(baseline), json::parse(R"({"values": {}})"));
+}
+
+// The breakage-probability scene (P = 1/2 of 400 impacts, binomial sd 10) over three seeds.
+json selection_check(double speed_m_per_s) {
+  return {{"name", "selection"},
+          {"scene", kCases + "/regression/breakage_probability.json"},
+          {"set", {{"sources.0.velocity_m_per_s", {0, 0, -speed_m_per_s}}}},
+          {"repeats", 3},
+          {"quantities",
+           {{{"derived", "breakage_events"},
+             {"tolerance", {{"sigmas", 4}}},
+             {"reason", "binomial: its spread over seeds"}},
+            {{"pointer", "/breakage/impacts"},
+             {"expect", 400},
+             {"tolerance", "exact"},
+             {"reason", "every sphere hits the floor once, in every run"}}}}};
+}
+
+TEST(CliRegress, RepeatsJudgeTheMeanAgainstTheSpreadOfTheSeeds) {
+  test::TempDir dir;
+  const std::string common = " --db q.db --out runs --workers 2";
+  test::write_file(dir.path() / "nightly.json",
+                   suite(json::array({selection_check(10.0)})).dump(2));
+  test::CommandResult r =
+      test::run_millsim("regress nightly.json --update-baseline" + common, dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  std::ifstream in(dir.path() / "nightly.baseline.json");
+  const json baseline = json::parse(in);
+  ASSERT_TRUE(baseline.contains("spread")) << baseline.dump(2);
+  const json& spread = baseline["spread"]["selection"]["breakage_events"];
+  EXPECT_EQ(spread["n"], 3);
+  // Three seeds, three different draws of Binomial(400, 1/2): a spread, and a mean within four
+  // of its standard errors (10/√3) of 200.
+  EXPECT_GT(spread["sd"].get<double>(), 0.0);
+  EXPECT_NEAR(baseline["values"]["selection"]["breakage_events"].get<double>(), 200.0,
+              4 * 10 / std::sqrt(3.0));
+
+  // The same build and seeds: the same runs, so the same mean.
+  r = test::run_millsim("regress nightly.json" + common, dir.path());
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find(" sd "), std::string::npos) << r.out;
+
+  // At 8 m/s the specific energy 32 J/kg selects P = 1 − 2^(−22/40) = 0.317: about 127 events.
+  test::write_file(dir.path() / "nightly.json", suite(json::array({selection_check(8.0)})).dump(2));
+  r = test::run_millsim("regress nightly.json" + common, dir.path());
+  EXPECT_EQ(r.exit_code, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("selection breakage_events: measured mean 1"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("standard errors (sd "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("tolerance 4 sigma"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("nightly: FAILED, 2 quantities in 1 checks, 1 failing"), std::string::npos)
+      << r.out;
 }
 
 TEST(CliRegress, ABadSuiteListsEveryProblemAndStoresNothing) {

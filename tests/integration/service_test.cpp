@@ -768,22 +768,30 @@ TEST(Service, TwoWorkersRacingOnManyRunsRunEachOnce) {
             std::filesystem::file_size(dir.path() / "runs" / id / (id + "-r7") / "run.h5"));
 }
 
-// `millsim regress --server`: the checks run as studies on the server's workers, the record goes
-// to the server's history, and the history endpoints serve it; a malformed record is refused
-// whole.
+// `millsim regress --server`: the checks run as studies on the server's workers (a check with
+// repeats as one run per seed, its row the mean of their results), the record goes to the
+// server's history, and the history endpoints serve it; a malformed record is refused whole.
 TEST(Service, RegressionRunsThroughTheServerAndItsHistoryIsServed) {
   test::TempDir dir;
   ServerProcess server(dir.path(), 2);
   ASSERT_FALSE(server.url().empty());
-  const json suite = {{"name", "nightly"},
-                      {"checks",
-                       {{{"name", "impact"},
-                         {"scene", MILLSIM_SOURCE_DIR "/cases/impact_two_spheres.json"},
-                         {"set", {{"output.h5", false}}},
-                         {"quantities",
-                          {{{"derived", "kinetic_energy_ratio"},
-                            {"tolerance", {{"relative", 0.01}}},
-                            {"reason", "e squared"}}}}}}}};
+  const json suite = {
+      {"name", "nightly"},
+      {"checks",
+       {{{"name", "impact"},
+         {"scene", MILLSIM_SOURCE_DIR "/cases/impact_two_spheres.json"},
+         {"set", {{"output.h5", false}}},
+         {"quantities",
+          {{{"derived", "kinetic_energy_ratio"},
+            {"tolerance", {{"relative", 0.01}}},
+            {"reason", "e squared"}}}}},
+        {{"name", "selection"},
+         {"scene", MILLSIM_SOURCE_DIR "/cases/regression/breakage_probability.json"},
+         {"repeats", 3},
+         {"quantities",
+          {{{"derived", "breakage_events"},
+            {"tolerance", {{"sigmas", 4}}},
+            {"reason", "binomial"}}}}}}}};
   test::write_file(dir.path() / "nightly.json", suite.dump());
   test::write_file(dir.path() / "token", std::string(kToken) + "\n");
   const std::string common = " --server " + server.url() + " --token-file token";
@@ -801,11 +809,26 @@ TEST(Service, RegressionRunsThroughTheServerAndItsHistoryIsServed) {
   EXPECT_EQ(list["regressions"][0]["passed"], true);
   EXPECT_EQ(list["regressions"][1]["passed"], false);  // no baseline yet at the first run
   const json one = json::parse(server.get("/v1/regressions/g000002")->body);
-  ASSERT_EQ(one["rows"].size(), 1u);
+  ASSERT_EQ(one["rows"].size(), 2u);
   EXPECT_NEAR(one["rows"][0]["measured"].get<double>(), 0.25, 0.005);
   const std::string study = one["studies"]["impact"];
   const json result = json::parse(server.get("/v1/runs/" + study + "-r0/result")->body);
   EXPECT_EQ(result["scene"], "impact_two_spheres");
+  // The repeated check's row: the mean and spread of its three runs, as the server serves them.
+  const json& selection = one["rows"][1];
+  EXPECT_EQ(selection["repeats"], 3);
+  std::vector<double> events;
+  for (int i = 0; i < 3; ++i) {
+    const auto res = server.get("/v1/runs/" + one["studies"]["selection"].get<std::string>() +
+                                "-r" + std::to_string(i) + "/result");
+    ASSERT_TRUE(res);
+    const json run = json::parse(res->body);
+    events.push_back(run["breakage"]["events"].get<double>());
+  }
+  const double mean = (events[0] + events[1] + events[2]) / 3;
+  EXPECT_DOUBLE_EQ(selection["measured"].get<double>(), mean);
+  EXPECT_GT(selection["measured_sd"].get<double>(), 0.0);
+  EXPECT_EQ(selection["verdict"], "pass");
   EXPECT_EQ(server.get("/v1/regressions/g999999")->status, 404);
   EXPECT_EQ(server.get("/v1/regressions/..%2Fq.db")->status, 404);
   const json rows = json::parse(server.get("/v1/regressions?check=impact&limit=1")->body);

@@ -1,10 +1,15 @@
 // Regression suites without running anything: the suite parser reports every problem at once,
 // quantities are measured from result.json documents as their definitions say, each tolerance
 // decides pass and drift at its edge, `exact` is compared only against the same build, a failed
-// check fails its quantities, the JUnit text counts them, and a stored record is validated.
+// check fails its quantities, the JUnit text counts them, and a stored record is validated. A
+// check with repeats compares means: its tolerance in sigmas decides at the standard error of the
+// difference, and raises false alarms at Student's t rate when nothing but the seed changed.
 #include "regression/regression.h"
 
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
 
 #include "build_info.h"
 
@@ -39,7 +44,7 @@ json document() {
 }
 
 std::map<std::string, CheckOutcome> ok_outcome(const json& doc = document()) {
-  return {{"impact", CheckOutcome{true, "", doc}}};
+  return {{"impact", CheckOutcome{true, "", doc, {}}}};
 }
 
 json baseline_of(const json& values, const json& build) {
@@ -180,7 +185,7 @@ TEST(RegressionSuite, FailedRunsMissingValuesAndNoBaselineFail) {
   const json base = baseline_of({{"/steps", 517}, {"/nothing/here", 1}}, build);
   std::map<std::string, CheckOutcome> failed = {
       {"impact",
-       CheckOutcome{false, "run s000001-r0 ended EXECUTOR_ERROR (exit 3): unstable", {}}}};
+       CheckOutcome{false, "run s000001-r0 ended EXECUTOR_ERROR (exit 3): unstable", {}, {}}}};
   for (const RegressionRow& r : compare_with_baseline(suite, failed, base, build)) {
     EXPECT_EQ(r.verdict, "failed");
     EXPECT_NE(r.message.find("EXECUTOR_ERROR (exit 3)"), std::string::npos);
@@ -230,6 +235,181 @@ TEST(RegressionSuite, BaselineChangesNameEveryValueThatMoved) {
   const std::string changes = baseline_changes(before, after);
   EXPECT_EQ(changes, "a y: 2 -> 2.5\nb z: new, 4\na gone: removed (was 3)\n");
   EXPECT_EQ(baseline_changes(after, after), "");
+}
+
+// A scene check of `repeats` runs of the breakage-probability scene (its result depends on the
+// seed) with the given quantities.
+json repeated_suite(int repeats, const std::vector<json>& quantities) {
+  return {{"name", "unit"},
+          {"checks",
+           {{{"name", "impact"},
+             {"scene", (kCases / "regression/breakage_probability.json").string()},
+             {"repeats", repeats},
+             {"quantities", json(quantities)}}}}};
+}
+
+// An outcome of one result.json per repeat, each with /breakage/events = values[i].
+CheckOutcome repeated_outcome(const std::vector<double>& values) {
+  CheckOutcome o{true, "", {}, {}};
+  for (const double v : values) o.repeat_documents.push_back({{"breakage", {{"events", v}}}});
+  o.document = o.repeat_documents.front();
+  return o;
+}
+
+TEST(RegressionSuite, RepeatsRunOneSeedEachAndSigmasNeedThem) {
+  const json events = quantity({{"derived", "breakage_events"}, {"tolerance", {{"sigmas", 4}}}});
+  const RegressionSuite suite = parse_regression_suite(repeated_suite(3, {events}), kCases, 10);
+  ASSERT_EQ(suite.checks[0].study.runs.size(), 3u);
+  EXPECT_EQ(suite.checks[0].repeats, 3);
+  for (std::size_t i = 0; i < 3; ++i)  // the scene's seed 11, then 12 and 13
+    EXPECT_EQ(suite.checks[0].study.runs[i].seed, 11u + i);
+
+  auto problems = [](const json& spec) {
+    std::string all;
+    try {
+      parse_regression_suite(spec, kCases, 10);
+    } catch (const InputErrorList& e) {
+      for (const InputError& err : e.errors()) all += err.path + " | " + err.allowed + "\n";
+    }
+    return all;
+  };
+  std::string all = problems(repeated_suite(1, {events}));
+  EXPECT_NE(all.find("/checks/0/quantities/0/tolerance | a tolerance in sigmas needs"),
+            std::string::npos)
+      << all;
+  json with_expect = events;
+  with_expect["expect"] = 200;
+  all = problems(repeated_suite(4, {with_expect}));
+  EXPECT_NE(all.find("not with expect"), std::string::npos) << all;
+  all = problems(repeated_suite(0, {events}));
+  EXPECT_NE(all.find("/checks/0/repeats"), std::string::npos) << all;
+  all = problems(repeated_suite(65, {events}));
+  EXPECT_NE(all.find("/checks/0/repeats"), std::string::npos) << all;
+  all = problems(repeated_suite(
+      4, {quantity({{"derived", "breakage_events"}, {"tolerance", {{"sigmas", 0}}}})}));
+  EXPECT_NE(all.find("/checks/0/quantities/0/tolerance/sigmas | expected a finite number > 0"),
+            std::string::npos)
+      << all;
+  json study_check = {
+      {"name", "scan"},
+      {"study", (kCases / "spiral_jet_mill_quick_scan.study.json").string()},
+      {"repeats", 2},
+      {"quantities",
+       json::array({quantity({{"pointer", "/counts/COMPLETE"}, {"tolerance", "exact"}})})}};
+  all = problems({{"name", "unit"}, {"checks", json::array({study_check})}});
+  EXPECT_NE(all.find("/checks/0/repeats | repeats belong to scene checks"), std::string::npos)
+      << all;
+}
+
+// Baseline: mean 10, sd 2 over 4 runs. Measured 11, 13, 9, 11: mean 11, sd √(8/3); the standard
+// error of the difference √(2²/4 + (8/3)/4) = √(5/3) = 1.29099, so the difference 1 is 0.774597
+// standard errors: 0.78 sigma passes, 0.77 drifts.
+TEST(RegressionSuite, SigmasDecideAtTheStandardErrorOfTheDifference) {
+  const json build = build_description();
+  json base = baseline_of({{"breakage_events", 10.0}}, build);
+  base["spread"] = {{"impact", {{"breakage_events", {{"sd", 2.0}, {"n", 4}}}}}};
+  for (const auto& [sigmas, verdict] :
+       std::vector<std::pair<double, std::string>>{{0.78, "pass"}, {0.77, "drift"}}) {
+    const RegressionSuite suite = parse_regression_suite(
+        repeated_suite(
+            4, {quantity({{"derived", "breakage_events"}, {"tolerance", {{"sigmas", sigmas}}}})}),
+        kCases, 10);
+    const auto rows =
+        compare_with_baseline(suite, {{"impact", repeated_outcome({11, 13, 9, 11})}}, base, build);
+    ASSERT_EQ(rows.size(), 1u);
+    EXPECT_EQ(rows[0].verdict, verdict) << sigmas << " " << rows[0].message;
+    EXPECT_DOUBLE_EQ(*rows[0].measured, 11.0);
+    EXPECT_NEAR(*rows[0].measured_sd, std::sqrt(8.0 / 3.0), 1e-12);
+    EXPECT_EQ(rows[0].repeats, 4);
+    EXPECT_EQ(rows[0].reference_repeats, 4);
+    if (verdict == "drift") {
+      EXPECT_NE(rows[0].message.find("0.774596669 standard errors"), std::string::npos)
+          << rows[0].message;
+    }
+  }
+  // A baseline without the spread cannot judge in sigmas.
+  const RegressionSuite suite = parse_regression_suite(
+      repeated_suite(4,
+                     {quantity({{"derived", "breakage_events"}, {"tolerance", {{"sigmas", 4}}}})}),
+      kCases, 10);
+  const auto rows = compare_with_baseline(suite, {{"impact", repeated_outcome({11, 13, 9, 11})}},
+                                          baseline_of({{"breakage_events", 10.0}}, build), build);
+  EXPECT_EQ(rows[0].verdict, "no_baseline");
+  EXPECT_NE(rows[0].message.find("no spread over repeats"), std::string::npos);
+}
+
+// A value expected in every run (a conservation law) is held against each: the run farthest from
+// it is the one reported.
+TEST(RegressionSuite, AnExpectedValueHoldsInEveryRepeat) {
+  const json build = build_description();
+  const RegressionSuite suite =
+      parse_regression_suite(repeated_suite(3, {quantity({{"derived", "breakage_events"},
+                                                          {"expect", 200},
+                                                          {"tolerance", {{"absolute", 30}}}})}),
+                             kCases, 10);
+  auto row = [&](const std::vector<double>& values) {
+    return compare_with_baseline(suite, {{"impact", repeated_outcome(values)}}, nullptr, build)[0];
+  };
+  EXPECT_EQ(row({190, 215, 205}).verdict, "pass");
+  const RegressionRow bad = row({190, 235, 205});  // the mean, 210, would pass
+  EXPECT_EQ(bad.verdict, "drift");
+  EXPECT_DOUBLE_EQ(*bad.measured, 235.0);
+  EXPECT_NE(bad.message.find("repeat 1 of 3 (seed 12): measured 235"), std::string::npos)
+      << bad.message;
+}
+
+// make_baseline keeps each repeated quantity's mean and spread, and a rerun of the same runs
+// passes against it at any number of sigmas.
+TEST(RegressionSuite, ABaselineKeepsTheSpreadOfItsRepeats) {
+  const json build = build_description();
+  const RegressionSuite suite = parse_regression_suite(
+      repeated_suite(
+          4, {quantity({{"derived", "breakage_events"}, {"tolerance", {{"sigmas", 1e-9}}}})}),
+      kCases, 10);
+  const std::map<std::string, CheckOutcome> outcomes = {
+      {"impact", repeated_outcome({196, 207, 189, 212})}};
+  const json baseline = make_baseline(suite, outcomes, build, "2026-12-01T00:00:00Z");
+  EXPECT_DOUBLE_EQ(baseline["values"]["impact"]["breakage_events"].get<double>(), 201.0);
+  // Σ (x − 201)² = 25 + 36 + 144 + 121 = 326, over n − 1 = 3.
+  EXPECT_NEAR(baseline["spread"]["impact"]["breakage_events"]["sd"].get<double>(),
+              std::sqrt(326.0 / 3.0), 1e-12);
+  EXPECT_EQ(baseline["spread"]["impact"]["breakage_events"]["n"], 4);
+  const auto rows = compare_with_baseline(suite, outcomes, baseline, build);
+  EXPECT_EQ(rows[0].verdict, "pass") << rows[0].message;
+  const json record = regression_record(suite, rows, baseline, build, 1.8e9, false, {});
+  EXPECT_TRUE(validate_regression_record(record).empty());
+  EXPECT_NE(drift_table_text(record).find("201 sd 10.4243"), std::string::npos)
+      << drift_table_text(record);
+}
+
+// When a build changes only the trajectory (new draws of the same distribution), a check of n = 4
+// repeats against a baseline of 4 flags the difference of the means past k standard errors with
+// probability P(|T| > k), T Student's t with 2n − 2 = 6 degrees of freedom: with equal counts the
+// standard error √(s₁²/n + s₂²/n) is the pooled one. P(|T| < t) = sin θ (1 + ½ cos²θ + ⅜ cos⁴θ),
+// θ = atan(t/√6) (Abramowitz & Stegun 26.7.3), so 0.04653 at k = 2.5. 4000 trials of normal draws.
+TEST(RegressionSuite, SigmasRaiseFalseAlarmsAtStudentsRate) {
+  const double k = 2.5, theta = std::atan(k / std::sqrt(6.0)),
+               c2 = std::cos(theta) * std::cos(theta);
+  const double p = 1.0 - std::sin(theta) * (1.0 + 0.5 * c2 + 0.375 * c2 * c2);
+  const json build = build_description();
+  const RegressionSuite suite = parse_regression_suite(
+      repeated_suite(4,
+                     {quantity({{"derived", "breakage_events"}, {"tolerance", {{"sigmas", k}}}})}),
+      kCases, 10);
+  std::mt19937_64 rng(20261201);
+  std::normal_distribution<double> draw(200.0, 10.0);
+  auto four = [&] {
+    return std::map<std::string, CheckOutcome>{
+        {"impact", repeated_outcome({draw(rng), draw(rng), draw(rng), draw(rng)})}};
+  };
+  const int trials = 4000;
+  int alarms = 0;
+  for (int t = 0; t < trials; ++t) {
+    const json baseline = make_baseline(suite, four(), build, "");
+    alarms += compare_with_baseline(suite, four(), baseline, build)[0].verdict == "drift";
+  }
+  const double expected = p * trials, sigma = std::sqrt(trials * p * (1 - p));
+  EXPECT_NEAR(alarms, expected, 4 * sigma) << "p " << p;
 }
 
 }  // namespace
