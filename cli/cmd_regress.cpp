@@ -298,6 +298,7 @@ int show_history(const RegressArgs& a) {
                         {"git_commit", record["build"].value("git_commit", "")},
                         {"quantity", row["quantity"]},
                         {"measured", row["measured"]},
+                        {"measured_sd", row.value("measured_sd", json())},
                         {"reference", row["reference"]},
                         {"verdict", row["verdict"]}});
   if (rows.empty()) {
@@ -318,10 +319,13 @@ int show_history(const RegressArgs& a) {
       if (v.is_number()) std::snprintf(text, sizeof text, "%.9g", v.get<double>());
       return std::string(text);
     };
+    // A mean over a check's repeats shows their spread, as in the drift table.
+    const std::string measured =
+        num(r["measured"]) + (r["measured_sd"].is_number() ? " sd " + num(r["measured_sd"]) : "");
     std::printf("%-8s %-20s %-20s %-28s %-15s %-15s %s\n",
                 r["regression"].get<std::string>().c_str(), r["created"].get<std::string>().c_str(),
                 r["git_commit"].get<std::string>().c_str(),
-                r["quantity"].get<std::string>().c_str(), num(r["measured"]).c_str(),
+                r["quantity"].get<std::string>().c_str(), measured.c_str(),
                 num(r["reference"]).c_str(), r["verdict"].get<std::string>().c_str());
   }
   return kOk;

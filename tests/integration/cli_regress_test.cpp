@@ -199,6 +199,16 @@ TEST(CliRegress, RepeatsJudgeTheMeanAgainstTheSpreadOfTheSeeds) {
   EXPECT_NE(r.out.find("tolerance 4 sigma"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("nightly: FAILED, 2 quantities in 1 checks, 1 failing"), std::string::npos)
       << r.out;
+
+  // The history keeps each night's mean with its spread.
+  r = test::run_millsim("regress --history selection/breakage_events --db q.db --format json",
+                        dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const json history = json::parse(r.out);
+  ASSERT_EQ(history.size(), 3u);
+  EXPECT_EQ(history[1]["measured"], baseline["values"]["selection"]["breakage_events"]);
+  EXPECT_EQ(history[1]["measured_sd"], spread["sd"]);
+  EXPECT_EQ(history[2]["verdict"], "drift");
 }
 
 TEST(CliRegress, ABadSuiteListsEveryProblemAndStoresNothing) {
