@@ -179,10 +179,8 @@ std::map<std::string, CheckOutcome> run_locally(const RegressionSuite& suite, St
           o.failure = "run " + run.id + ": its result.json is not valid JSON";
           break;
         }
-        o.repeat_documents.push_back(std::move(document));
+        o.run_documents.push_back(std::move(document));
       }
-      if (o.ok) o.document = o.repeat_documents.at(0);
-      if (check.repeats == 1) o.repeat_documents.clear();
     }
   }
   return outcomes;
@@ -252,10 +250,8 @@ std::map<std::string, CheckOutcome> run_on_server(const RegressionSuite& suite, 
       continue;
     }
     for (const json& run : runs)  // in seed order
-      o.repeat_documents.push_back(
+      o.run_documents.push_back(
           remote.call("GET", "/v1/runs/" + run["id"].get<std::string>() + "/result"));
-    o.document = o.repeat_documents.at(0);
-    if (check.repeats == 1) o.repeat_documents.clear();
   }
   return outcomes;
 }

@@ -140,7 +140,9 @@ const std::vector<VerbHelp>& verb_help() {
        "URL]",
        "Runs each check of the suite as a study (here or on a server), compares the chosen "
        "quantities with the baseline, prints the drift table and records the run in the "
-       "history. Exit 1 on any drift or failed run. docs/regression.md.",
+       "history. A scene check with `repeats` runs that many seeds and compares their mean "
+       "(a tolerance in `sigmas`: standard errors of the difference from the baseline's mean). "
+       "Exit 1 on any drift or failed run. docs/regression.md.",
        {{"--local", "on", "run the checks on this machine"},
         kServer,
         kToken,

@@ -12,10 +12,10 @@ namespace millsim {
 namespace {
 
 using nlohmann::json;
+using nlohmann::ordered_json;
 
 // Repeats of one scene check: enough for a spread, few enough for a night.
 constexpr long long kMaxCheckRepeats = 64;
-using nlohmann::ordered_json;
 
 bool is_plain_name(const std::string& s) {
   if (s.empty() || s.size() > 64) return false;
@@ -376,14 +376,14 @@ bool row_fails(const RegressionRow& row) {
 
 std::optional<RepeatedValue> measure_repeats(const CheckOutcome& outcome,
                                              const RegressionQuantity& q, std::string& problem) {
-  const bool repeated = !outcome.repeat_documents.empty();
-  const std::size_t n = repeated ? outcome.repeat_documents.size() : 1;
+  const bool per_run = !outcome.run_documents.empty();
+  const std::size_t n = per_run ? outcome.run_documents.size() : 1;
   RepeatedValue out;
   for (std::size_t i = 0; i < n; ++i) {
     const std::optional<double> v =
-        measure_quantity(repeated ? outcome.repeat_documents[i] : outcome.document, q, problem);
+        measure_quantity(per_run ? outcome.run_documents[i] : outcome.document, q, problem);
     if (!v) {
-      if (repeated) problem = concat("repeat ", i, " of ", n, ": ", problem);
+      if (n > 1) problem = concat("repeat ", i, " of ", n, ": ", problem);
       return std::nullopt;
     }
     out.values.push_back(*v);

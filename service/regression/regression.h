@@ -67,13 +67,13 @@ RegressionSuite load_regression_suite(const std::filesystem::path& path, int max
 struct CheckOutcome {
   bool ok = false;
   std::string failure;      // e.g. "run s000004-r0 ended EXECUTOR_ERROR (exit 3): …"
-  nlohmann::json document;  // the run's result.json, or the study's results table
-  // A scene check with repeats: every run's result.json in seed order (document is the first).
-  std::vector<nlohmann::json> repeat_documents;
+  nlohmann::json document;  // a study check's results table (or a one-run scene check's result)
+  // A scene check: each run's result.json in seed order (one per repeat).
+  std::vector<nlohmann::json> run_documents;
 };
 
-// A quantity over a check's repeats: each run's value in seed order, their mean and sample
-// standard deviation (0 for one run).
+// A quantity over a check's runs (run_documents, else document): each run's value in seed order,
+// their mean and sample standard deviation (0 for one run).
 struct RepeatedValue {
   std::vector<double> values;
   double mean = 0.0, sd = 0.0;
