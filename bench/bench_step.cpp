@@ -188,6 +188,7 @@ int main(int argc, char** argv) {
     Simulation sim(scene);
     const double ke0 = sim.energy().kinetic_j;
     const auto neighbor_before = sim.neighbors().stats();
+    const std::uint64_t team_loops_before = loops_run_on_team();
     const auto start = std::chrono::steady_clock::now();
     if (auto failure = sim.advance(steps)) {
       std::fprintf(stderr, "bench_step: %s\n", failure->detail.c_str());
@@ -210,6 +211,8 @@ int main(int argc, char** argv) {
     out["time_step_s"] = sim.time_step().step_s;
     out["loop_seconds"] = loop_s;
     out["particle_steps_per_second"] = double(n) * double(steps) / loop_s;
+    out["threads"] = thread_count();
+    out["loops_on_team_per_step"] = double(loops_run_on_team() - team_loops_before) / double(steps);
     out["neighbor_rebuilds"] = ns.rebuilds - neighbor_before.rebuilds;
     out["skin_m"] = sim.neighbors().skin_m();
     out["distance_tests_per_contact"] = double(ns.distance_tests - neighbor_before.distance_tests) /

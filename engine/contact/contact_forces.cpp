@@ -1,5 +1,6 @@
 #include "contact/contact_forces.h"
 
+#include <algorithm>
 #include <limits>
 
 #include "contact/contact_law.h"
@@ -157,10 +158,11 @@ struct alignas(64) PairTally {  // (one cache line of its own: a thread's block 
 // What a contact does beyond its own candidate's state (the loads of both partners and the
 // shared pool of tangential histories), as an `Apply`:
 //  - DirectApply (one thread) does it at once, in candidate order.
-//  - RecordApply (one block of candidates on one of several threads) records it in its block's
-//    RecordingSink; the records are then applied in candidate order (apply_recorded_history,
-//    apply_recorded_loads), so every load receives the same additions in the same order as from
-//    DirectApply: the same bits on any thread count.
+//  - OwnerApply (the candidates listed at one owner's slots, on that owner's thread:
+//    parallel/slot_shares.h) adds at once to the owner's own particles and records what goes to
+//    a particle of a lower share and what the history pool must do; the records are applied in
+//    candidate order (pair_loop_owned), so every load receives the same additions in the same
+//    order as from DirectApply: the same bits on any thread count.
 struct DirectApply {
   Load* load;
   HistoryPool& pool;
@@ -190,10 +192,12 @@ struct DirectApply {
   }
 };
 
-struct RecordedContact {
-  std::uint32_t i, j;
+// What a contact adds to a particle of a lower share: force_n += force, and when with_torque,
+// torque_n_m −= torque (a − b and a + (−b) are the same bits).
+struct CrossLoad {
+  std::uint32_t particle;
   bool with_torque;
-  Vec3 force, torque_i, torque_j;  // as DirectApply::contact; a separation: −force, no torque
+  Vec3 force, torque;
 };
 
 struct HistoryEvent {
@@ -202,21 +206,36 @@ struct HistoryEvent {
   Vec3 value;  // the history after this pass's law
 };
 
-struct alignas(64) RecordingSink {  // (cache lines of its own: a thread's block records into it)
+struct alignas(64) OwnerSink {  // (cache lines of its own: one thread records into it)
   PairTally tally;
-  std::vector<RecordedContact> contacts;
+  std::vector<CrossLoad> cross;
   std::vector<HistoryEvent> history_events;
 };
 
-struct RecordApply {
-  RecordingSink& sink;
+struct OwnerApply {
+  Load* load;
+  std::uint32_t own_begin;  // the owner's first slot; a first partner is never below it
+  OwnerSink& sink;
 
   void contact(std::uint32_t i, std::uint32_t j, const Vec3& force, const Vec3& torque_i,
                const Vec3& torque_j) {
-    sink.contacts.push_back({i, j, true, force, torque_i, torque_j});
+    Load& li = load[i];
+    li.force_n += force;
+    li.torque_n_m -= torque_i;
+    if (j < own_begin) {
+      sink.cross.push_back({j, true, -force, torque_j});
+      return;
+    }
+    Load& lj = load[j];
+    lj.force_n -= force;
+    lj.torque_n_m -= torque_j;
   }
   void separation(std::uint32_t i, std::uint32_t j, const Vec3& force) {
-    sink.contacts.push_back({i, j, false, -force, {}, {}});
+    load[i].force_n -= force;
+    if (j < own_begin)
+      sink.cross.push_back({j, false, force, {}});
+    else
+      load[j].force_n += force;
   }
   Vec3* new_history(std::size_t k) {
     sink.history_events.push_back({std::uint32_t(k), true, {}});
@@ -320,10 +339,10 @@ void finish_pair_stats(const PairTally& t, const ParticleStore& p, const Neighbo
   }
 }
 
-// One block's records into the shared state, in candidate order: the history pool's takes and
-// give-backs exactly as DirectApply makes them, the statistics appended.
-void apply_recorded_history(RecordingSink& block, NeighborList& nl, PairTally& total) {
-  for (const HistoryEvent& e : block.history_events) {
+// One thread's history records into the pool, in candidate order: its takes and give-backs
+// exactly as DirectApply makes them.
+void apply_history_events(const OwnerSink& sink, NeighborList& nl) {
+  for (const HistoryEvent& e : sink.history_events) {
     if (e.take) {
       nl.pair_history[e.k] = nl.history_pool.take(e.value);
     } else {
@@ -331,45 +350,25 @@ void apply_recorded_history(RecordingSink& block, NeighborList& nl, PairTally& t
       nl.pair_history[e.k] = kNoHistory;
     }
   }
-  add_tally(total, block.tally);
 }
 
-// The blocks' recorded loads, in block order: each thread adds to the particles of its own share
-// of slots, so each particle takes its additions in candidate order whatever the thread count.
-void apply_recorded_loads(const std::vector<RecordingSink>& blocks, std::size_t block_count,
-                          std::size_t particles, Load* load) {
-  const std::size_t threads = std::size_t(thread_count());
-  parallel_blocks(threads, [&](std::size_t t) {
-    const std::uint32_t lo = std::uint32_t(particles * t / threads);
-    const std::uint32_t hi = std::uint32_t(particles * (t + 1) / threads);
-    for (std::size_t b = 0; b < block_count; ++b)
-      for (const RecordedContact& c : blocks[b].contacts) {
-        if (c.i >= lo && c.i < hi) {
-          load[c.i].force_n += c.force;
-          if (c.with_torque) load[c.i].torque_n_m -= c.torque_i;
-        }
-        if (c.j >= lo && c.j < hi) {
-          load[c.j].force_n -= c.force;
-          if (c.with_torque) load[c.j].torque_n_m -= c.torque_j;
-        }
-      }
-  });
+// What the owners above thread t recorded for t's particles, in their order (candidate order).
+void apply_cross_loads(const std::vector<OwnerSink>& sinks, const SlotShares& shares, std::size_t t,
+                       Load* load) {
+  const std::uint32_t lo = std::uint32_t(shares.bound[t]), hi = std::uint32_t(shares.bound[t + 1]);
+  for (std::size_t from = t + 1; from < sinks.size(); ++from)
+    for (const CrossLoad& c : sinks[from].cross) {
+      if (c.particle < lo || c.particle >= hi) continue;
+      load[c.particle].force_n += c.force;
+      if (c.with_torque) load[c.particle].torque_n_m -= c.torque;
+    }
 }
 
-// The active candidates cut into pieces of at most kPieceCandidates, in candidate order.
-constexpr std::size_t kPieceCandidates = 4096;
-
-void cut_into_pieces(const NeighborList& nl, std::vector<NeighborList::PairRange>& pieces) {
-  pieces.clear();
-  for (const NeighborList::PairRange& range : nl.active_ranges())
-    for (std::size_t b = range.begin; b < range.end; b += block_items(kPieceCandidates))
-      pieces.push_back({b, std::min(range.end, b + block_items(kPieceCandidates))});
-}
-
-// Scratch of the threaded pair loop, kept between steps.
-struct PairLoopScratch {
-  std::vector<NeighborList::PairRange> pieces;
-  std::vector<RecordingSink> blocks;
+// Scratch of the threaded pair loop, kept between steps: per thread, this band's records and the
+// last band's.
+struct OwnerLoopScratch {
+  std::vector<OwnerSink> sinks[2];
+  std::vector<NeighborList::PairRange> runs;
 };
 
 // One thread: each contact applied at once, in candidate order. Its own function (as is the
@@ -393,43 +392,77 @@ template <class Law, bool kPeriodic>
   total.touching = touching, total.max_ratio = max_ratio, total.max_pair = max_pair;
 }
 
-// Several threads: blocks of candidates record what their contacts do, applied after in
-// candidate order. Waves of 16 pieces per thread: the records stay a few MB at any particle
-// count.
+// Several threads, each on the candidates listed at its own slots (nl.owner_shares, balanced by
+// active candidates), band by band. A particle's additions then come, in candidate order, from
+// its own owner's candidates of a band (added at once), then from the higher owners' (their
+// records, added before the next band): DirectApply's order, so its bits. The pool's takes and
+// give-backs and the statistics are applied after each band in owner order, which is candidate
+// order.
 template <class Law, bool kPeriodic>
-[[gnu::noinline]] void pair_loop_recorded(const Law& law, const MaterialTable& materials, double dt,
-                                          double limit, ParticleStore& p, NeighborList& nl,
-                                          bool impacts, PairTally& total) {
+[[gnu::noinline]] void pair_loop_owned(const Law& law, const MaterialTable& materials, double dt,
+                                       double limit, ParticleStore& p, NeighborList& nl,
+                                       bool impacts, PairTally& total) {
   const PairArrays a = pair_arrays(p, nl);
+  const std::size_t threads = std::size_t(thread_count());
+  nl.split_by_active_candidates(p.size(), threads, block_items(kOwnerUnitSlots), nl.owner_shares);
+  const SlotShares& shares = nl.owner_shares;
   // (Named here, on the calling thread: inside the loop a thread_local would be the worker's.)
-  static thread_local PairLoopScratch calling_thread_scratch;
-  PairLoopScratch& scratch = calling_thread_scratch;
-  cut_into_pieces(nl, scratch.pieces);
-  const std::size_t wave = 16 * std::size_t(thread_count());
-  if (scratch.blocks.size() < wave) scratch.blocks.resize(wave);
-  for (std::size_t w = 0; w < scratch.pieces.size(); w += wave) {
-    const std::size_t count = std::min(wave, scratch.pieces.size() - w);
-    parallel_blocks(count, [&](std::size_t b) {
-      RecordingSink& sink = scratch.blocks[b];
-      sink.contacts.clear(), sink.history_events.clear();
+  static thread_local OwnerLoopScratch calling_thread_scratch;
+  OwnerLoopScratch& scratch = calling_thread_scratch;
+  for (std::vector<OwnerSink>& sinks : scratch.sinks) {
+    if (sinks.size() != threads) sinks.resize(threads);
+    for (OwnerSink& sink : sinks) sink.cross.clear();
+  }
+  const std::uint32_t* first = nl.pairs.first.data();
+  int current = 0;
+  for (int band = 0; band < NeighborList::kGapBands; ++band) {
+    nl.active_runs_of_band(band, scratch.runs);
+    if (scratch.runs.empty()) continue;
+    std::vector<OwnerSink>& sinks = scratch.sinks[current];
+    const std::vector<OwnerSink>& last_band = scratch.sinks[1 - current];
+    parallel_on_each_thread([&](std::size_t t) {
+      apply_cross_loads(last_band, shares, t, p.load.data());
+      OwnerSink& sink = sinks[t];
+      sink.cross.clear(), sink.history_events.clear();
       sink.tally.impacts.clear(), sink.tally.over_limit.clear();
-      RecordApply apply{sink};
+      const std::uint32_t lo = std::uint32_t(shares.bound[t]);
+      const std::uint32_t hi = std::uint32_t(shares.bound[t + 1]);
+      OwnerApply apply{p.load.data(), lo, sink};
       std::uint64_t touching = 0;
       double max_ratio = 0.0;
       std::size_t max_pair = 0;
-      const NeighborList::PairRange piece = scratch.pieces[w + b];
-      for_each_contact_candidate<Law, kPeriodic>(
-          law, p, nl, piece.begin, piece.end, [&](std::size_t k) {
-            visit_contact<Law, kPeriodic>(law, materials, dt, limit, a, impacts, k, apply, touching,
-                                          max_ratio, max_pair, sink.tally.impacts,
-                                          sink.tally.over_limit);
-          });
+      for (const NeighborList::PairRange& run : scratch.runs) {
+        // The run's candidates listed at slots [lo, hi): sorted by first slot within the band.
+        const std::size_t begin =
+            std::size_t(std::lower_bound(first + run.begin, first + run.end, lo) - first);
+        const std::size_t end =
+            std::size_t(std::lower_bound(first + begin, first + run.end, hi) - first);
+        for_each_contact_candidate<Law, kPeriodic>(law, p, nl, begin, end, [&](std::size_t k) {
+          visit_contact<Law, kPeriodic>(law, materials, dt, limit, a, impacts, k, apply, touching,
+                                        max_ratio, max_pair, sink.tally.impacts,
+                                        sink.tally.over_limit);
+        });
+      }
       sink.tally.touching = touching, sink.tally.max_ratio = max_ratio;
       sink.tally.max_pair = max_pair;
     });
-    for (std::size_t b = 0; b < count; ++b) apply_recorded_history(scratch.blocks[b], nl, total);
-    apply_recorded_loads(scratch.blocks, count, p.size(), p.load.data());
+    for (OwnerSink& sink : sinks) {
+      apply_history_events(sink, nl);
+      add_tally(total, sink.tally);
+    }
+    // The last band's records have been applied: this band's take their place.
+    for (OwnerSink& sink : scratch.sinks[1 - current]) sink.cross.clear();
+    current = 1 - current;
   }
+  const std::vector<OwnerSink>& last_band = scratch.sinks[1 - current];
+  bool any_cross = false;
+  for (const OwnerSink& sink : last_band) any_cross |= !sink.cross.empty();
+  if (!any_cross) return;
+  if (threads == 2)  // only thread 0's particles receive, and the calling thread is thread 0
+    apply_cross_loads(last_band, shares, 0, p.load.data());
+  else
+    parallel_on_each_thread(
+        [&](std::size_t t) { apply_cross_loads(last_band, shares, t, p.load.data()); });
 }
 
 template <class Law, bool kPeriodic>
@@ -439,12 +472,17 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
   total.impacts = std::move(stats.impacts);
   total.over_limit = std::move(stats.pairs_over_limit);
   // By particles, not candidates: what the threads add to, the next kick-drift reads (a loop
-  // on two cores below the minimum moves the loads from cache to cache).
-  if (!worth_threads(p.size()))
+  // on two cores below the minimum moves the loads from cache to cache). A single-rate run's
+  // kick-drift runs on the owner shares this pass makes, which keeps each thread's particles in
+  // its core's caches, and is worth threads at smaller populations.
+  const std::size_t minimum =
+      stats.owner_kick_drift ? kMinSlotsForOwnerPasses : kMinItemsForThreads;
+  if (thread_count() == 1 || p.size() < minimum / block_divisor()) {
+    nl.owner_shares.clear();
     pair_loop_direct<Law, kPeriodic>(law, materials, dt, limit, p, nl, stats.record_impacts, total);
-  else
-    pair_loop_recorded<Law, kPeriodic>(law, materials, dt, limit, p, nl, stats.record_impacts,
-                                       total);
+  } else {
+    pair_loop_owned<Law, kPeriodic>(law, materials, dt, limit, p, nl, stats.record_impacts, total);
+  }
   stats.impacts = std::move(total.impacts);
   stats.pairs_over_limit = std::move(total.over_limit);
   finish_pair_stats(total, p, nl, stats);
@@ -536,6 +574,26 @@ void wall_contacts(const MaterialTable& materials, const std::vector<Wall>& wall
   if (max_ratio > tally.max_ratio) tally.max_ratio = max_ratio, tally.max_pair = max_pair;
 }
 
+// The wall pass's statistics from its pieces' tallies, in candidate order, as one thread
+// gathers them.
+void finish_wall_stats(const std::vector<PairTally>& tallies, std::size_t pieces,
+                       const ParticleStore& p, const NeighborList& nl, ContactStepStats& stats) {
+  PairTally total;
+  total.impacts = std::move(stats.impacts);
+  total.over_limit = std::move(stats.walls_over_limit);
+  for (std::size_t q = 0; q < pieces; ++q) add_tally(total, tallies[q]);
+  stats.impacts = std::move(total.impacts);
+  stats.walls_over_limit = std::move(total.over_limit);
+  stats.touching_walls = total.touching;
+  if (total.max_ratio > stats.max_overlap_ratio) {
+    const std::uint32_t i = nl.wall_particle[total.max_pair];
+    stats.max_overlap_ratio = total.max_ratio;
+    stats.max_overlap_particle = p.id[i];
+    stats.max_overlap_partner = 0;
+    stats.max_overlap_wall = int(nl.wall_index[total.max_pair]);
+  }
+}
+
 // Wall candidates per piece, about: a piece ends where a particle's run of candidates ends, so
 // that one thread adds all of a particle's wall forces, in candidate order.
 constexpr std::size_t kWallPieceCandidates = 2048;
@@ -548,6 +606,30 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Wall>
   const std::size_t n = nl.wall_particle.size();
   if (nl.wall_springs_memo.size() != n) nl.forget_wall_springs();
   const bool impacts = stats.record_impacts;
+  static thread_local std::vector<PairTally> calling_thread_tallies;
+  std::vector<PairTally>& tallies = calling_thread_tallies;
+  const std::size_t threads = std::size_t(thread_count());
+  if (!ranges && nl.owner_shares.fit(p.size(), threads)) {
+    // On the pair pass's owner shares: each thread on the candidates of its own particles (the
+    // rebuild lists them by slot), adding to its own loads.
+    if (tallies.size() < threads) tallies.resize(threads);
+    const std::uint32_t* particle = nl.wall_particle.data();
+    parallel_on_each_thread([&](std::size_t t) {
+      PairTally& tally = tallies[t];
+      tally.impacts.clear(), tally.over_limit.clear();
+      tally.touching = 0, tally.max_ratio = 0.0, tally.max_pair = 0;
+      const std::size_t begin = std::size_t(
+          std::lower_bound(particle, particle + n, std::uint32_t(nl.owner_shares.bound[t])) -
+          particle);
+      const std::size_t end =
+          std::size_t(std::lower_bound(particle + begin, particle + n,
+                                       std::uint32_t(nl.owner_shares.bound[t + 1])) -
+                      particle);
+      wall_contacts(materials, walls, dt, limit, impacts, p, nl, begin, end, tally);
+    });
+    finish_wall_stats(tallies, threads, p, nl, stats);
+    return;
+  }
   // The pieces: runs of candidates cut where a particle's candidates end (the rebuild lists them
   // together, by slot, then wall), about kWallPieceCandidates to a piece, or one piece of all
   // of them unless the population is worth threads.
@@ -578,8 +660,6 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Wall>
     add_runs(0, n);
   if (piece_runs.back() != runs.size()) piece_runs.push_back(runs.size());
   const std::size_t pieces = piece_runs.size() - 1;
-  static thread_local std::vector<PairTally> calling_thread_tallies;
-  std::vector<PairTally>& tallies = calling_thread_tallies;
   if (tallies.size() < pieces) tallies.resize(pieces);
   parallel_blocks(pieces, [&](std::size_t q) {
     PairTally& t = tallies[q];
@@ -588,21 +668,7 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Wall>
     for (std::size_t run = piece_runs[q]; run < piece_runs[q + 1]; ++run)
       wall_contacts(materials, walls, dt, limit, impacts, p, nl, runs[run].begin, runs[run].end, t);
   });
-  // The statistics in candidate order, as one thread gathers them.
-  PairTally total;
-  total.impacts = std::move(stats.impacts);
-  total.over_limit = std::move(stats.walls_over_limit);
-  for (std::size_t q = 0; q < pieces; ++q) add_tally(total, tallies[q]);
-  stats.impacts = std::move(total.impacts);
-  stats.walls_over_limit = std::move(total.over_limit);
-  stats.touching_walls = total.touching;
-  if (total.max_ratio > stats.max_overlap_ratio) {
-    const std::uint32_t i = nl.wall_particle[total.max_pair];
-    stats.max_overlap_ratio = total.max_ratio;
-    stats.max_overlap_particle = p.id[i];
-    stats.max_overlap_partner = 0;
-    stats.max_overlap_wall = int(nl.wall_index[total.max_pair]);
-  }
+  finish_wall_stats(tallies, pieces, p, nl, stats);
 }
 
 double contact_elastic_energy_j(ContactModel model, const MaterialTable& materials,

@@ -18,6 +18,7 @@
 #include "dem/motion_frame.h"
 
 #include "core/vec3.h"
+#include "parallel/slot_shares.h"
 #include "parallel/thread_team.h"
 #include "particles/particle_store.h"
 
@@ -30,28 +31,54 @@ namespace millsim {
 // Slots per block for the speed report of the kick-drift passes.
 inline constexpr std::size_t kSpeedBlockSlots = 4096;
 
+// The chunk size of slot_chunks: the owner shares' unit when they fit, else `chunk`.
+inline std::size_t slot_chunk_size(std::size_t n, const SlotShares* shares, std::size_t chunk) {
+  return shares && shares->fit(n, std::size_t(thread_count())) ? shares->unit : chunk;
+}
+
+// Runs `body(begin, end, c)` over the slots [0, n) in chunks of slot_chunk_size(n, shares,
+// chunk): on the owner shares when they fit n and the team (each thread on its own from the
+// front, then from the back of the others'), else on the team when n is worth threads.
+template <class Body>
+void slot_chunks(std::size_t n, const SlotShares* shares, std::size_t chunk, Body&& body) {
+  const std::size_t threads = std::size_t(thread_count());
+  if (!shares || !shares->fit(n, threads)) return parallel_ranges(n, chunk, body);
+  chunk = shares->unit;
+  const std::size_t chunks = (n + chunk - 1) / chunk;
+  // (Named here, on the calling thread: inside the loop a thread_local would be the worker's.)
+  static thread_local std::vector<std::size_t> calling_thread_bounds;
+  std::vector<std::size_t>& bounds = calling_thread_bounds;
+  bounds.resize(threads + 1);
+  for (std::size_t t = 0; t < threads; ++t) bounds[t] = shares->bound[t] / chunk;
+  bounds[threads] = chunks;
+  parallel_blocks_in_shares(chunks, bounds.data(), [&](std::size_t c) {
+    const std::size_t begin = c * chunk;
+    body(begin, std::min(n, begin + chunk), c);
+  });
+}
+
 // Runs `kick_particle(i)`, which kicks and drifts particle i and returns |v½|², over every slot,
 // in chunks (a block of kSpeedBlockSlots, or a part of one: parallel/thread_team.h,
-// block_items) spread over the engine's threads; stores each block's largest drift speed and
-// returns the largest of all (maxima: the same for any thread count).
+// block_items; or the owner shares' units) spread over the engine's threads; stores each block's
+// largest drift speed and returns the largest of all (maxima: the same for any thread count).
 template <class KickParticle>
-double kick_in_blocks(std::size_t n, std::vector<double>& block_max_speed_m_per_s,
-                      KickParticle&& kick_particle) {
+double kick_in_blocks(std::size_t n, const SlotShares* shares,
+                      std::vector<double>& block_max_speed_m_per_s, KickParticle&& kick_particle) {
   const std::size_t blocks = (n + kSpeedBlockSlots - 1) / kSpeedBlockSlots;
-  const std::size_t chunk = block_items(kSpeedBlockSlots),
-                    chunks_per_block = kSpeedBlockSlots / chunk;
   // (Named here, on the calling thread: inside the loop a thread_local would be the worker's.)
   static thread_local std::vector<double> calling_thread_chunk_max;
   std::vector<double>& chunk_max2 = calling_thread_chunk_max;
+  const std::size_t chunk = slot_chunk_size(n, shares, block_items(kSpeedBlockSlots));
   chunk_max2.resize((n + chunk - 1) / chunk);
-  parallel_ranges(n, chunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
+  slot_chunks(n, shares, chunk, [&](std::size_t begin, std::size_t end, std::size_t c) {
     double speed2 = 0.0;
     for (std::size_t i = begin; i < end; ++i) speed2 = std::max(speed2, kick_particle(i));
     chunk_max2[c] = speed2;
   });
+  const std::size_t chunks_per_block = kSpeedBlockSlots / chunk;
   block_max_speed_m_per_s.assign(blocks, 0.0);
   double max_speed2 = 0.0;
-  for (std::size_t c = 0; c < chunk_max2.size(); ++c) {
+  for (std::size_t c = 0; c < (n + chunk - 1) / chunk; ++c) {
     double& block = block_max_speed_m_per_s[c / chunks_per_block];
     block = std::max(block, chunk_max2[c]);
     max_speed2 = std::max(max_speed2, chunk_max2[c]);
@@ -66,15 +93,17 @@ double kick_in_blocks(std::size_t n, std::vector<double>& block_max_speed_m_per_
 // of each block of kSpeedBlockSlots slots in `block_max_speed_m_per_s`, which bounds that block's
 // (search/neighbor_list.h). Positions are not wrapped here: the neighbour list wraps
 // them when it rebuilds and keeps each pair's periodic image until then.
+// `shares`: the last force pass's owner shares (NeighborList::owner_shares), or null.
 inline double kick_drift(ParticleStore& p, double dt, const Vec3& gravity,
-                         std::vector<double>& block_max_speed_m_per_s, const SpeedReport& report) {
+                         std::vector<double>& block_max_speed_m_per_s, const SpeedReport& report,
+                         const SlotShares* shares = nullptr) {
   const double half = 0.5 * dt;
   Vec3* x = p.position_m.data();
   Motion* motion = p.motion.data();
   const Load* load = p.load.data();
   Load* previous_load = p.previous_load.data();
   const FrameSpeed frame_speed(report);
-  return kick_in_blocks(p.size(), block_max_speed_m_per_s, [&](std::size_t i) {
+  return kick_in_blocks(p.size(), shares, block_max_speed_m_per_s, [&](std::size_t i) {
     const Motion m = motion[i];
     const Load l = load[i];
     previous_load[i] = {gravity * p.mass_kg[i], {}};
@@ -88,21 +117,21 @@ inline double kick_drift(ParticleStore& p, double dt, const Vec3& gravity,
   });
 }
 
-inline void kick(ParticleStore& p, double dt) {
+inline void kick(ParticleStore& p, double dt, const SlotShares* shares = nullptr) {
   const double half = 0.5 * dt;
   Motion* motion = p.motion.data();
   const Load* load = p.load.data();
   const Load* previous_load = p.previous_load.data();
-  parallel_ranges(p.size(), block_items(kSpeedBlockSlots),
-                  [&](std::size_t begin, std::size_t end, std::size_t) {
-                    for (std::size_t i = begin; i < end; ++i) {
-                      const Load l = load[i], l_old = previous_load[i];
-                      motion[i].velocity_m_per_s +=
-                          (l.force_n - l_old.force_n) * (half * p.inv_mass_per_kg[i]);
-                      motion[i].angular_velocity_rad_per_s +=
-                          (l.torque_n_m - l_old.torque_n_m) * (half * p.inv_inertia_per_kg_m2[i]);
-                    }
-                  });
+  slot_chunks(p.size(), shares, block_items(kSpeedBlockSlots),
+              [&](std::size_t begin, std::size_t end, std::size_t) {
+                for (std::size_t i = begin; i < end; ++i) {
+                  const Load l = load[i], l_old = previous_load[i];
+                  motion[i].velocity_m_per_s +=
+                      (l.force_n - l_old.force_n) * (half * p.inv_mass_per_kg[i]);
+                  motion[i].angular_velocity_rad_per_s +=
+                      (l.torque_n_m - l_old.torque_n_m) * (half * p.inv_inertia_per_kg_m2[i]);
+                }
+              });
 }
 
 // kick of one step and kick_drift of the next in one pass: per particle the same operations in
@@ -112,14 +141,14 @@ inline void kick(ParticleStore& p, double dt) {
 // longer. tests/engine/determinism_test.cpp holds the two paths to the same bits.
 inline double kick_then_kick_drift(ParticleStore& p, double dt, const Vec3& gravity,
                                    std::vector<double>& block_max_speed_m_per_s,
-                                   const SpeedReport& report) {
+                                   const SpeedReport& report, const SlotShares* shares = nullptr) {
   const double half = 0.5 * dt;
   Vec3* x = p.position_m.data();
   Motion* motion = p.motion.data();
   const Load* load = p.load.data();
   Load* previous_load = p.previous_load.data();
   const FrameSpeed frame_speed(report);
-  return kick_in_blocks(p.size(), block_max_speed_m_per_s, [&](std::size_t i) {
+  return kick_in_blocks(p.size(), shares, block_max_speed_m_per_s, [&](std::size_t i) {
     const Motion m = motion[i];
     const Load l = load[i], l_old = previous_load[i];
     previous_load[i] = {gravity * p.mass_kg[i], {}};

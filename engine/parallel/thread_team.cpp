@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <exception>
 #include <memory>
+#include <stdexcept>
 #include <thread>
 #include <vector>
 
@@ -70,13 +71,18 @@ class Team {
     for (int t = 1; t < n; ++t) workers_.emplace_back([this, t, epoch] { work(t, epoch); });
   }
 
-  void run(std::size_t blocks, void (*body)(void*, std::size_t), void* context) {
+  // `bounds` (threads + 1 entries, or null for equal shares): thread t's share is blocks
+  // [bounds[t], bounds[t + 1]). `steal`: whether a thread done with its own share takes blocks
+  // from the others'.
+  void run(std::size_t blocks, void (*body)(void*, std::size_t), void* context,
+           const std::size_t* bounds, bool steal) {
     ++loops_run_;
-    body_ = body, context_ = context;
+    body_ = body, context_ = context, steal_ = steal;
     const std::size_t n = std::size_t(threads_);
     for (std::size_t t = 0; t < n; ++t) {
-      shares_[t].next.store(blocks * t / n, std::memory_order_relaxed);
-      shares_[t].end = blocks * (t + 1) / n;
+      const std::uint64_t begin = bounds ? bounds[t] : blocks * t / n;
+      const std::uint64_t end = bounds ? bounds[t + 1] : blocks * (t + 1) / n;
+      shares_[t].range.store(begin | end << 32, std::memory_order_relaxed);
     }
     pending_.store(threads_ - 1, std::memory_order_relaxed);
     epoch_.fetch_add(1, std::memory_order_release);
@@ -94,19 +100,45 @@ class Team {
   }
 
  private:
-  // Thread t's blocks: its own share from the front, then what is left of the others' shares
-  // (taken from their fronts), so that a thread held up (a slower block, a core lent to another
-  // process for a moment) does not hold up the loop. Which thread runs a block never changes
-  // what the block computes.
+  // A share's blocks not yet claimed, [begin, end), packed as begin | end << 32: its owner claims
+  // from the front, a thread done with its own share from the back, so that the owner keeps the
+  // particles it runs every step and a thief takes the ones it would reach last.
+  static bool claim_front(std::atomic<std::uint64_t>& range, std::size_t& block) {
+    std::uint64_t r = range.load(std::memory_order_relaxed);
+    for (;;) {
+      const std::uint64_t begin = r & 0xffffffffu, end = r >> 32;
+      if (begin >= end) return false;
+      if (range.compare_exchange_weak(r, (begin + 1) | end << 32, std::memory_order_relaxed)) {
+        block = std::size_t(begin);
+        return true;
+      }
+    }
+  }
+  static bool claim_back(std::atomic<std::uint64_t>& range, std::size_t& block) {
+    std::uint64_t r = range.load(std::memory_order_relaxed);
+    for (;;) {
+      const std::uint64_t begin = r & 0xffffffffu, end = r >> 32;
+      if (begin >= end) return false;
+      if (range.compare_exchange_weak(r, begin | (end - 1) << 32, std::memory_order_relaxed)) {
+        block = std::size_t(end - 1);
+        return true;
+      }
+    }
+  }
+
+  // Thread t's blocks: its own share from the front, then (when the loop allows it) what is
+  // left of the others' shares, from their backs, so that a thread held up (a slower block, a
+  // core lent to another process for a moment) does not hold up the loop. Which thread runs a
+  // block never changes what the block computes.
   void run_share(int t) {
     const std::size_t n = std::size_t(threads_);
     t_inside_loop = true;
     std::size_t b = 0;
     try {
-      for (std::size_t k = 0; k < n; ++k) {
+      while (claim_front(shares_[std::size_t(t)].range, b)) body_(context_, b);
+      for (std::size_t k = 1; steal_ && k < n; ++k) {
         Share& share = shares_[(std::size_t(t) + k) % n];
-        while ((b = share.next.fetch_add(1, std::memory_order_relaxed)) < share.end)
-          body_(context_, b);
+        while (claim_back(share.range, b)) body_(context_, b);
       }
     } catch (...) {
       errors_[std::size_t(t)] = std::current_exception();
@@ -139,14 +171,13 @@ class Team {
   std::vector<std::exception_ptr> errors_{nullptr};
   std::vector<std::size_t> error_block_{0};  // the block that threw errors_[t]
   // The loop under way: written before epoch_ moves on, read by the workers after they see it.
-  // Each thread's share of blocks is [next, end), claimed one block at a time from the front.
   struct alignas(64) Share {
-    std::atomic<std::size_t> next{0};
-    std::size_t end = 0;
+    std::atomic<std::uint64_t> range{0};  // unclaimed blocks (claim_front, claim_back)
   };
   std::unique_ptr<Share[]> shares_ = std::make_unique<Share[]>(1);
   void (*body_)(void*, std::size_t) = nullptr;
   void* context_ = nullptr;
+  bool steal_ = true;
   std::atomic<std::uint32_t> epoch_{0};
   std::atomic<int> pending_{0};
   std::atomic<bool> stop_{false};
@@ -196,12 +227,15 @@ std::size_t block_divisor() {
 
 namespace detail {
 
-void run_blocks(std::size_t blocks, void (*body)(void*, std::size_t), void* context) {
+void run_blocks(std::size_t blocks, void (*body)(void*, std::size_t), void* context,
+                const std::size_t* bounds, bool steal) {
   if (t_inside_loop) {  // a loop inside a loop: this thread alone
     for (std::size_t b = 0; b < blocks; ++b) body(context, b);
     return;
   }
-  team().run(blocks, body, context);
+  if (blocks >= (std::size_t(1) << 32))
+    throw std::length_error("a threaded loop of more than 2^32 blocks");
+  team().run(blocks, body, context, bounds, steal);
 }
 
 }  // namespace detail

@@ -1,6 +1,7 @@
 // The engine's threads: one process-wide team that runs a loop's blocks on every thread. Thread t
-// of T starts on its own contiguous share of the blocks ([t·B/T, (t+1)·B/T), the same particles
-// every step) and, when done, takes the blocks the others have not started yet. Nothing about a
+// of T starts on its own contiguous share of the blocks ([t·B/T, (t+1)·B/T), or shares the caller
+// gives: the same particles every step) and, when done, takes from the back of the others' shares
+// the blocks they have not started yet (unless the loop forbids it). Nothing about a
 // result may depend on which thread runs a block: a loop writes each block's partial results to
 // the block's own slot, and the caller combines the slots in block order, so the numbers are the
 // same for any thread count (docs/threads.md).
@@ -54,15 +55,48 @@ std::uint64_t loops_run_on_team();
 // threads than on 1, and its multi-rate passes, which split lists of particles rather than the
 // slots, still lose at 8192 (docs/threads.md). The result is the same either way.
 inline constexpr std::size_t kMinItemsForThreads = 32768;
-inline bool worth_threads(std::size_t items) {
-  return thread_count() > 1 && items >= kMinItemsForThreads / block_divisor();
+// A single-rate run's force pass and kick-drift on the same owner shares of the slots
+// (parallel/slot_shares.h) keep each thread's particles in its own core's caches from step to
+// step, and gain on two threads from this many particles on (docs/threads.md).
+inline constexpr std::size_t kMinSlotsForOwnerPasses = 8192;
+namespace detail {
+inline std::size_t g_min_items_for_threads = kMinItemsForThreads;
 }
+inline bool worth_threads(std::size_t items) {
+  return thread_count() > 1 && items >= detail::g_min_items_for_threads / block_divisor();
+}
+
+// Lowers (or raises) worth_threads()' minimum for the loops started in one scope of the calling
+// thread: a single-rate run's rebuild and checks, whose passes split the slots as the owner
+// passes do (kMinSlotsForOwnerPasses). Not to be made inside a loop.
+class MinItemsForThreadsScope {
+ public:
+  explicit MinItemsForThreadsScope(std::size_t items) : saved_(detail::g_min_items_for_threads) {
+    detail::g_min_items_for_threads = items;
+  }
+  ~MinItemsForThreadsScope() { detail::g_min_items_for_threads = saved_; }
+  MinItemsForThreadsScope(const MinItemsForThreadsScope&) = delete;
+  MinItemsForThreadsScope& operator=(const MinItemsForThreadsScope&) = delete;
+
+ private:
+  std::size_t saved_;
+};
 
 namespace detail {
 // Runs body(context, block) for every block in [0, blocks) on the team; returns when all have
-// run. Of the blocks that threw, the lowest one's exception is rethrown (a thread stops at its
-// first exception; the others go on).
-void run_blocks(std::size_t blocks, void (*body)(void*, std::size_t), void* context);
+// run. Thread t's share is [bounds[t], bounds[t + 1]) (bounds: thread_count() + 1 entries, or null
+// for equal shares); `steal`: whether a thread done with its share takes the others' blocks. Of
+// the blocks that threw, the lowest one's exception is rethrown (a thread stops at its first
+// exception; the others go on).
+void run_blocks(std::size_t blocks, void (*body)(void*, std::size_t), void* context,
+                const std::size_t* bounds, bool steal);
+
+template <class Body>
+void run_body(std::size_t blocks, Body& body, const std::size_t* bounds, bool steal) {
+  detail::run_blocks(
+      blocks, [](void* c, std::size_t b) { (*static_cast<std::remove_reference_t<Body>*>(c))(b); },
+      const_cast<void*>(static_cast<const void*>(&body)), bounds, steal);
+}
 }  // namespace detail
 
 // Runs body(block) for block = 0 .. blocks−1, spread over the team as above.
@@ -73,9 +107,34 @@ void parallel_blocks(std::size_t blocks, Body&& body) {
     for (std::size_t b = 0; b < blocks; ++b) body(b);
     return;
   }
-  detail::run_blocks(
-      blocks, [](void* c, std::size_t b) { (*static_cast<std::remove_reference_t<Body>*>(c))(b); },
-      const_cast<void*>(static_cast<const void*>(&body)));
+  detail::run_body(blocks, body, nullptr, true);
+}
+
+// Runs body(t) once on each thread t of the team (t = 0 on the calling thread), every one on its
+// own thread: for loops whose thread t may write only what it owns (parallel/slot_shares.h).
+template <class Body>
+void parallel_on_each_thread(Body&& body) {
+  const std::size_t n = std::size_t(thread_count());
+  if (n == 1) return body(std::size_t(0));
+  std::size_t bounds[64 + 1];
+  std::vector<std::size_t> many;
+  std::size_t* b = bounds;
+  if (n > 64) many.resize(n + 1), b = many.data();
+  for (std::size_t t = 0; t <= n; ++t) b[t] = t;
+  detail::run_body(n, body, b, false);
+}
+
+// Runs body(block) for block = 0 .. blocks−1 with thread t's share [bounds[t], bounds[t + 1])
+// (thread_count() + 1 entries, bounds[0] = 0, the last = blocks): a thread done with its own
+// share takes from the back of the others'.
+template <class Body>
+void parallel_blocks_in_shares(std::size_t blocks, const std::size_t* bounds, Body&& body) {
+  if (blocks == 0) return;
+  if (blocks == 1 || thread_count() == 1) {
+    for (std::size_t b = 0; b < blocks; ++b) body(b);
+    return;
+  }
+  detail::run_body(blocks, body, bounds, true);
 }
 
 // parallel_blocks when `on_team` (a caller's worth_threads() of the population the loop serves),

@@ -416,6 +416,40 @@ void NeighborList::list_active_ranges() {
   }
 }
 
+void NeighborList::active_runs_of_band(int band, std::vector<PairRange>& runs) const {
+  runs.clear();
+  const std::size_t lo = band ? band_end_[band - 1] : 0, hi = band_end_[band];
+  for (const PairRange& r : active_ranges_) {
+    const std::size_t begin = std::max(r.begin, lo), end = std::min(r.end, hi);
+    if (begin < end) runs.push_back({begin, end});
+  }
+}
+
+void NeighborList::split_by_active_candidates(std::size_t slots, std::size_t threads,
+                                              std::size_t unit, SlotShares& shares) const {
+  static thread_local std::vector<std::uint64_t> unit_weight;
+  static thread_local std::vector<PairRange> runs;
+  unit_weight.assign((slots + unit - 1) / unit, 0);
+  const std::uint32_t* first = pairs.first.data();
+  for (int band = 0; band < kGapBands; ++band) {
+    active_runs_of_band(band, runs);
+    for (const PairRange& r : runs) {
+      // Within a band the candidates are sorted by first slot: each unit's are one run, found by
+      // binary search from the run's first unit on.
+      std::size_t k = r.begin;
+      while (k < r.end) {
+        const std::size_t u = first[k] / unit;
+        const std::uint32_t next_unit_slot = std::uint32_t((u + 1) * unit);
+        const std::size_t stop =
+            std::size_t(std::lower_bound(first + k, first + r.end, next_unit_slot) - first);
+        unit_weight[u] += stop - k;
+        k = stop;
+      }
+    }
+  }
+  split_by_weight(unit_weight, slots, unit, threads, shares);
+}
+
 void NeighborList::reset_motion_bounds() {
   motion_bound_m_ = 0.0;
   active_bands_ = 1;

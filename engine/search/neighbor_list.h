@@ -15,6 +15,7 @@
 #include "contact/contact_law.h"
 #include "contact/walls.h"
 #include "dem/motion_frame.h"
+#include "parallel/slot_shares.h"
 #include "particles/particle_store.h"
 #include "search/hashed_grid.h"
 #include "search/nbs_grid.h"
@@ -136,6 +137,14 @@ class NeighborList {
   };
   const std::vector<PairRange>& active_ranges() const { return active_ranges_; }
   bool pair_active(std::size_t k) const;
+  static constexpr int kGapBands = 4;
+  // The active candidates of gap band `band`, as runs in candidate order; each band's candidates
+  // are sorted by first slot.
+  void active_runs_of_band(int band, std::vector<PairRange>& runs) const;
+  // Owner shares (parallel/slot_shares.h) of the slots at multiples of `unit` that give each of
+  // `threads` owners about the same number of active candidates listed at its slots.
+  void split_by_active_candidates(std::size_t slots, std::size_t threads, std::size_t unit,
+                                  SlotShares& shares) const;
 
   // Separation of pair k's partners: x_i − x_j − pair_shift(k).
   const Vec3& pair_shift(std::size_t k) const { return image_shift_[pair_image[k]]; }
@@ -175,6 +184,11 @@ class NeighborList {
 
   // Empties wall_springs_memo (one entry per wall candidate, none made yet).
   void forget_wall_springs();
+
+  // The slots each thread owned in the last threaded force pass (contact/contact_forces.h),
+  // balanced by its active candidates; the next kick-drift runs on them. Derived: made by every
+  // threaded pass, empty after a one-thread one, never checkpointed.
+  SlotShares owner_shares;
 
   // Particle–particle candidates, each listed from its higher slot (first > second), and their
   // tangential spring displacement (m).
@@ -274,7 +288,6 @@ class NeighborList {
   std::vector<std::vector<std::uint32_t>> wall_block_scratch_;  // per slot block, while listing
   static constexpr std::uint8_t kOverlappingBit = 0x80;         // in band_scratch_
   std::vector<std::uint32_t> overlapping_;  // candidates overlapping at the rebuild
-  static constexpr int kGapBands = 4;
   std::size_t band_end_[kGapBands] = {0, 0, 0, 0};
   int active_bands_ = kGapBands;  // bands [0, active_bands_) are active in every block
   // Per slot block: the motion bound of its particles (false: unknown, use the global one), the

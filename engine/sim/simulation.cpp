@@ -536,6 +536,7 @@ void Simulation::compute_forces(const std::vector<NeighborList::PairRange>* wall
   }
   forces_prepared_ = loads_listed_ = false;
   contact_stats_.reset();
+  contact_stats_.owner_kick_drift = !multi_rate_on_;
   compute_pair_forces(contact_.model, materials_, box_, time_.step_s, contact_.penetration_limit,
                       particles_, neighbors_, contact_stats_);
   compute_wall_forces(materials_, walls_, time_.step_s, contact_.penetration_limit, particles_,
@@ -843,16 +844,21 @@ std::optional<StepFailure> Simulation::step_once(bool may_defer) {
   const double dt = time_.step_s;
   double max_speed = 0.0;
   profile_.time(Phase::KickDrift, [&] {
+    const SlotShares* shares = &neighbors_.owner_shares;
     max_speed = kick_pending_
                     ? kick_then_kick_drift(particles_, dt, gravity_m_per_s2_, block_max_speed_,
-                                           neighbors_.speed_report(particles_))
+                                           neighbors_.speed_report(particles_), shares)
                     : kick_drift(particles_, dt, gravity_m_per_s2_, block_max_speed_,
-                                 neighbors_.speed_report(particles_));
+                                 neighbors_.speed_report(particles_), shares);
     forces_prepared_ = true;
     kick_pending_ = false;
   });
   profile_.time(Phase::Neighbors, [&] {
     neighbors_.note_motion(block_max_speed_, max_speed, dt);
+    // Every pass of a single-rate step splits the slots: the rebuild's pay from the owner
+    // passes' minimum on (docs/threads.md, "When threads pay").
+    const MinItemsForThreadsScope minimum(multi_rate_on_ ? kMinItemsForThreads
+                                                         : kMinSlotsForOwnerPasses);
     neighbors_.update(particles_, box_, walls_, false);
   });
   profile_.time(Phase::Forces, [&] { compute_forces(); });
@@ -872,7 +878,7 @@ std::optional<StepFailure> Simulation::step_once(bool may_defer) {
     return std::nullopt;
   }
   profile_.time(Phase::Kick, [&] {
-    kick(particles_, dt);
+    kick(particles_, dt, &neighbors_.owner_shares);
     if (limiter)
       limiter_events_ += apply_penetration_limiter(contact_stats_, materials_, box_, walls_,
                                                    neighbors_, particles_);

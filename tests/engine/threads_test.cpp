@@ -18,6 +18,7 @@
 #include "dust/dust_grinding.h"
 #include "dust/dust_ledger.h"
 #include "gas/gas_solver.h"
+#include "parallel/slot_shares.h"
 #include "parallel/thread_team.h"
 #include "particles/materials.h"
 #include "search/hashed_grid.h"
@@ -127,6 +128,110 @@ TEST(ThreadTeam, ALoopInsideALoopRunsOnItsCallingThread) {
     inner_threads_seen[b] = elsewhere;
   });
   for (int e : inner_threads_seen) EXPECT_EQ(e, 0);
+}
+
+TEST(ThreadTeam, EachThreadRunsItsOwnShareAndAThiefTakesFromTheBack) {
+  // Every thread once, each on a thread of its own, thread 0 on the caller.
+  for (int threads : {2, 3, 5}) {
+    Threads team(threads);
+    const std::size_t count = std::size_t(threads);
+    std::vector<std::thread::id> ran_on(count);
+    std::vector<std::atomic<int>> runs(count);
+    for (int repeat = 0; repeat < 20; ++repeat)
+      parallel_on_each_thread([&](std::size_t t) {
+        ran_on[t] = std::this_thread::get_id();
+        runs[t].fetch_add(1);
+      });
+    EXPECT_EQ(ran_on[0], std::this_thread::get_id());
+    for (std::size_t t = 0; t < count; ++t) {
+      EXPECT_EQ(runs[t].load(), 20) << t;
+      for (std::size_t u = 0; u < t; ++u) EXPECT_NE(ran_on[t], ran_on[u]) << t << " " << u;
+    }
+  }
+  // Uneven shares [0, 6) and [6, 8): block 0 (the caller's) waits until blocks 1-5 have run,
+  // which only the other thread can do, after its own 6 and 7, taking 5, 4, ... from the back.
+  Threads team(2);
+  const std::size_t bounds[3] = {0, 6, 8};
+  std::vector<std::atomic<int>> done(8);
+  std::vector<std::thread::id> ran_on(8);
+  std::vector<int> order(8, -1);
+  std::atomic<int> next{0}, timed_out{0};
+  parallel_blocks_in_shares(8, bounds, [&](std::size_t b) {
+    ran_on[b] = std::this_thread::get_id();
+    if (b == 0) {
+      const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+      while (done[1] + done[2] + done[3] + done[4] + done[5] < 5)
+        if (std::chrono::steady_clock::now() > give_up) {
+          timed_out = 1;
+          break;
+        }
+    } else {
+      order[b] = next.fetch_add(1);
+    }
+    done[b].store(1);
+  });
+  ASSERT_FALSE(timed_out.load()) << "blocks 1-5 waited for block 0's thread";
+  for (std::size_t b = 1; b < 8; ++b) EXPECT_NE(ran_on[b], ran_on[0]) << b;
+  EXPECT_LT(order[6], order[7]);  // its own share from the front
+  for (std::size_t b = 1; b < 5; ++b) EXPECT_GT(order[b], order[b + 1]) << b;  // then from the back
+  EXPECT_GT(order[5], order[7]);
+}
+
+TEST(ThreadTeam, AScopeMovesTheMinimumForItsLoopsOnly) {
+  Threads team(2);
+  EXPECT_FALSE(worth_threads(kMinSlotsForOwnerPasses));
+  {
+    const MinItemsForThreadsScope scope(kMinSlotsForOwnerPasses);
+    EXPECT_TRUE(worth_threads(kMinSlotsForOwnerPasses));
+    EXPECT_FALSE(worth_threads(kMinSlotsForOwnerPasses - 1));
+  }
+  EXPECT_FALSE(worth_threads(kMinSlotsForOwnerPasses));
+  EXPECT_TRUE(worth_threads(kMinItemsForThreads));
+}
+
+TEST(SlotShares, EachShareBeginsWhereTheWeightBelowReachesItsPart) {
+  // By hand: units of 4 slots weighing 1, 1, 6, 1, 1 over 18 slots (the last unit short), two
+  // owners: the weight below reaches 5 of 10 at the end of unit 2 (slot 12), not before (2).
+  SlotShares shares;
+  split_by_weight({1, 1, 6, 1, 1}, 18, 4, 2, shares);
+  EXPECT_EQ(shares.bound, (std::vector<std::size_t>{0, 12, 18}));
+  split_by_weight({0, 0, 0, 0, 0}, 18, 4, 2, shares);  // no weight: equal shares of units
+  EXPECT_EQ(shares.bound, (std::vector<std::size_t>{0, 8, 18}));
+  EXPECT_TRUE(shares.fit(18, 2));
+  EXPECT_FALSE(shares.fit(19, 2));
+  EXPECT_FALSE(shares.fit(18, 3));
+  // Random weights against the definition: each bound a multiple of the unit where the weight
+  // below is at least t/T of the total and one unit lower it is not.
+  std::mt19937_64 rng(7);
+  for (int trial = 0; trial < 200; ++trial) {
+    const std::size_t unit = std::size_t(1) << (rng() % 5), units = 1 + rng() % 40;
+    const std::size_t slots = (units - 1) * unit + 1 + rng() % unit, threads = 2 + rng() % 4;
+    std::vector<std::uint64_t> w(units);
+    for (std::uint64_t& x : w) x = rng() % 3 == 0 ? 0 : rng() % 1000;
+    split_by_weight(w, slots, unit, threads, shares);
+    ASSERT_EQ(shares.bound.size(), threads + 1);
+    EXPECT_EQ(shares.bound.front(), 0u);
+    EXPECT_EQ(shares.bound.back(), slots);
+    std::uint64_t total = 0;
+    for (std::uint64_t x : w) total += x;
+    const auto below = [&](std::size_t slot) {
+      std::uint64_t sum = 0;
+      for (std::size_t u = 0; u * unit < slot; ++u) sum += w[u];
+      return sum;
+    };
+    for (std::size_t t = 1; t < threads; ++t) {
+      const std::size_t b = shares.bound[t];
+      ASSERT_LE(shares.bound[t - 1], b);
+      if (b < slots) {
+        ASSERT_EQ(b % unit, 0u);
+      }
+      if (total == 0) continue;
+      EXPECT_GE(below(b) * threads, total * t) << trial << " " << t;
+      if (b >= unit) {
+        EXPECT_LT(below(b - unit) * threads, total * t) << trial << " " << t;
+      }
+    }
+  }
 }
 
 TEST(ThreadTeam, UsableCoresFollowTheAffinityMask) {
@@ -292,6 +397,30 @@ TEST(Threads, DustLedgerAndItsGrindingAreBitIdenticalOnOneTwoAndThreeThreads) {
   }
 }
 
+TEST(Threads, OwnerSharesCountTheActiveCandidatesOfEachUnitOfSlots) {
+  // The fluidized bed after some steps: gap bands partly active, block by block. The list's
+  // count (binary searches within each band) against a walk over every candidate.
+  SceneConfig scene = test::shipped_case("fluidized_bed.json", 2e-3);
+  if (scene.gas) scene.gas->spin_up_s = 0.0;
+  Simulation sim(scene);
+  ASSERT_FALSE(sim.advance(sim.total_steps()));
+  const NeighborList& nl = sim.neighbors();
+  const std::size_t n = sim.particles().size(), unit = 16;
+  std::vector<std::uint64_t> brute((n + unit - 1) / unit, 0);
+  std::size_t active = 0;
+  for (std::size_t k = 0; k < nl.pairs.size(); ++k)
+    if (nl.pair_active(k)) ++brute[nl.pairs.first[k] / unit], ++active;
+  ASSERT_GT(active, 0u);
+  ASSERT_LT(active, nl.pairs.size());  // some candidates outside the active bands
+  for (std::size_t threads : {2, 3, 4}) {
+    SlotShares from_list, expected;
+    nl.split_by_active_candidates(n, threads, unit, from_list);
+    split_by_weight(brute, n, unit, threads, expected);
+    EXPECT_EQ(from_list.bound, expected.bound) << threads;
+    EXPECT_LT(expected.bound[1], n);  // the shares cut the slots
+  }
+}
+
 struct ThreadCase {
   const char* file;
   double end_s;
@@ -345,6 +474,13 @@ TEST(Threads, PhysicsIsBitIdenticalOnOneTwoAndThreeThreads) {
       EXPECT_GT(loops_run_on_team() - loops_before,
                 std::uint64_t(threaded.step_index()) / (c.multi_rate ? 20 : 2));
       test::expect_identical(serial, threaded);
+      // A single-rate run's force pass ran on owner shares of its slots (the one-thread one did
+      // not), and its kick-drift on them.
+      if (!c.multi_rate) {
+        EXPECT_TRUE(threaded.neighbors().owner_shares.fit(threaded.particles().size(),
+                                                          std::size_t(threads)));
+        EXPECT_TRUE(serial.neighbors().owner_shares.bound.empty());
+      }
       EXPECT_EQ(serial.contact_steps(), threaded.contact_steps());
       EXPECT_EQ(serial.contact_stats().touching_walls, threaded.contact_stats().touching_walls);
       if (serial.breakage()) {

@@ -1,0 +1,39 @@
+// Owner shares of the particle slots: thread t of the team owns slots [bound[t], bound[t + 1]).
+// The threaded force pass runs each thread on the candidates listed at its own slots and lets it
+// alone add to its own particles' loads; the next kick-drift runs each thread on its own slots
+// again, so that the loads, positions and velocities a thread wrote stay in its core's caches
+// (docs/threads.md). Shares move from pass to pass (the force pass balances them by its work);
+// no result depends on them.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace millsim {
+
+// Owner shares are cut at multiples of this many slots: a divisor of the kick-drift's speed
+// blocks (dem/integrator.h), so that a share's chunks fill whole parts of them.
+inline constexpr std::size_t kOwnerUnitSlots = 1024;
+
+struct SlotShares {
+  std::size_t slots = 0;           // the population they were made for
+  std::size_t unit = 1;            // every bound but the last is a multiple of it
+  std::vector<std::size_t> bound;  // threads + 1 entries: 0, ..., slots
+
+  std::size_t threads() const { return bound.empty() ? 0 : bound.size() - 1; }
+  // Whether they were made for `n` slots and `threads` threads.
+  bool fit(std::size_t n, std::size_t threads) const {
+    return slots == n && this->threads() == threads && threads > 1;
+  }
+  void clear() { slots = 0, bound.clear(); }
+};
+
+// Shares of `slots` slots at multiples of `unit` for `threads` owners, each with about the same
+// sum of `unit_weight` (one entry per unit of slots, the last unit possibly short): owner t's
+// share begins at the first unit boundary where the weight below reaches t/threads of the total.
+// With no weight at all, equal shares of units.
+void split_by_weight(const std::vector<std::uint64_t>& unit_weight, std::size_t slots,
+                     std::size_t unit, std::size_t threads, SlotShares& shares);
+
+}  // namespace millsim
