@@ -213,6 +213,8 @@ int main(int argc, char** argv) {
     out["particle_steps_per_second"] = double(n) * double(steps) / loop_s;
     out["threads"] = thread_count();
     out["loops_on_team_per_step"] = double(loops_run_on_team() - team_loops_before) / double(steps);
+    // The threaded force pass's seconds of work per owner (waits left out), over the whole run.
+    out["force_pass_owner_work_s"] = sim.neighbors().owner_balance.total_work_s();
     out["neighbor_rebuilds"] = ns.rebuilds - neighbor_before.rebuilds;
     out["skin_m"] = sim.neighbors().skin_m();
     out["distance_tests_per_contact"] = double(ns.distance_tests - neighbor_before.distance_tests) /

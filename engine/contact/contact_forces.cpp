@@ -1,7 +1,10 @@
 #include "contact/contact_forces.h"
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <limits>
+#include <memory>
 
 #include "contact/contact_law.h"
 #include "contact/curved_contact.h"
@@ -352,23 +355,30 @@ void apply_history_events(const OwnerSink& sink, NeighborList& nl) {
   }
 }
 
-// What the owners above thread t recorded for t's particles, in their order (candidate order).
-void apply_cross_loads(const std::vector<OwnerSink>& sinks, const SlotShares& shares, std::size_t t,
-                       Load* load) {
+// What owner `from` recorded for thread t's particles (in candidate order).
+void apply_cross_loads(const OwnerSink& from, const SlotShares& shares, std::size_t t, Load* load) {
   const std::uint32_t lo = std::uint32_t(shares.bound[t]), hi = std::uint32_t(shares.bound[t + 1]);
-  for (std::size_t from = t + 1; from < sinks.size(); ++from)
-    for (const CrossLoad& c : sinks[from].cross) {
-      if (c.particle < lo || c.particle >= hi) continue;
-      load[c.particle].force_n += c.force;
-      if (c.with_torque) load[c.particle].torque_n_m -= c.torque;
-    }
+  for (const CrossLoad& c : from.cross) {
+    if (c.particle < lo || c.particle >= hi) continue;
+    load[c.particle].force_n += c.force;
+    if (c.with_torque) load[c.particle].torque_n_m -= c.torque;
+  }
 }
 
-// Scratch of the threaded pair loop, kept between steps: per thread, this band's records and the
-// last band's.
+// How many of the pass's active bands an owner has run (its records then complete).
+struct alignas(64) OwnerProgress {
+  std::atomic<std::uint32_t> bands_done{0};
+};
+
+// Scratch of the threaded pair loop, kept between steps: per gap band, each owner's records and
+// the band's active runs; each owner's progress and seconds of work.
 struct OwnerLoopScratch {
-  std::vector<OwnerSink> sinks[2];
-  std::vector<NeighborList::PairRange> runs;
+  std::vector<OwnerSink> sinks[NeighborList::kGapBands];
+  std::vector<NeighborList::PairRange> runs[NeighborList::kGapBands];
+  std::unique_ptr<OwnerProgress[]> progress;
+  std::size_t progress_size = 0;
+  std::vector<std::uint64_t> unit_candidates;
+  std::vector<double> work_s;
 };
 
 // One thread: each contact applied at once, in candidate order. Its own function (as is the
@@ -392,77 +402,97 @@ template <class Law, bool kPeriodic>
   total.touching = touching, total.max_ratio = max_ratio, total.max_pair = max_pair;
 }
 
-// Several threads, each on the candidates listed at its own slots (nl.owner_shares, balanced by
-// active candidates), band by band. A particle's additions then come, in candidate order, from
-// its own owner's candidates of a band (added at once), then from the higher owners' (their
-// records, added before the next band): DirectApply's order, so its bits. The pool's takes and
-// give-backs and the statistics are applied after each band in owner order, which is candidate
-// order.
+// Several threads, each on the candidates listed at its own slots (nl.owner_shares), band by
+// band, in one team call. A particle's additions come, in candidate order, from its own owner's
+// candidates of a band (added at once), then from the higher owners' (their records): so after
+// each band, an owner waits until each higher owner has run that band and adds its records for
+// the owner's particles, in owner order, before its next band. DirectApply's order, so its bits.
+// The highest owner never waits, and no owner waits for a lower one. The pool's takes and
+// give-backs and the statistics are applied after, band by band in owner order, which is
+// candidate order. The shares follow the work: each owner's seconds of work (its waits left
+// out) teach the balancer what its candidates cost (parallel/slot_shares.h).
 template <class Law, bool kPeriodic>
 [[gnu::noinline]] void pair_loop_owned(const Law& law, const MaterialTable& materials, double dt,
                                        double limit, ParticleStore& p, NeighborList& nl,
                                        bool impacts, PairTally& total) {
   const PairArrays a = pair_arrays(p, nl);
   const std::size_t threads = std::size_t(thread_count());
-  nl.split_by_active_candidates(p.size(), threads, block_items(kOwnerUnitSlots), nl.owner_shares);
-  const SlotShares& shares = nl.owner_shares;
   // (Named here, on the calling thread: inside the loop a thread_local would be the worker's.)
   static thread_local OwnerLoopScratch calling_thread_scratch;
   OwnerLoopScratch& scratch = calling_thread_scratch;
-  for (std::vector<OwnerSink>& sinks : scratch.sinks) {
-    if (sinks.size() != threads) sinks.resize(threads);
-    for (OwnerSink& sink : sinks) sink.cross.clear();
-  }
-  const std::uint32_t* first = nl.pairs.first.data();
-  int current = 0;
+  const std::size_t unit = block_items(kOwnerUnitSlots);
+  nl.count_active_candidates(p.size(), unit, scratch.unit_candidates);
+  nl.owner_balance.split(scratch.unit_candidates, p.size(), unit, threads, nl.owner_shares);
+  const SlotShares& shares = nl.owner_shares;
+  int bands[NeighborList::kGapBands];
+  std::uint32_t band_count = 0;
   for (int band = 0; band < NeighborList::kGapBands; ++band) {
-    nl.active_runs_of_band(band, scratch.runs);
-    if (scratch.runs.empty()) continue;
-    std::vector<OwnerSink>& sinks = scratch.sinks[current];
-    const std::vector<OwnerSink>& last_band = scratch.sinks[1 - current];
-    parallel_on_each_thread([&](std::size_t t) {
-      apply_cross_loads(last_band, shares, t, p.load.data());
-      OwnerSink& sink = sinks[t];
-      sink.cross.clear(), sink.history_events.clear();
-      sink.tally.impacts.clear(), sink.tally.over_limit.clear();
-      const std::uint32_t lo = std::uint32_t(shares.bound[t]);
-      const std::uint32_t hi = std::uint32_t(shares.bound[t + 1]);
-      OwnerApply apply{p.load.data(), lo, sink};
-      std::uint64_t touching = 0;
-      double max_ratio = 0.0;
-      std::size_t max_pair = 0;
-      for (const NeighborList::PairRange& run : scratch.runs) {
-        // The run's candidates listed at slots [lo, hi): sorted by first slot within the band.
-        const std::size_t begin =
-            std::size_t(std::lower_bound(first + run.begin, first + run.end, lo) - first);
-        const std::size_t end =
-            std::size_t(std::lower_bound(first + begin, first + run.end, hi) - first);
-        for_each_contact_candidate<Law, kPeriodic>(law, p, nl, begin, end, [&](std::size_t k) {
-          visit_contact<Law, kPeriodic>(law, materials, dt, limit, a, impacts, k, apply, touching,
-                                        max_ratio, max_pair, sink.tally.impacts,
-                                        sink.tally.over_limit);
-        });
+    nl.active_runs_of_band(band, scratch.runs[band]);
+    if (scratch.runs[band].empty()) continue;
+    bands[band_count++] = band;
+    if (scratch.sinks[band].size() != threads) scratch.sinks[band].resize(threads);
+  }
+  if (scratch.progress_size != threads) {
+    scratch.progress = std::make_unique<OwnerProgress[]>(threads);
+    scratch.progress_size = threads;
+  }
+  for (std::size_t t = 0; t < threads; ++t)
+    scratch.progress[t].bands_done.store(0, std::memory_order_relaxed);
+  scratch.work_s.assign(threads, 0.0);
+  const std::uint32_t* first = nl.pairs.first.data();
+  Load* load = p.load.data();
+  parallel_on_each_thread([&](std::size_t t) {
+    OwnerProgress& mine = scratch.progress[t];
+    const std::uint32_t lo = std::uint32_t(shares.bound[t]);
+    const std::uint32_t hi = std::uint32_t(shares.bound[t + 1]);
+    const auto start = std::chrono::steady_clock::now();
+    std::chrono::steady_clock::duration waited{};
+    try {
+      for (std::uint32_t i = 0; i < band_count; ++i) {
+        const int band = bands[i];
+        OwnerSink& sink = scratch.sinks[band][t];
+        sink.cross.clear(), sink.history_events.clear();
+        sink.tally.impacts.clear(), sink.tally.over_limit.clear();
+        OwnerApply apply{load, lo, sink};
+        std::uint64_t touching = 0;
+        double max_ratio = 0.0;
+        std::size_t max_pair = 0;
+        for (const NeighborList::PairRange& run : scratch.runs[band]) {
+          // The run's candidates listed at slots [lo, hi): sorted by first slot within the band.
+          const std::size_t begin =
+              std::size_t(std::lower_bound(first + run.begin, first + run.end, lo) - first);
+          const std::size_t end =
+              std::size_t(std::lower_bound(first + begin, first + run.end, hi) - first);
+          for_each_contact_candidate<Law, kPeriodic>(law, p, nl, begin, end, [&](std::size_t k) {
+            visit_contact<Law, kPeriodic>(law, materials, dt, limit, a, impacts, k, apply, touching,
+                                          max_ratio, max_pair, sink.tally.impacts,
+                                          sink.tally.over_limit);
+          });
+        }
+        sink.tally.touching = touching, sink.tally.max_ratio = max_ratio;
+        sink.tally.max_pair = max_pair;
+        mine.bands_done.store(i + 1, std::memory_order_release);
+        for (std::size_t from = t + 1; from < threads; ++from) {
+          const auto wait_start = std::chrono::steady_clock::now();
+          wait_until_at_least(scratch.progress[from].bands_done, i + 1);
+          waited += std::chrono::steady_clock::now() - wait_start;
+          apply_cross_loads(scratch.sinks[band][from], shares, t, load);
+        }
       }
-      sink.tally.touching = touching, sink.tally.max_ratio = max_ratio;
-      sink.tally.max_pair = max_pair;
-    });
-    for (OwnerSink& sink : sinks) {
+    } catch (...) {
+      mine.bands_done.store(band_count, std::memory_order_release);  // no owner waits on it
+      throw;
+    }
+    scratch.work_s[t] =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start - waited).count();
+  });
+  nl.owner_balance.learn(shares, scratch.unit_candidates, scratch.work_s);
+
+  for (std::uint32_t i = 0; i < band_count; ++i)
+    for (const OwnerSink& sink : scratch.sinks[bands[i]]) {
       apply_history_events(sink, nl);
       add_tally(total, sink.tally);
     }
-    // The last band's records have been applied: this band's take their place.
-    for (OwnerSink& sink : scratch.sinks[1 - current]) sink.cross.clear();
-    current = 1 - current;
-  }
-  const std::vector<OwnerSink>& last_band = scratch.sinks[1 - current];
-  bool any_cross = false;
-  for (const OwnerSink& sink : last_band) any_cross |= !sink.cross.empty();
-  if (!any_cross) return;
-  if (threads == 2)  // only thread 0's particles receive, and the calling thread is thread 0
-    apply_cross_loads(last_band, shares, 0, p.load.data());
-  else
-    parallel_on_each_thread(
-        [&](std::size_t t) { apply_cross_loads(last_band, shares, t, p.load.data()); });
 }
 
 template <class Law, bool kPeriodic>
@@ -609,7 +639,7 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Wall>
   static thread_local std::vector<PairTally> calling_thread_tallies;
   std::vector<PairTally>& tallies = calling_thread_tallies;
   const std::size_t threads = std::size_t(thread_count());
-  if (!ranges && nl.owner_shares.fit(p.size(), threads)) {
+  if (!ranges && n > 0 && nl.owner_shares.fit(p.size(), threads)) {
     // On the pair pass's owner shares: each thread on the candidates of its own particles (the
     // rebuild lists them by slot), adding to its own loads.
     if (tallies.size() < threads) tallies.resize(threads);

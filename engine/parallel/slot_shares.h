@@ -33,7 +33,40 @@ struct SlotShares {
 // sum of `unit_weight` (one entry per unit of slots, the last unit possibly short): owner t's
 // share begins at the first unit boundary where the weight below reaches t/threads of the total.
 // With no weight at all, equal shares of units.
-void split_by_weight(const std::vector<std::uint64_t>& unit_weight, std::size_t slots,
-                     std::size_t unit, std::size_t threads, SlotShares& shares);
+void split_by_weight(const std::vector<double>& unit_weight, std::size_t slots, std::size_t unit,
+                     std::size_t threads, SlotShares& shares);
+
+// What a force-pass candidate costs where, learnt from the passes' measured seconds per owner:
+// the owner shares then follow the work, not just the candidate count (a share holding the
+// periodic images' pairs, or the crowded contacts, costs more per candidate). Nothing computed
+// depends on it, only which thread computes what.
+class ShareBalancer {
+ public:
+  // Shares kept while every share's estimated work stays within this part of an even split.
+  static constexpr double kKeepImbalance = 0.05;
+  // Weight given to a pass's measurement in a unit's cost.
+  static constexpr double kLearnRate = 0.25;
+
+  // Owner shares for a pass with `candidates` per unit of slots, split by the costs learnt so far
+  // (by candidate count alone where nothing is known); `shares` is kept when it fits and stays
+  // within kKeepImbalance.
+  void split(const std::vector<std::uint64_t>& candidates, std::size_t slots, std::size_t unit,
+             std::size_t threads, SlotShares& shares);
+  // A pass on `shares` over `candidates` took work_s[t] seconds on owner t (its waits left out).
+  void learn(const SlotShares& shares, const std::vector<std::uint64_t>& candidates,
+             const std::vector<double>& work_s);
+  // Seconds per candidate of each unit, 0 where nothing is known yet.
+  const std::vector<double>& unit_cost_s() const { return cost_s_; }
+  // Each owner's seconds of work over every pass learnt from, and the passes (a benchmark's view
+  // of the balance: bench/bench_step).
+  const std::vector<double>& total_work_s() const { return total_work_s_; }
+  std::uint64_t passes() const { return passes_; }
+
+ private:
+  std::vector<double> cost_s_;
+  std::vector<double> total_work_s_;
+  std::uint64_t passes_ = 0;
+  std::vector<double> weight_;
+};
 
 }  // namespace millsim

@@ -205,6 +205,20 @@ void set_thread_count(int n) {
   team().resize(n < 1 ? 1 : n);
 }
 
+bool inside_parallel_loop() {
+  return t_inside_loop;
+}
+
+void wait_until_at_least(const std::atomic<std::uint32_t>& counter, std::uint32_t at_least) {
+  constexpr int kYieldEvery = 256;
+  for (int spin = 1; counter.load(std::memory_order_acquire) < at_least; ++spin) {
+    if (spin % kYieldEvery == 0)
+      std::this_thread::yield();
+    else
+      spin_pause();
+  }
+}
+
 int thread_count() {
   return team().threads();
 }

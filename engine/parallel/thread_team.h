@@ -19,6 +19,7 @@
 #pragma once
 
 #include <algorithm>
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <type_traits>
@@ -110,12 +111,25 @@ void parallel_blocks(std::size_t blocks, Body&& body) {
   detail::run_body(blocks, body, nullptr, true);
 }
 
+// Whether the calling thread is running a block of a loop (a loop started now runs on it alone).
+bool inside_parallel_loop();
+
+// Waits (spinning, then yielding the core now and then) until `counter` ≥ `at_least`: thread t of
+// a parallel_on_each_thread loop waiting for a higher thread's progress.
+void wait_until_at_least(const std::atomic<std::uint32_t>& counter, std::uint32_t at_least);
+
 // Runs body(t) once on each thread t of the team (t = 0 on the calling thread), every one on its
-// own thread: for loops whose thread t may write only what it owns (parallel/slot_shares.h).
+// own thread: for loops whose thread t may write only what it owns (parallel/slot_shares.h). A
+// body may wait for the progress of higher threads (never lower ones): started inside a loop,
+// the bodies run on the calling thread from the highest t down.
 template <class Body>
 void parallel_on_each_thread(Body&& body) {
   const std::size_t n = std::size_t(thread_count());
   if (n == 1) return body(std::size_t(0));
+  if (inside_parallel_loop()) {
+    for (std::size_t t = n; t-- > 0;) body(t);
+    return;
+  }
   std::size_t bounds[64 + 1];
   std::vector<std::size_t> many;
   std::size_t* b = bounds;

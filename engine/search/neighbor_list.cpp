@@ -425,11 +425,10 @@ void NeighborList::active_runs_of_band(int band, std::vector<PairRange>& runs) c
   }
 }
 
-void NeighborList::split_by_active_candidates(std::size_t slots, std::size_t threads,
-                                              std::size_t unit, SlotShares& shares) const {
-  static thread_local std::vector<std::uint64_t> unit_weight;
+void NeighborList::count_active_candidates(std::size_t slots, std::size_t unit,
+                                           std::vector<std::uint64_t>& per_unit) const {
   static thread_local std::vector<PairRange> runs;
-  unit_weight.assign((slots + unit - 1) / unit, 0);
+  per_unit.assign((slots + unit - 1) / unit, 0);
   const std::uint32_t* first = pairs.first.data();
   for (int band = 0; band < kGapBands; ++band) {
     active_runs_of_band(band, runs);
@@ -442,12 +441,11 @@ void NeighborList::split_by_active_candidates(std::size_t slots, std::size_t thr
         const std::uint32_t next_unit_slot = std::uint32_t((u + 1) * unit);
         const std::size_t stop =
             std::size_t(std::lower_bound(first + k, first + r.end, next_unit_slot) - first);
-        unit_weight[u] += stop - k;
+        per_unit[u] += stop - k;
         k = stop;
       }
     }
   }
-  split_by_weight(unit_weight, slots, unit, threads, shares);
 }
 
 void NeighborList::reset_motion_bounds() {

@@ -141,10 +141,10 @@ class NeighborList {
   // The active candidates of gap band `band`, as runs in candidate order; each band's candidates
   // are sorted by first slot.
   void active_runs_of_band(int band, std::vector<PairRange>& runs) const;
-  // Owner shares (parallel/slot_shares.h) of the slots at multiples of `unit` that give each of
-  // `threads` owners about the same number of active candidates listed at its slots.
-  void split_by_active_candidates(std::size_t slots, std::size_t threads, std::size_t unit,
-                                  SlotShares& shares) const;
+  // The active candidates listed at each unit of `unit` slots (of `slots`): the work of a force
+  // pass on each part of the slots, for the owner shares (parallel/slot_shares.h).
+  void count_active_candidates(std::size_t slots, std::size_t unit,
+                               std::vector<std::uint64_t>& per_unit) const;
 
   // Separation of pair k's partners: x_i − x_j − pair_shift(k).
   const Vec3& pair_shift(std::size_t k) const { return image_shift_[pair_image[k]]; }
@@ -189,6 +189,7 @@ class NeighborList {
   // balanced by its active candidates; the next kick-drift runs on them. Derived: made by every
   // threaded pass, empty after a one-thread one, never checkpointed.
   SlotShares owner_shares;
+  ShareBalancer owner_balance;  // what a candidate costs where (derived, never checkpointed)
 
   // Particle–particle candidates, each listed from its higher slot (first > second), and their
   // tangential spring displacement (m).

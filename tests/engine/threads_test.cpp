@@ -206,16 +206,16 @@ TEST(SlotShares, EachShareBeginsWhereTheWeightBelowReachesItsPart) {
   for (int trial = 0; trial < 200; ++trial) {
     const std::size_t unit = std::size_t(1) << (rng() % 5), units = 1 + rng() % 40;
     const std::size_t slots = (units - 1) * unit + 1 + rng() % unit, threads = 2 + rng() % 4;
-    std::vector<std::uint64_t> w(units);
-    for (std::uint64_t& x : w) x = rng() % 3 == 0 ? 0 : rng() % 1000;
+    std::vector<double> w(units);
+    for (double& x : w) x = rng() % 3 == 0 ? 0.0 : double(rng() % 1000);
     split_by_weight(w, slots, unit, threads, shares);
     ASSERT_EQ(shares.bound.size(), threads + 1);
     EXPECT_EQ(shares.bound.front(), 0u);
     EXPECT_EQ(shares.bound.back(), slots);
-    std::uint64_t total = 0;
-    for (std::uint64_t x : w) total += x;
+    double total = 0;
+    for (double x : w) total += x;
     const auto below = [&](std::size_t slot) {
-      std::uint64_t sum = 0;
+      double sum = 0;
       for (std::size_t u = 0; u * unit < slot; ++u) sum += w[u];
       return sum;
     };
@@ -225,10 +225,10 @@ TEST(SlotShares, EachShareBeginsWhereTheWeightBelowReachesItsPart) {
       if (b < slots) {
         ASSERT_EQ(b % unit, 0u);
       }
-      if (total == 0) continue;
-      EXPECT_GE(below(b) * threads, total * t) << trial << " " << t;
+      if (total == 0.0) continue;
+      EXPECT_GE(below(b) * double(threads), total * double(t)) << trial << " " << t;
       if (b >= unit) {
-        EXPECT_LT(below(b - unit) * threads, total * t) << trial << " " << t;
+        EXPECT_LT(below(b - unit) * double(threads), total * double(t)) << trial << " " << t;
       }
     }
   }
@@ -397,7 +397,7 @@ TEST(Threads, DustLedgerAndItsGrindingAreBitIdenticalOnOneTwoAndThreeThreads) {
   }
 }
 
-TEST(Threads, OwnerSharesCountTheActiveCandidatesOfEachUnitOfSlots) {
+TEST(Threads, TheListCountsTheActiveCandidatesOfEachUnitOfSlots) {
   // The fluidized bed after some steps: gap bands partly active, block by block. The list's
   // count (binary searches within each band) against a walk over every candidate.
   SceneConfig scene = test::shipped_case("fluidized_bed.json", 2e-3);
@@ -405,20 +405,49 @@ TEST(Threads, OwnerSharesCountTheActiveCandidatesOfEachUnitOfSlots) {
   Simulation sim(scene);
   ASSERT_FALSE(sim.advance(sim.total_steps()));
   const NeighborList& nl = sim.neighbors();
-  const std::size_t n = sim.particles().size(), unit = 16;
-  std::vector<std::uint64_t> brute((n + unit - 1) / unit, 0);
-  std::size_t active = 0;
-  for (std::size_t k = 0; k < nl.pairs.size(); ++k)
-    if (nl.pair_active(k)) ++brute[nl.pairs.first[k] / unit], ++active;
-  ASSERT_GT(active, 0u);
-  ASSERT_LT(active, nl.pairs.size());  // some candidates outside the active bands
-  for (std::size_t threads : {2, 3, 4}) {
-    SlotShares from_list, expected;
-    nl.split_by_active_candidates(n, threads, unit, from_list);
-    split_by_weight(brute, n, unit, threads, expected);
-    EXPECT_EQ(from_list.bound, expected.bound) << threads;
-    EXPECT_LT(expected.bound[1], n);  // the shares cut the slots
+  const std::size_t n = sim.particles().size();
+  for (std::size_t unit : {1, 16, 1024}) {
+    std::vector<std::uint64_t> brute((n + unit - 1) / unit, 0), from_list;
+    std::size_t active = 0;
+    for (std::size_t k = 0; k < nl.pairs.size(); ++k)
+      if (nl.pair_active(k)) ++brute[nl.pairs.first[k] / unit], ++active;
+    ASSERT_GT(active, 0u);
+    ASSERT_LT(active, nl.pairs.size());  // some candidates outside the active bands
+    nl.count_active_candidates(n, unit, from_list);
+    EXPECT_EQ(from_list, brute) << unit;
   }
+}
+
+TEST(SlotShares, TheBalancerLearnsWhereCandidatesCostMore) {
+  // 64 units of 1024 slots, 100 candidates each; the last 16 units' candidates cost 3 times the
+  // others' (the periodic images' pairs of a Morton order's corner, say). Two owners. A pass's
+  // seconds per owner are its units' true costs; the balancer sees only those sums.
+  const std::size_t unit = 1024, units = 64, slots = units * unit;
+  const std::vector<std::uint64_t> candidates(units, 100);
+  const auto true_cost = [](std::size_t u) { return u >= 48 ? 3e-9 : 1e-9; };
+  const auto work = [&](const SlotShares& shares) {
+    std::vector<double> w(shares.threads(), 0.0);
+    for (std::size_t t = 0; t < shares.threads(); ++t)
+      for (std::size_t u = shares.bound[t] / unit; u * unit < shares.bound[t + 1]; ++u)
+        w[t] += double(candidates[u]) * true_cost(u);
+    return w;
+  };
+  const auto imbalance = [](const std::vector<double>& w) {
+    return std::max(w[0], w[1]) / (0.5 * (w[0] + w[1])) - 1.0;
+  };
+  ShareBalancer balancer;
+  SlotShares shares;
+  balancer.split(candidates, slots, unit, 2, shares);
+  EXPECT_EQ(shares.bound[1], slots / 2);    // by count alone: half the units each
+  EXPECT_GT(imbalance(work(shares)), 0.3);  // thread 1 holds 16 + 16·3 of 96 cost units
+  for (int pass = 0; pass < 30; ++pass) {
+    balancer.learn(shares, candidates, work(shares));
+    balancer.split(candidates, slots, unit, 2, shares);
+  }
+  // Balanced within the kept imbalance and a unit's cost: the even cut lies at 48 of 96 cost
+  // units, i.e. at unit 48, and 5 % of 48 is 2.4 units.
+  EXPECT_LT(imbalance(work(shares)), ShareBalancer::kKeepImbalance + 0.03);
+  EXPECT_NEAR(double(shares.bound[1]) / double(unit), 48.0, 3.0);
 }
 
 struct ThreadCase {
