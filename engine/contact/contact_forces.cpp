@@ -504,10 +504,8 @@ void pair_loop(const Law& law, const MaterialTable& materials, double dt, double
   // By particles, not candidates: what the threads add to, the next kick-drift reads (a loop
   // on two cores below the minimum moves the loads from cache to cache). A single-rate run's
   // kick-drift runs on the owner shares this pass makes, which keeps each thread's particles in
-  // its core's caches, and is worth threads at smaller populations.
-  const std::size_t minimum =
-      stats.owner_kick_drift ? kMinSlotsForOwnerPasses : kMinItemsForThreads;
-  if (thread_count() == 1 || p.size() < minimum / block_divisor()) {
+  // its core's caches: its caller lowers the minimum (MinItemsForThreadsScope).
+  if (!worth_threads(p.size())) {
     nl.owner_shares.clear();
     pair_loop_direct<Law, kPeriodic>(law, materials, dt, limit, p, nl, stats.record_impacts, total);
   } else {

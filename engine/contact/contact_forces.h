@@ -42,10 +42,6 @@ struct ContactStepStats {
   // impact spectrum).
   bool record_impacts = false;
   std::vector<Impact> impacts;
-  // Set when the next kick-drift runs on the owner shares the threaded pass makes
-  // (NeighborList::owner_shares; single-rate stepping): the pass is then worth threads from
-  // kMinSlotsForOwnerPasses particles on (parallel/thread_team.h).
-  bool owner_kick_drift = false;
 
   template <class A>
   void checkpoint_io(A& a) {

@@ -78,7 +78,7 @@ double kick_in_blocks(std::size_t n, const SlotShares* shares,
   const std::size_t chunks_per_block = kSpeedBlockSlots / chunk;
   block_max_speed_m_per_s.assign(blocks, 0.0);
   double max_speed2 = 0.0;
-  for (std::size_t c = 0; c < (n + chunk - 1) / chunk; ++c) {
+  for (std::size_t c = 0; c < chunk_max2.size(); ++c) {
     double& block = block_max_speed_m_per_s[c / chunks_per_block];
     block = std::max(block, chunk_max2[c]);
     max_speed2 = std::max(max_speed2, chunk_max2[c]);

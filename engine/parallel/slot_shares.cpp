@@ -45,9 +45,9 @@ void ShareBalancer::split(const std::vector<std::uint64_t>& candidates, std::siz
   if (shares.fit(slots, threads) && shares.unit == unit && total > 0.0) {
     double worst = 0.0;
     for (std::size_t t = 0; t < threads; ++t) {
-      const std::size_t end = t + 1 == threads ? units : shares.bound[t + 1] / unit;
+      const auto [begin, end] = shares.unit_range(t, units);
       double w = 0.0;
-      for (std::size_t u = shares.bound[t] / unit; u < end; ++u) w += weight_[u];
+      for (std::size_t u = begin; u < end; ++u) w += weight_[u];
       worst = std::max(worst, std::abs(w * double(threads) / total - 1.0));
     }
     if (worst <= kKeepImbalance) return;
@@ -61,10 +61,8 @@ void ShareBalancer::learn(const SlotShares& shares, const std::vector<std::uint6
   if (cost_s_.size() != units || work_s.size() != threads) return;
   if (total_work_s_.size() != threads) total_work_s_.assign(threads, 0.0);
   for (std::size_t t = 0; t < threads; ++t) total_work_s_[t] += work_s[t];
-  ++passes_;
   for (std::size_t t = 0; t < threads; ++t) {
-    const std::size_t begin = shares.bound[t] / shares.unit;
-    const std::size_t end = t + 1 == threads ? units : shares.bound[t + 1] / shares.unit;
+    const auto [begin, end] = shares.unit_range(t, units);
     std::uint64_t count = 0;
     for (std::size_t u = begin; u < end; ++u) count += candidates[u];
     if (count == 0 || !(work_s[t] > 0.0)) continue;

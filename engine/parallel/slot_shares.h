@@ -8,6 +8,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 namespace millsim {
@@ -22,6 +23,10 @@ struct SlotShares {
   std::vector<std::size_t> bound;  // threads + 1 entries: 0, ..., slots
 
   std::size_t threads() const { return bound.empty() ? 0 : bound.size() - 1; }
+  // Owner t's units of `unit` slots, [first, second), of `units` in all.
+  std::pair<std::size_t, std::size_t> unit_range(std::size_t t, std::size_t units) const {
+    return {bound[t] / unit, t + 1 == threads() ? units : bound[t + 1] / unit};
+  }
   // Whether they were made for `n` slots and `threads` threads.
   bool fit(std::size_t n, std::size_t threads) const {
     return slots == n && this->threads() == threads && threads > 1;
@@ -55,17 +60,13 @@ class ShareBalancer {
   // A pass on `shares` over `candidates` took work_s[t] seconds on owner t (its waits left out).
   void learn(const SlotShares& shares, const std::vector<std::uint64_t>& candidates,
              const std::vector<double>& work_s);
-  // Seconds per candidate of each unit, 0 where nothing is known yet.
-  const std::vector<double>& unit_cost_s() const { return cost_s_; }
-  // Each owner's seconds of work over every pass learnt from, and the passes (a benchmark's view
-  // of the balance: bench/bench_step).
+  // Each owner's seconds of work over every pass learnt from (a benchmark's view of the
+  // balance: bench/bench_step).
   const std::vector<double>& total_work_s() const { return total_work_s_; }
-  std::uint64_t passes() const { return passes_; }
 
  private:
-  std::vector<double> cost_s_;
+  std::vector<double> cost_s_;  // per unit: seconds per candidate, smoothed; 0 where unknown
   std::vector<double> total_work_s_;
-  std::uint64_t passes_ = 0;
   std::vector<double> weight_;
 };
 

@@ -527,6 +527,13 @@ std::string Simulation::describe_worst_overlap(const ContactStepStats& c) const 
                 100.0 * c.max_overlap_ratio, " % of its diameter");
 }
 
+std::size_t Simulation::min_items_for_threads() const {
+  // Every pass of a single-rate step splits the slots as the owner shares do, the force pass and
+  // the kick-drift on the same ones; a multi-rate step's kick-drift walks lists of particles
+  // (docs/threads.md, "When threads pay").
+  return multi_rate_on_ ? kMinItemsForThreads : kMinSlotsForOwnerPasses;
+}
+
 void Simulation::compute_forces(const std::vector<NeighborList::PairRange>* wall_ranges) {
   if (loads_listed_) {
   } else if (forces_prepared_) {
@@ -536,7 +543,7 @@ void Simulation::compute_forces(const std::vector<NeighborList::PairRange>* wall
   }
   forces_prepared_ = loads_listed_ = false;
   contact_stats_.reset();
-  contact_stats_.owner_kick_drift = !multi_rate_on_;
+  const MinItemsForThreadsScope minimum(min_items_for_threads());
   compute_pair_forces(contact_.model, materials_, box_, time_.step_s, contact_.penetration_limit,
                       particles_, neighbors_, contact_stats_);
   compute_wall_forces(materials_, walls_, time_.step_s, contact_.penetration_limit, particles_,
@@ -855,10 +862,7 @@ std::optional<StepFailure> Simulation::step_once(bool may_defer) {
   });
   profile_.time(Phase::Neighbors, [&] {
     neighbors_.note_motion(block_max_speed_, max_speed, dt);
-    // Every pass of a single-rate step splits the slots: the rebuild's pay from the owner
-    // passes' minimum on (docs/threads.md, "When threads pay").
-    const MinItemsForThreadsScope minimum(multi_rate_on_ ? kMinItemsForThreads
-                                                         : kMinSlotsForOwnerPasses);
+    const MinItemsForThreadsScope minimum(min_items_for_threads());
     neighbors_.update(particles_, box_, walls_, false);
   });
   profile_.time(Phase::Forces, [&] { compute_forces(); });

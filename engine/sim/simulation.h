@@ -197,6 +197,8 @@ class Simulation {
   // `later`: particles the run may create (feeds, the smallest fragment), for the bounds.
   void choose_time_step(const SceneConfig& scene, const ParticleStore& later, InputErrors& errors);
   // The force pass; `wall_ranges`: the wall candidates to compute (all when null).
+  // worth_threads()' minimum for the force pass and the rebuild (parallel/thread_team.h).
+  std::size_t min_items_for_threads() const;
   void compute_forces(const std::vector<NeighborList::PairRange>* wall_ranges = nullptr);
   // Contact forces, then the fluid forces of a force pass that is not a step's (no impulse).
   void compute_all_forces();
