@@ -176,17 +176,46 @@ inline double kick_then_kick_drift(ParticleStore& p, double dt, const Vec3& grav
 // and in which they sum what they sum (so the sums are the same on any thread count).
 inline constexpr std::size_t kListPieceEntries = 4096;
 
-// Runs speed2 = visit(i) for every listed slot i, the list cut into pieces of kListPieceEntries
-// spread over the engine's threads; raises block_max_speed2[i / kSpeedBlockSlots] to each speed2
-// and returns the largest. Maxima are exact in any order. Each piece keeps its maxima in
-// registers and writes them once per slot block (the lists are in slot order) and once at its
-// end: threads never write one cache line per particle.
+// The listed entries of each unit of the owner shares (parallel/slot_shares.h): with `slots`
+// ascending, fills entry_begin[u] with the first entry whose slot lies in unit u or above
+// (units + 1 offsets, the last = slots.size()) and returns the number of units, or returns 0
+// unless `shares` fit `population` and the team (the caller then cuts the list its own way).
+inline std::size_t listed_units(const std::vector<std::uint32_t>& slots, std::size_t population,
+                                const SlotShares* shares, std::vector<std::size_t>& entry_begin) {
+  if (!shares || slots.empty() || !shares->fit(population, std::size_t(thread_count()))) return 0;
+  const std::size_t units = (population + shares->unit - 1) / shares->unit;
+  entry_begin.resize(units + 1);
+  const std::uint32_t* first = slots.data();
+  const std::uint32_t* last = first + slots.size();
+  const std::uint32_t* at = first;
+  for (std::size_t u = 0; u < units; ++u) {
+    at = std::lower_bound(at, last, std::uint32_t(u * shares->unit));
+    entry_begin[u] = std::size_t(at - first);
+  }
+  entry_begin[units] = slots.size();
+  return units;
+}
+
+// Runs body(begin, end, piece) over the entries of a slot list (ascending) in pieces: on the
+// owner shares' units when they fit `population` (listed_units: thread t starts on the
+// particles it owns in the force pass, so what it writes stays in its core's caches, then takes
+// from the back of the others'), else in pieces of kListPieceEntries entries, on the team when
+// the list is worth threads. Returns the number of pieces. Nothing done here may sum across
+// pieces in an order that depends on the cut (the cut depends on the thread count).
+template <class Body>
+std::size_t listed_pieces(const std::vector<std::uint32_t>& slots, std::size_t population,
+                          const SlotShares* shares, Body&& body);
+
+// Runs speed2 = visit(i) for every listed slot i, in listed_pieces; raises
+// block_max_speed2[i / kSpeedBlockSlots] to each speed2 and returns the largest. Maxima are
+// exact in any order. Each piece keeps its maxima in registers and writes them once per slot
+// block (the lists are in slot order) and once at its end: threads never write one cache line
+// per particle.
 template <class Visit>
 double for_listed_speeds(const std::vector<std::uint32_t>& slots,
-                         std::vector<double>& block_max_speed2, Visit&& visit) {
+                         std::vector<double>& block_max_speed2, Visit&& visit,
+                         std::size_t population = 0, const SlotShares* shares = nullptr) {
   const std::size_t n = slots.size();
-  const std::size_t piece_entries = block_items(kListPieceEntries);
-  const std::size_t pieces = (n + piece_entries - 1) / piece_entries;
   // One piece; block_out: its block maxima (raised, never lowered). Returns its largest speed2.
   auto run_piece = [&](std::size_t begin, std::size_t end, double* block_out) {
     double piece_max = 0.0, block_max = 0.0;
@@ -204,12 +233,13 @@ double for_listed_speeds(const std::vector<std::uint32_t>& slots,
     if (block != ~std::size_t(0)) block_out[block] = std::max(block_out[block], block_max);
     return piece_max;
   };
-  double max_speed2 = 0.0;
-  if (pieces <= 1 || !worth_threads(n)) {
-    for (std::size_t piece = 0; piece < pieces; ++piece)
-      max_speed2 = std::max(
-          max_speed2, run_piece(piece * piece_entries, std::min(n, (piece + 1) * piece_entries),
-                                block_max_speed2.data()));
+  const bool owners = shares && shares->fit(population, std::size_t(thread_count()));
+  if (!owners && (n <= block_items(kListPieceEntries) || !worth_threads(n))) {
+    double max_speed2 = 0.0;
+    for (std::size_t begin = 0; begin < n; begin += block_items(kListPieceEntries))
+      max_speed2 =
+          std::max(max_speed2, run_piece(begin, std::min(n, begin + block_items(kListPieceEntries)),
+                                         block_max_speed2.data()));
     return max_speed2;
   }
   const std::size_t blocks = block_max_speed2.size();
@@ -217,11 +247,17 @@ double for_listed_speeds(const std::vector<std::uint32_t>& slots,
   // (Named here, on the calling thread: inside the loop a thread_local would be the worker's.)
   static thread_local std::vector<double> calling_thread_piece_maxima;
   std::vector<double>& piece_block = calling_thread_piece_maxima;
-  piece_block.assign(pieces * stride, 0.0);  // per piece: its blocks' maxima, then its own
-  parallel_ranges(n, piece_entries, [&](std::size_t begin, std::size_t end, std::size_t piece) {
-    double* mine = piece_block.data() + piece * stride;
-    mine[blocks] = run_piece(begin, end, mine);
-  });
+  // per piece: its blocks' maxima, then its own
+  const std::size_t most_pieces =
+      owners ? (population + shares->unit - 1) / shares->unit
+             : (n + block_items(kListPieceEntries) - 1) / block_items(kListPieceEntries);
+  piece_block.assign(most_pieces * stride, 0.0);
+  const std::size_t pieces = listed_pieces(
+      slots, population, shares, [&](std::size_t begin, std::size_t end, std::size_t piece) {
+        double* mine = piece_block.data() + piece * stride;
+        mine[blocks] = run_piece(begin, end, mine);
+      });
+  double max_speed2 = 0.0;
   for (std::size_t piece = 0; piece < pieces; ++piece) {
     const double* mine = piece_block.data() + piece * stride;
     for (std::size_t b = 0; b < blocks; ++b)
@@ -229,6 +265,29 @@ double for_listed_speeds(const std::vector<std::uint32_t>& slots,
     max_speed2 = std::max(max_speed2, mine[blocks]);
   }
   return max_speed2;
+}
+
+template <class Body>
+std::size_t listed_pieces(const std::vector<std::uint32_t>& slots, std::size_t population,
+                          const SlotShares* shares, Body&& body) {
+  // (Named here, on the calling thread: inside the loop a thread_local would be the worker's.)
+  static thread_local std::vector<std::size_t> calling_thread_entry_begin, calling_thread_bounds;
+  std::vector<std::size_t>& entry_begin = calling_thread_entry_begin;
+  const std::size_t units = listed_units(slots, population, shares, entry_begin);
+  if (units == 0) {
+    const std::size_t piece = block_items(kListPieceEntries);
+    parallel_ranges(slots.size(), piece, body);
+    return (slots.size() + piece - 1) / piece;
+  }
+  const std::size_t threads = shares->threads();
+  std::vector<std::size_t>& bounds = calling_thread_bounds;
+  bounds.resize(threads + 1);
+  for (std::size_t t = 0; t < threads; ++t) bounds[t] = shares->unit_range(t, units).first;
+  bounds[threads] = units;
+  parallel_blocks_in_shares(units, bounds.data(), [&](std::size_t u) {
+    if (entry_begin[u] < entry_begin[u + 1]) body(entry_begin[u], entry_begin[u + 1], u);
+  });
+  return units;
 }
 
 // Kick-drift of the listed slots by `dt`; returns the largest |v½|² as `report` counts it (as
@@ -241,7 +300,7 @@ double for_listed_speeds(const std::vector<std::uint32_t>& slots,
 template <bool kKickFirst, class NextLoad>
 double kick_drift_listed_as(ParticleStore& p, const std::vector<std::uint32_t>& slots, double dt,
                             std::vector<double>& block_max_speed2, const SpeedReport& report,
-                            NextLoad&& next_load) {
+                            NextLoad&& next_load, const SlotShares* shares) {
   const double half = 0.5 * dt;
   Vec3* x = p.position_m.data();
   Motion* motion = p.motion.data();
@@ -267,50 +326,52 @@ double kick_drift_listed_as(ParticleStore& p, const std::vector<std::uint32_t>& 
                  m.angular_velocity_rad_per_s + l.torque_n_m * (dt * p.inv_inertia_per_kg_m2[i])};
     return speed2;
   };
-  return for_listed_speeds(slots, block_max_speed2, kick_drift_one);
+  return for_listed_speeds(slots, block_max_speed2, kick_drift_one, p.size(), shares);
 }
 
 // The same with kKickFirst = kick_first (the closing kick carried or not: one pass each).
+// `shares`: the last force pass's owner shares (NeighborList::owner_shares), or null.
 template <class NextLoad>
 double kick_drift_listed(ParticleStore& p, const std::vector<std::uint32_t>& slots, double dt,
                          std::vector<double>& block_max_speed2, const SpeedReport& report,
-                         NextLoad&& next_load, bool kick_first = false) {
+                         NextLoad&& next_load, bool kick_first = false,
+                         const SlotShares* shares = nullptr) {
   return kick_first
-             ? kick_drift_listed_as<true>(p, slots, dt, block_max_speed2, report, next_load)
-             : kick_drift_listed_as<false>(p, slots, dt, block_max_speed2, report, next_load);
+             ? kick_drift_listed_as<true>(p, slots, dt, block_max_speed2, report, next_load, shares)
+             : kick_drift_listed_as<false>(p, slots, dt, block_max_speed2, report, next_load,
+                                           shares);
 }
 
 // The same, each next force pass starting from gravity, m·g.
 inline double kick_drift_listed(ParticleStore& p, const std::vector<std::uint32_t>& slots,
                                 double dt, const Vec3& gravity,
                                 std::vector<double>& block_max_speed2, const SpeedReport& report,
-                                bool kick_first = false) {
+                                bool kick_first = false, const SlotShares* shares = nullptr) {
   const double* mass = p.mass_kg.data();
   return kick_drift_listed(
       p, slots, dt, block_max_speed2, report,
       [&](std::uint32_t i) {
         return Load{gravity * mass[i], {}};
       },
-      kick_first);
+      kick_first, shares);
 }
 
-// The closing kick of the listed slots by `dt`.
-inline void kick_listed(ParticleStore& p, const std::vector<std::uint32_t>& slots, double dt) {
+// The closing kick of the listed slots by `dt`, in listed_pieces.
+inline void kick_listed(ParticleStore& p, const std::vector<std::uint32_t>& slots, double dt,
+                        const SlotShares* shares = nullptr) {
   const double half = 0.5 * dt;
   Motion* motion = p.motion.data();
   const Load* load = p.load.data();
   const Load* previous_load = p.previous_load.data();
-  parallel_ranges(slots.size(), block_items(kListPieceEntries),
-                  [&](std::size_t begin, std::size_t end, std::size_t) {
-                    for (std::size_t k = begin; k < end; ++k) {
-                      const std::uint32_t i = slots[k];
-                      const Load l = load[i], l_old = previous_load[i];
-                      motion[i].velocity_m_per_s +=
-                          (l.force_n - l_old.force_n) * (half * p.inv_mass_per_kg[i]);
-                      motion[i].angular_velocity_rad_per_s +=
-                          (l.torque_n_m - l_old.torque_n_m) * (half * p.inv_inertia_per_kg_m2[i]);
-                    }
-                  });
+  listed_pieces(slots, p.size(), shares, [&](std::size_t begin, std::size_t end, std::size_t) {
+    for (std::size_t k = begin; k < end; ++k) {
+      const std::uint32_t i = slots[k];
+      const Load l = load[i], l_old = previous_load[i];
+      motion[i].velocity_m_per_s += (l.force_n - l_old.force_n) * (half * p.inv_mass_per_kg[i]);
+      motion[i].angular_velocity_rad_per_s +=
+          (l.torque_n_m - l_old.torque_n_m) * (half * p.inv_inertia_per_kg_m2[i]);
+    }
+  });
 }
 
 // After a kick-drift pass: keeps the current forces as the previous ones, and starts from the

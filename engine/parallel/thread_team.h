@@ -53,12 +53,12 @@ std::uint64_t loops_run_on_team();
 // Loops over fewer items than this (divided by block_divisor()) run on the calling thread alone.
 // Below it a step's particles fit in one core's caches, and a loop on two cores moves them from
 // cache to cache every step: the shipped mill at 5-15 thousand particles took 1.55x longer on 2
-// threads than on 1, and its multi-rate passes, which split lists of particles rather than the
-// slots, still lose at 8192 (docs/threads.md). The result is the same either way.
+// threads than on 1 (docs/threads.md). The result is the same either way.
 inline constexpr std::size_t kMinItemsForThreads = 32768;
-// A single-rate run's force pass and kick-drift on the same owner shares of the slots
-// (parallel/slot_shares.h) keep each thread's particles in its own core's caches from step to
-// step, and gain on two threads from this many particles on (docs/threads.md).
+// A step's force pass and kick-drift on the same owner shares of the slots
+// (parallel/slot_shares.h; a multi-rate step's listed passes cut at the shares' units) keep each
+// thread's particles in its own core's caches from step to step, and gain on two threads from
+// this many particles on (Simulation::min_items_for_threads; docs/threads.md).
 inline constexpr std::size_t kMinSlotsForOwnerPasses = 8192;
 namespace detail {
 inline std::size_t g_min_items_for_threads = kMinItemsForThreads;

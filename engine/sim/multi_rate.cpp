@@ -160,7 +160,7 @@ void bound_rider_speeds(const ParticleStore& p, double dt, int level, const Spee
 double kick_drift_keeping_fluid(ParticleStore& p, const std::vector<std::uint32_t>& slots,
                                 double dt, const Vec3& gravity,
                                 std::vector<double>& block_max_speed2, const SpeedReport& report,
-                                bool kick_first) {
+                                bool kick_first, const SlotShares* shares) {
   const double* mass = p.mass_kg.data();
   const Vec3* held = p.fluid_held_force_n.data();
   return kick_drift_listed(
@@ -168,7 +168,7 @@ double kick_drift_keeping_fluid(ParticleStore& p, const std::vector<std::uint32_
       [&](std::uint32_t i) {
         return Load{gravity * mass[i] + held[i], {}};
       },
-      kick_first);
+      kick_first, shares);
 }
 
 Vec3 book_held_exchange(ParticleStore& p, const std::vector<std::uint32_t>& slots, double held_s) {

@@ -202,11 +202,11 @@ void bound_rider_speeds(const ParticleStore& p, double dt, int level, const Spee
 // next force starts from gravity plus the kept force. Returns the largest |v½|² as `report`
 // counts it. With `kick_first`, the last step's closing kick comes first in the same pass
 // (kick_drift_listed's kKickFirst). The kept exchange's impulse is the caller's to book
-// (book_held_exchange).
+// (book_held_exchange). `shares`: as kick_drift_listed's.
 double kick_drift_keeping_fluid(ParticleStore& p, const std::vector<std::uint32_t>& slots,
                                 double dt, const Vec3& gravity,
                                 std::vector<double>& block_max_speed2, const SpeedReport& report,
-                                bool kick_first = false);
+                                bool kick_first = false, const SlotShares* shares = nullptr);
 
 // Adds the kept exchange over `held_s` to each listed particle's impulse for the gas; returns
 // the sum, added per piece of the list and then in piece order (the same on any thread count).

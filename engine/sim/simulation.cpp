@@ -528,10 +528,10 @@ std::string Simulation::describe_worst_overlap(const ContactStepStats& c) const 
 }
 
 std::size_t Simulation::min_items_for_threads() const {
-  // Every pass of a single-rate step splits the slots as the owner shares do, the force pass and
-  // the kick-drift on the same ones; a multi-rate step's kick-drift walks lists of particles
-  // (docs/threads.md, "When threads pay").
-  return multi_rate_on_ ? kMinItemsForThreads : kMinSlotsForOwnerPasses;
+  // Every pass of a step splits the slots as the owner shares do, the force pass and the
+  // kick-drift on the same ones (a multi-rate step's listed passes cut their lists at the shares'
+  // units: dem/integrator.h, listed_pieces; docs/threads.md, "When threads pay").
+  return kMinSlotsForOwnerPasses;
 }
 
 void Simulation::compute_forces(const std::vector<NeighborList::PairRange>* wall_ranges) {
@@ -607,7 +607,9 @@ void Simulation::finish_stepping_kick() {
   book_stepping_exchange();
   if (!stepping_kick_pending_) return;
   stepping_kick_pending_ = false;
-  profile_.time(Phase::Kick, [&] { kick_listed(particles_, multi_rate_.stepping, time_.step_s); });
+  profile_.time(Phase::Kick, [&] {
+    kick_listed(particles_, multi_rate_.stepping, time_.step_s, &neighbors_.owner_shares);
+  });
 }
 
 void Simulation::catch_up_free_flight() {
@@ -626,10 +628,11 @@ void Simulation::catch_up_free_flight() {
   const double h = double(waited) * time_.step_s;
   profile_.time(Phase::FreeFlight, [&] {
     m.block_speed2.assign((particles_.size() + kSpeedBlockSlots - 1) / kSpeedBlockSlots, 0.0);
+    const SlotShares* shares = &neighbors_.owner_shares;
     kick_drift_listed(particles_, m.waiting, h, gravity_m_per_s2_, m.block_speed2,
-                      neighbors_.speed_report(particles_));
+                      neighbors_.speed_report(particles_), false, shares);
     if (gas_) gas_->add_fluid_forces(particles_, m.waiting, h);
-    kick_listed(particles_, m.waiting, h);
+    kick_listed(particles_, m.waiting, h, shares);
   });
   ++m.stats.catch_ups;
   m.stats.long_steps += double(m.waiting.size());
@@ -652,13 +655,14 @@ void Simulation::catch_up_riders(int level) {
     // least every max_wait_steps steps.
     const bool refresh = gas_ && (l.fluid_refreshed_step <= m.gas_changed_step ||
                                   step_index_ - l.fluid_refreshed_step >= m.max_wait_steps);
+    const SlotShares* shares = &neighbors_.owner_shares;
     if (gas_ && !refresh) {
       kick_drift_keeping_fluid(particles_, l.slots, h, gravity_m_per_s2_, scratch_block_speed2,
-                               neighbors_.speed_report(particles_));
+                               neighbors_.speed_report(particles_), false, shares);
       gas_->add_held_impulse(book_held_exchange(particles_, l.slots, h));
     } else {
       kick_drift_listed(particles_, l.slots, h, gravity_m_per_s2_, scratch_block_speed2,
-                        neighbors_.speed_report(particles_));
+                        neighbors_.speed_report(particles_), false, shares);
     }
     ContactStepStats stats;
     stats.record_impacts = contact_stats_.record_impacts;
@@ -668,7 +672,7 @@ void Simulation::catch_up_riders(int level) {
       gas_->add_fluid_forces(particles_, l.slots, h);
       l.fluid_refreshed_step = step_index_;
     }
-    kick_listed(particles_, l.slots, h);
+    kick_listed(particles_, l.slots, h, shares);
     for (const Impact& impact : stats.impacts)
       m.rider_events.push_back({particles_.id[impact.particle], impact.partner, false,
                                 impact.speed_m_per_s, impact.tangential_speed_m_per_s,
@@ -725,7 +729,8 @@ void Simulation::take_rider_events() {
 std::optional<StepFailure> Simulation::step_multi_rate(bool may_defer) {
   const double dt = time_.step_s;
   MultiRate& m = multi_rate_;
-  if (kick_pending_) profile_.time(Phase::Kick, [&] { kick(particles_, dt); });
+  const SlotShares* shares = &neighbors_.owner_shares;
+  if (kick_pending_) profile_.time(Phase::Kick, [&] { kick(particles_, dt, shares); });
   kick_pending_ = false;
   // The last step's closing kick of the stepping particles, done in their kick-drift's pass.
   const bool kick_first = stepping_kick_pending_;
@@ -742,11 +747,11 @@ std::optional<StepFailure> Simulation::step_multi_rate(bool may_defer) {
     if (refresh) {
       stepping_max2 =
           kick_drift_listed(particles_, m.stepping, dt, gravity_m_per_s2_, m.block_speed2,
-                            neighbors_.speed_report(particles_), kick_first);
+                            neighbors_.speed_report(particles_), kick_first, shares);
     } else {
       stepping_max2 =
           kick_drift_keeping_fluid(particles_, m.stepping, dt, gravity_m_per_s2_, m.block_speed2,
-                                   neighbors_.speed_report(particles_), kick_first);
+                                   neighbors_.speed_report(particles_), kick_first, shares);
       ++m.held_exchange_steps;
       m.stats.held_fluid_steps += double(m.stepping.size());
     }
@@ -766,14 +771,17 @@ std::optional<StepFailure> Simulation::step_multi_rate(bool may_defer) {
     catch_up_free_flight();
     profile_.time(Phase::KickDrift, [&] {
       kick_drift_listed(particles_, m.waiting, dt, gravity_m_per_s2_, m.block_speed2,
-                        neighbors_.speed_report(particles_));
+                        neighbors_.speed_report(particles_), false, shares);
       for (RiderLevel& level : m.riders)
         kick_drift_listed(particles_, level.slots, dt, gravity_m_per_s2_, m.block_speed2,
-                          neighbors_.speed_report(particles_));
+                          neighbors_.speed_report(particles_), false, shares);
     });
     ++m.stats.full_steps;
   }
-  profile_.time(Phase::Neighbors, [&] { neighbors_.update(particles_, box_, walls_, false); });
+  profile_.time(Phase::Neighbors, [&] {
+    const MinItemsForThreadsScope minimum(min_items_for_threads());
+    neighbors_.update(particles_, box_, walls_, false);
+  });
   // The riders' wall candidates wait for their own steps, except in a full step.
   const bool riders_apart = !full && m.any_riders();
   profile_.time(Phase::Forces,
@@ -807,9 +815,9 @@ std::optional<StepFailure> Simulation::step_multi_rate(bool may_defer) {
       may_defer && !full && !limiter && !(gas_ && gas_->due(step_index_)) && !health_due();
   profile_.time(Phase::Kick, [&] {
     if (full)
-      kick(particles_, dt);
+      kick(particles_, dt, shares);
     else if (!defer)
-      kick_listed(particles_, m.stepping, dt);
+      kick_listed(particles_, m.stepping, dt, shares);
     if (limiter)
       limiter_events_ += apply_penetration_limiter(contact_stats_, materials_, box_, walls_,
                                                    neighbors_, particles_);
@@ -1068,6 +1076,7 @@ void Simulation::process_population() {
       // Rebuild now, so the list never refers to removed slots and the newborn are marked
       // before the next force pass.
       neighbors_.mark_newborn(std::move(newborn), contact_.penetration_limit);
+      const MinItemsForThreadsScope minimum(min_items_for_threads());
       neighbors_.update(particles_, box_, walls_, true);
     }
   });

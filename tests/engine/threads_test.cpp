@@ -15,6 +15,7 @@
 #include <thread>
 #include <vector>
 
+#include "dem/integrator.h"
 #include "dust/dust_grinding.h"
 #include "dust/dust_ledger.h"
 #include "gas/gas_solver.h"
@@ -418,6 +419,72 @@ TEST(Threads, TheListCountsTheActiveCandidatesOfEachUnitOfSlots) {
   }
 }
 
+TEST(SlotShares, AListIsCutWhereTheOwnersUnitsBeginAndItsMaximaAreTheOnePassOnes) {
+  // A multi-rate step's listed passes (dem/integrator.h, listed_pieces) on the owner shares: 10 000
+  // slots in units of 64 shared by 3 owners, a list of about a third of them with whole units
+  // missing. Each piece must be exactly the listed entries of one unit, every entry run once, and
+  // the speed maxima per block those of one pass in order.
+  Threads team(3);
+  constexpr std::size_t kPopulation = 10000, kUnit = 64;
+  const std::size_t units = (kPopulation + kUnit - 1) / kUnit;
+  SlotShares shares;
+  shares.slots = kPopulation, shares.unit = kUnit,
+  shares.bound = {0, 40 * kUnit, 100 * kUnit, kPopulation};
+  std::mt19937_64 rng(5);
+  std::vector<std::uint32_t> slots;
+  for (std::uint32_t i = 0; i < kPopulation; ++i)
+    if ((i < 3000 || i >= 4100) && rng() % 3 == 0) slots.push_back(i);
+  std::vector<std::atomic<int>> runs(units);
+  std::vector<std::pair<std::size_t, std::size_t>> range(units);
+  const std::size_t pieces = listed_pieces(
+      slots, kPopulation, &shares, [&](std::size_t begin, std::size_t end, std::size_t piece) {
+        runs[piece].fetch_add(1);
+        range[piece] = {begin, end};
+      });
+  EXPECT_EQ(pieces, units);
+  std::size_t covered = 0;
+  for (std::size_t u = 0; u < units; ++u) {
+    // By definition: the entries whose slot lies in [u·64, (u+1)·64).
+    std::size_t first = slots.size(), last = 0;
+    for (std::size_t k = 0; k < slots.size(); ++k)
+      if (slots[k] / kUnit == u) first = std::min(first, k), last = k + 1;
+    if (first == slots.size()) {
+      EXPECT_EQ(runs[u].load(), 0) << "unit " << u << " lists nothing";
+      continue;
+    }
+    ASSERT_EQ(runs[u].load(), 1) << "unit " << u;
+    EXPECT_EQ(range[u], std::make_pair(first, last)) << "unit " << u;
+    covered += last - first;
+  }
+  EXPECT_EQ(covered, slots.size());
+  EXPECT_EQ(runs[3000 / kUnit + 1].load(), 0);  // a unit with nothing listed
+
+  // The speeds' maxima on the shares against one pass in list order, and the cut the listed
+  // passes take when the shares do not fit the population (pieces of the list's entries).
+  std::vector<double> speed2(kPopulation);
+  for (double& v : speed2) v = double(rng() % 100000);
+  const std::size_t blocks = (kPopulation + kSpeedBlockSlots - 1) / kSpeedBlockSlots;
+  std::vector<double> expected_block(blocks, 0.0);
+  double expected_max = 0.0;
+  for (const std::uint32_t i : slots) {
+    expected_block[i / kSpeedBlockSlots] =
+        std::max(expected_block[i / kSpeedBlockSlots], speed2[i]);
+    expected_max = std::max(expected_max, speed2[i]);
+  }
+  for (const std::size_t population : {kPopulation, kPopulation + 1}) {
+    SmallBlocks small_blocks;
+    std::vector<double> block(blocks, 0.0);
+    const double max2 = for_listed_speeds(
+        slots, block, [&](std::uint32_t i) { return speed2[i]; }, population, &shares);
+    EXPECT_EQ(max2, expected_max);
+    EXPECT_EQ(block, expected_block);
+  }
+  const std::size_t entry_pieces =
+      listed_pieces(slots, kPopulation + 1, &shares, [](std::size_t, std::size_t, std::size_t) {});
+  EXPECT_EQ(entry_pieces,
+            (slots.size() + block_items(kListPieceEntries) - 1) / block_items(kListPieceEntries));
+}
+
 TEST(SlotShares, TheBalancerLearnsWhereCandidatesCostMore) {
   // 64 units of 1024 slots, 100 candidates each; the last 16 units' candidates cost 3 times the
   // others' (the periodic images' pairs of a Morton order's corner, say). Two owners. A pass's
@@ -503,13 +570,11 @@ TEST(Threads, PhysicsIsBitIdenticalOnOneTwoAndThreeThreads) {
       EXPECT_GT(loops_run_on_team() - loops_before,
                 std::uint64_t(threaded.step_index()) / (c.multi_rate ? 20 : 2));
       test::expect_identical(serial, threaded);
-      // A single-rate run's force pass ran on owner shares of its slots (the one-thread one did
-      // not), and its kick-drift on them.
-      if (!c.multi_rate) {
-        EXPECT_TRUE(threaded.neighbors().owner_shares.fit(threaded.particles().size(),
-                                                          std::size_t(threads)));
-        EXPECT_TRUE(serial.neighbors().owner_shares.bound.empty());
-      }
+      // The force pass ran on owner shares of the slots (the one-thread one did not), and the
+      // kick-drift on them (a multi-rate step's listed passes cut at their units).
+      EXPECT_TRUE(
+          threaded.neighbors().owner_shares.fit(threaded.particles().size(), std::size_t(threads)));
+      EXPECT_TRUE(serial.neighbors().owner_shares.bound.empty());
       EXPECT_EQ(serial.contact_steps(), threaded.contact_steps());
       EXPECT_EQ(serial.contact_stats().touching_walls, threaded.contact_stats().touching_walls);
       if (serial.breakage()) {
