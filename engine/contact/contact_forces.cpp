@@ -637,23 +637,33 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Wall>
   static thread_local std::vector<PairTally> calling_thread_tallies;
   std::vector<PairTally>& tallies = calling_thread_tallies;
   const std::size_t threads = std::size_t(thread_count());
-  if (!ranges && n > 0 && nl.owner_shares.fit(p.size(), threads)) {
+  if (n > 0 && nl.owner_shares.fit(p.size(), threads)) {
     // On the pair pass's owner shares: each thread on the candidates of its own particles (the
-    // rebuild lists them by slot), adding to its own loads.
+    // rebuild lists them by slot, so `ranges`, ascending, hold them by slot too), adding to its
+    // own loads. Owner by owner, their candidates come in the one-thread order.
     if (tallies.size() < threads) tallies.resize(threads);
     const std::uint32_t* particle = nl.wall_particle.data();
     parallel_on_each_thread([&](std::size_t t) {
       PairTally& tally = tallies[t];
       tally.impacts.clear(), tally.over_limit.clear();
       tally.touching = 0, tally.max_ratio = 0.0, tally.max_pair = 0;
-      const std::size_t begin = std::size_t(
-          std::lower_bound(particle, particle + n, std::uint32_t(nl.owner_shares.bound[t])) -
-          particle);
-      const std::size_t end =
-          std::size_t(std::lower_bound(particle + begin, particle + n,
-                                       std::uint32_t(nl.owner_shares.bound[t + 1])) -
-                      particle);
-      wall_contacts(materials, walls, dt, limit, impacts, p, nl, begin, end, tally);
+      const std::uint32_t first_slot = std::uint32_t(nl.owner_shares.bound[t]);
+      const std::uint32_t end_slot = std::uint32_t(nl.owner_shares.bound[t + 1]);
+      // The candidates of [begin, end) whose particle is one of t's.
+      const auto run_own = [&](std::size_t begin, std::size_t end) {
+        const std::uint32_t* from = std::lower_bound(particle + begin, particle + end, first_slot);
+        const std::uint32_t* to = std::lower_bound(from, particle + end, end_slot);
+        if (from < to)
+          wall_contacts(materials, walls, dt, limit, impacts, p, nl, std::size_t(from - particle),
+                        std::size_t(to - particle), tally);
+      };
+      if (!ranges) return run_own(0, n);
+      // The first range holding a candidate of t's (its last one at or past t's first slot).
+      auto r = std::lower_bound(ranges->begin(), ranges->end(), first_slot,
+                                [&](const NeighborList::PairRange& range, std::uint32_t slot) {
+                                  return particle[range.end - 1] < slot;
+                                });
+      for (; r != ranges->end() && particle[r->begin] < end_slot; ++r) run_own(r->begin, r->end);
     });
     finish_wall_stats(tallies, threads, p, nl, stats);
     return;
