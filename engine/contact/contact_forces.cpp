@@ -637,7 +637,9 @@ void compute_wall_forces(const MaterialTable& materials, const std::vector<Wall>
   static thread_local std::vector<PairTally> calling_thread_tallies;
   std::vector<PairTally>& tallies = calling_thread_tallies;
   const std::size_t threads = std::size_t(thread_count());
-  if (n > 0 && nl.owner_shares.fit(p.size(), threads)) {
+  // With `ranges` (a multi-rate step with wall riders) only where the caller's scope finds the
+  // population worth threads: the stepping particles' pass, not a rider level's catch-up.
+  if (n > 0 && nl.owner_shares.fit(p.size(), threads) && (!ranges || worth_threads(p.size()))) {
     // On the pair pass's owner shares: each thread on the candidates of its own particles (the
     // rebuild lists them by slot, so `ranges`, ascending, hold them by slot too), adding to its
     // own loads. Owner by owner, their candidates come in the one-thread order.

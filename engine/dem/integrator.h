@@ -176,13 +176,22 @@ inline double kick_then_kick_drift(ParticleStore& p, double dt, const Vec3& grav
 // and in which they sum what they sum (so the sums are the same on any thread count).
 inline constexpr std::size_t kListPieceEntries = 4096;
 
+// Whether a listed pass runs on the owner shares: they fit `population` and the team, and the
+// population is worth threads in the caller's scope (Simulation::min_items_for_threads around
+// the stepping particles' passes; a catch-up of a few waiting or riding particles, outside it,
+// is not worth a team call per level).
+inline bool listed_on_shares(std::size_t population, const SlotShares* shares) {
+  return shares && shares->fit(population, std::size_t(thread_count())) &&
+         worth_threads(population);
+}
+
 // The listed entries of each unit of the owner shares (parallel/slot_shares.h): with `slots`
 // ascending, fills entry_begin[u] with the first entry whose slot lies in unit u or above
 // (units + 1 offsets, the last = slots.size()) and returns the number of units, or returns 0
-// unless `shares` fit `population` and the team (the caller then cuts the list its own way).
+// unless listed_on_shares (the caller then cuts the list its own way).
 inline std::size_t listed_units(const std::vector<std::uint32_t>& slots, std::size_t population,
                                 const SlotShares* shares, std::vector<std::size_t>& entry_begin) {
-  if (!shares || slots.empty() || !shares->fit(population, std::size_t(thread_count()))) return 0;
+  if (slots.empty() || !listed_on_shares(population, shares)) return 0;
   const std::size_t units = (population + shares->unit - 1) / shares->unit;
   entry_begin.resize(units + 1);
   const std::uint32_t* first = slots.data();
@@ -197,7 +206,7 @@ inline std::size_t listed_units(const std::vector<std::uint32_t>& slots, std::si
 }
 
 // Runs body(begin, end, piece) over the entries of a slot list (ascending) in pieces: on the
-// owner shares' units when they fit `population` (listed_units: thread t starts on the
+// owner shares' units when listed_on_shares (listed_units: thread t starts on the
 // particles it owns in the force pass, so what it writes stays in its core's caches, then takes
 // from the back of the others'), else in pieces of kListPieceEntries entries, on the team when
 // the list is worth threads. Returns the number of pieces. Nothing done here may sum across
@@ -233,7 +242,7 @@ double for_listed_speeds(const std::vector<std::uint32_t>& slots,
     if (block != ~std::size_t(0)) block_out[block] = std::max(block_out[block], block_max);
     return piece_max;
   };
-  const bool owners = shares && shares->fit(population, std::size_t(thread_count()));
+  const bool owners = listed_on_shares(population, shares);
   if (!owners && (n <= block_items(kListPieceEntries) || !worth_threads(n))) {
     double max_speed2 = 0.0;
     for (std::size_t begin = 0; begin < n; begin += block_items(kListPieceEntries))

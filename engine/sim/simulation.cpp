@@ -608,6 +608,7 @@ void Simulation::finish_stepping_kick() {
   if (!stepping_kick_pending_) return;
   stepping_kick_pending_ = false;
   profile_.time(Phase::Kick, [&] {
+    const MinItemsForThreadsScope minimum(min_items_for_threads());
     kick_listed(particles_, multi_rate_.stepping, time_.step_s, &neighbors_.owner_shares);
   });
 }
@@ -742,6 +743,7 @@ std::optional<StepFailure> Simulation::step_multi_rate(bool may_defer) {
   if (refresh) book_stepping_exchange();  // the kept forces are about to be evaluated again
   double max_speed = 0.0;
   profile_.time(Phase::KickDrift, [&] {
+    const MinItemsForThreadsScope minimum(min_items_for_threads());
     m.block_speed2 = m.waiting_block_speed2;
     double stepping_max2 = 0.0;
     if (refresh) {
@@ -770,6 +772,7 @@ std::optional<StepFailure> Simulation::step_multi_rate(bool may_defer) {
     book_stepping_exchange();  // a rebuild may reorder the slots
     catch_up_free_flight();
     profile_.time(Phase::KickDrift, [&] {
+      const MinItemsForThreadsScope minimum(min_items_for_threads());
       kick_drift_listed(particles_, m.waiting, dt, gravity_m_per_s2_, m.block_speed2,
                         neighbors_.speed_report(particles_), false, shares);
       for (RiderLevel& level : m.riders)
@@ -814,10 +817,13 @@ std::optional<StepFailure> Simulation::step_multi_rate(bool may_defer) {
   const bool defer =
       may_defer && !full && !limiter && !(gas_ && gas_->due(step_index_)) && !health_due();
   profile_.time(Phase::Kick, [&] {
-    if (full)
-      kick(particles_, dt, shares);
-    else if (!defer)
-      kick_listed(particles_, m.stepping, dt, shares);
+    {
+      const MinItemsForThreadsScope minimum(min_items_for_threads());
+      if (full)
+        kick(particles_, dt, shares);
+      else if (!defer)
+        kick_listed(particles_, m.stepping, dt, shares);
+    }
     if (limiter)
       limiter_events_ += apply_penetration_limiter(contact_stats_, materials_, box_, walls_,
                                                    neighbors_, particles_);

@@ -425,6 +425,8 @@ TEST(SlotShares, AListIsCutWhereTheOwnersUnitsBeginAndItsMaximaAreTheOnePassOnes
   // missing. Each piece must be exactly the listed entries of one unit, every entry run once, and
   // the speed maxima per block those of one pass in order.
   Threads team(3);
+  // The scope a multi-rate step's stepping passes run in (Simulation::min_items_for_threads).
+  const MinItemsForThreadsScope minimum(kMinSlotsForOwnerPasses);
   constexpr std::size_t kPopulation = 10000, kUnit = 64;
   const std::size_t units = (kPopulation + kUnit - 1) / kUnit;
   SlotShares shares;
@@ -480,9 +482,13 @@ TEST(SlotShares, AListIsCutWhereTheOwnersUnitsBeginAndItsMaximaAreTheOnePassOnes
     EXPECT_EQ(block, expected_block);
   }
   const std::size_t entry_pieces =
-      listed_pieces(slots, kPopulation + 1, &shares, [](std::size_t, std::size_t, std::size_t) {});
-  EXPECT_EQ(entry_pieces,
-            (slots.size() + block_items(kListPieceEntries) - 1) / block_items(kListPieceEntries));
+      (slots.size() + block_items(kListPieceEntries) - 1) / block_items(kListPieceEntries);
+  const auto nothing = [](std::size_t, std::size_t, std::size_t) {};
+  EXPECT_EQ(listed_pieces(slots, kPopulation + 1, &shares, nothing), entry_pieces);
+  // Nor where the caller's scope finds the population not worth threads (a catch-up of a few
+  // waiting particles, outside the stepping passes' scope).
+  const MinItemsForThreadsScope outside(kMinItemsForThreads);
+  EXPECT_EQ(listed_pieces(slots, kPopulation, &shares, nothing), entry_pieces);
 }
 
 TEST(SlotShares, TheBalancerLearnsWhereCandidatesCostMore) {
