@@ -48,9 +48,7 @@ void slot_chunks(std::size_t n, const SlotShares* shares, std::size_t chunk, Bod
   // (Named here, on the calling thread: inside the loop a thread_local would be the worker's.)
   static thread_local std::vector<std::size_t> calling_thread_bounds;
   std::vector<std::size_t>& bounds = calling_thread_bounds;
-  bounds.resize(threads + 1);
-  for (std::size_t t = 0; t < threads; ++t) bounds[t] = shares->bound[t] / chunk;
-  bounds[threads] = chunks;
+  shares->unit_bounds(chunks, bounds);
   parallel_blocks_in_shares(chunks, bounds.data(), [&](std::size_t c) {
     const std::size_t begin = c * chunk;
     body(begin, std::min(n, begin + chunk), c);
@@ -288,11 +286,8 @@ std::size_t listed_pieces(const std::vector<std::uint32_t>& slots, std::size_t p
     parallel_ranges(slots.size(), piece, body);
     return (slots.size() + piece - 1) / piece;
   }
-  const std::size_t threads = shares->threads();
   std::vector<std::size_t>& bounds = calling_thread_bounds;
-  bounds.resize(threads + 1);
-  for (std::size_t t = 0; t < threads; ++t) bounds[t] = shares->unit_range(t, units).first;
-  bounds[threads] = units;
+  shares->unit_bounds(units, bounds);
   parallel_blocks_in_shares(units, bounds.data(), [&](std::size_t u) {
     if (entry_begin[u] < entry_begin[u + 1]) body(entry_begin[u], entry_begin[u + 1], u);
   });

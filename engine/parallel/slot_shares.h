@@ -27,6 +27,13 @@ struct SlotShares {
   std::pair<std::size_t, std::size_t> unit_range(std::size_t t, std::size_t units) const {
     return {bound[t] / unit, t + 1 == threads() ? units : bound[t + 1] / unit};
   }
+  // Each owner's first unit, then `units`, the end (threads + 1 entries): the shares of a loop
+  // over `units` units of `unit` slots (parallel_blocks_in_shares).
+  void unit_bounds(std::size_t units, std::vector<std::size_t>& out) const {
+    out.resize(threads() + 1);
+    for (std::size_t t = 0; t < threads(); ++t) out[t] = bound[t] / unit;
+    out[threads()] = units;
+  }
   // Whether they were made for `n` slots and `threads` threads.
   bool fit(std::size_t n, std::size_t threads) const {
     return slots == n && this->threads() == threads && threads > 1;
