@@ -14,6 +14,7 @@
 #include "sim/simulation.h"
 #include "support/process.h"
 #include "support/run_compare.h"
+#include "support/sanitizers.h"
 #include "support/scenes.h"
 
 namespace millsim {
@@ -69,7 +70,7 @@ TEST(Checkpoint, RestoredRunContinuesBitForBit) {
     SCOPED_TRACE(std::string(c.file) + (c.ramped_inlet ? ", ramped inlet" : "") +
                  (c.multi_rate ? ", multi-rate" : "") + (c.dust_ledger ? ", dust ledger" : "") +
                  (c.wall_riders ? ", wall riders" : ""));
-    SceneConfig scene = shipped_case(c.file, c.end_s);
+    SceneConfig scene = shipped_case(c.file, test::bit_for_bit_window_s(c.file, c.end_s));
     if (c.dust_ledger) add_gas_and_dust_ledger(scene);
     scene.time.multi_rate = c.multi_rate;
     scene.time.wall_riders = c.wall_riders;

@@ -26,6 +26,7 @@
 #include "sim/simulation.h"
 #include "support/draining_vortex.h"
 #include "support/run_compare.h"
+#include "support/sanitizers.h"
 #include "support/scenes.h"
 
 namespace millsim {
@@ -550,15 +551,16 @@ TEST(Threads, PhysicsIsBitIdenticalOnOneTwoAndThreeThreads) {
                  (c.wall_riders ? ", wall riders" : ""));
     SmallBlocks small_blocks;
     // The mill's feed has brought in only a few particles this early: 600 more near its mantle.
-    SceneConfig scene = test::shipped_case(c.file, c.end_s, [&](nlohmann::json& doc) {
-      if (std::string(c.file).rfind("spiral_jet_mill", 0) != 0) return;
-      doc["sources"] = nlohmann::json::array(
-          {{{"type", "random"},
-            {"material", "salt"},
-            {"count", 600},
-            {"region", {{"min_m", {0.015, 0.033, 0.001}}, {"max_m", {0.025, 0.037, 0.005}}}},
-            {"sizes", {{"distribution", "uniform"}, {"min_m", 6e-5}, {"max_m", 1.2e-4}}}}});
-    });
+    SceneConfig scene = test::shipped_case(
+        c.file, test::bit_for_bit_window_s(c.file, c.end_s), [&](nlohmann::json& doc) {
+          if (std::string(c.file).rfind("spiral_jet_mill", 0) != 0) return;
+          doc["sources"] = nlohmann::json::array(
+              {{{"type", "random"},
+                {"material", "salt"},
+                {"count", 600},
+                {"region", {{"min_m", {0.015, 0.033, 0.001}}, {"max_m", {0.025, 0.037, 0.005}}}},
+                {"sizes", {{"distribution", "uniform"}, {"min_m", 6e-5}, {"max_m", 1.2e-4}}}}});
+        });
     scene.time.multi_rate = c.multi_rate;
     scene.time.wall_riders = c.wall_riders;
     if (scene.gas) scene.gas->spin_up_s = 0.0;  // the particles meet a gas that changes fast
