@@ -23,8 +23,9 @@ namespace millsim {
 // loop's hold-up history; 5: the mass flows by size class (process/mass_flows.h); 6: the
 // neighbour list's turning frame (dem/motion_frame.h); 7: when outlets and feeds were last
 // applied, by list (Simulation::process_population), and the kept fluid forces' exchange booked
-// by count of steps (sim/multi_rate.h).
-inline constexpr std::uint32_t kCheckpointFormat = 7;
+// by count of steps (sim/multi_rate.h); 8: the hold-up fill's mass, momentum and energy, the
+// ledger's filled dust, and the run loop's fill (time.fill_to_projection_s).
+inline constexpr std::uint32_t kCheckpointFormat = 8;
 
 struct CheckpointHeader {
   std::string millsim_version;

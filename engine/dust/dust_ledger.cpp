@@ -354,6 +354,15 @@ double DustLedger::held_kg(int k) const {
   return sum;
 }
 
+double DustLedger::scale_class(int k, double factor) {
+  std::vector<double>& mass = mass_[std::size_t(k)];
+  const double before = held_kg(k);
+  for (double& v : mass) v *= factor;
+  const double added = held_kg(k) - before;
+  filled_kg_ += added;
+  return added;
+}
+
 double DustLedger::held_kg() const {
   double sum = unplaced_kg_;
   for (int k = 0; k < class_count(); ++k) sum += held_kg(k);

@@ -94,11 +94,16 @@ class DustLedger {
   const Vec3& gas_velocity_m_per_s(std::size_t c) const { return velocity_[c]; }
   // Moves `kg` of class k's mass in cell c to the classes j by shares[j] (Σ = 1): grinding.
   void move_between_classes(std::size_t c, int k, double kg, const std::vector<double>& shares);
+  // Multiplies class k's mass in every cell by `factor` >= 1 (a hold-up fill, process/
+  // holdup_fill.h): the class keeps where it is, only more of it. Returns the mass added, which
+  // filled_kg() keeps, so that held + out = made + filled stays exact.
+  double scale_class(int k, double factor);
+  double filled_kg() const { return filled_kg_; }
 
   template <class A>
   void checkpoint_io(A& a) {
     io_all(a, mass_, outflow_kg_, unplaced_kg_, previous_velocity_, previous_time_s_,
-           have_previous_, stats_);
+           have_previous_, stats_, filled_kg_);
   }
 
  private:
@@ -151,6 +156,7 @@ class DustLedger {
   std::vector<std::uint32_t> fluid_slot_;           // per padded cell: its fluid cell's (kNoSlot)
   double previous_time_s_ = 0.0;
   bool have_previous_ = false;
+  double filled_kg_ = 0.0;    // added by scale_class
   double unplaced_kg_ = 0.0;  // deposits on a grid without fluid cells (held, never moved)
   std::vector<std::size_t> fluid_cells_;       // the padded indices of the fluid cells, ascending
   std::vector<double> gas_face_speed_;         // per face, this advance

@@ -140,7 +140,10 @@ bool solve_group(const CompartmentRates& r, const std::vector<int>& group, doubl
       held = inflow[k] / out;
       p.product_kg_per_s[k % slots] += r.leave_per_s[k] * held;
     } else if (inflow[k] > 0.0) {
-      p.accumulating.push_back(c);
+      if (!r.fixed_held_kg.empty() && r.fixed_held_kg[k] >= 0.0)
+        held = r.fixed_held_kg[k], p.fixed.push_back(c);
+      else
+        p.accumulating.push_back(c);
     }
     p.held_kg[k] = held;
     for (int to = 0; to < n; ++to) {

@@ -60,6 +60,12 @@ struct CompartmentRates {
   double mean_area_m2 = 0.0;           // the particles' cross-section, ∫A dt / window
   std::vector<double> events, wall_events, left_count;
   std::vector<char> pass_through;  // held nothing, received mass: all of it leaves at once
+  // Per compartment, or empty: a compartment that would accumulate (it receives mass, neither
+  // breaks nor leaves) is taken to hold this much (>= 0) at steady state instead, what it
+  // receives staying in it; < 0: it accumulates. A hold-up fill (sim/run.cpp) sets its current
+  // hold-up for such a compartment, so that one class the window saw no event of leaves the rest
+  // of the mill a steady state.
+  std::vector<double> fixed_held_kg;
 
   int compartments() const { return 2 * slots; }
   double move(int from, int to) const {
@@ -85,6 +91,7 @@ CompartmentRates fit_rates(const MassFlows& window, double window_s);
 struct SteadyProjection {
   bool exists = false;            // every compartment that receives mass also loses it
   std::vector<int> accumulating;  // those that do not
+  std::vector<int> fixed;         // those held at CompartmentRates::fixed_held_kg instead
   double feed_kg_per_s = 0.0;
   std::vector<double> held_kg;           // per compartment, at steady state
   double area_m2 = 0.0;                  // the particles' cross-section at steady state

@@ -145,6 +145,9 @@ struct TimeConfig {
   // With multi_rate: particles whose only candidates are walls step at the step their own size
   // and stiffness allow, in powers of two of the run's step (sim/multi_rate.h).
   bool wall_riders = false;
+  // A mill's hold-up filled, at this time, to the steady state the run projects from the last
+  // third before it (process/holdup_fill.h, Simulation::fill_holdup); absent: no fill.
+  std::optional<double> fill_to_projection_s;
 };
 
 enum class ContactModel {

@@ -388,6 +388,8 @@ TimeConfig parse_time(JsonObjectReader& top, InputErrors& errors) {
     errors.push_back({"/time/wall_riders", "true",
                       "wall riders are a kind of multi-rate stepping: set /time/multi_rate true "
                       "as well, or remove /time/wall_riders"});
+  t.fill_to_projection_s =
+      r.optional_number("fill_to_projection_s", NumberRange::open_closed(0.0, 1e6));
   r.finish();
   return t;
 }
@@ -698,6 +700,23 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
     errors.push_back({"/psd/product_window_s/1", concat((*scene.psd.product_window_s)[1]),
                       concat("expected a window inside the run: at most /time/end_s = ",
                              scene.time.end_s, " s")});
+  if (const std::optional<double> fill = scene.time.fill_to_projection_s) {
+    const std::string path = "/time/fill_to_projection_s", value = concat(*fill);
+    // The steady state is judged over the product window or the run's last third: after the fill.
+    const double judged_from_s = scene.psd.product_window_s ? (*scene.psd.product_window_s)[0]
+                                                            : scene.time.end_s * (2.0 / 3.0);
+    if (!scene.mill)
+      errors.push_back({path, value,
+                        "the fill places turned copies of the particles about a mill's axis: add "
+                        "a mill section, or remove /time/fill_to_projection_s"});
+    else if (!(*fill < judged_from_s))
+      errors.push_back(
+          {path, value,
+           concat("expected a time before the window the steady state is judged over (",
+                  judged_from_s,
+                  " s: /psd/product_window_s's start, or two thirds of /time/end_s), so that the "
+                  "window sees the filled mill only")});
+  }
   if (!breakable && top.has("breakage"))
     errors.push_back({"/breakage", "", "no material is breakable: add /materials/N/breakage"});
   for (std::size_t i = 0; i < scene.feeds.size(); ++i) {

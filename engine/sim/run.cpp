@@ -5,7 +5,9 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <iomanip>
 #include <memory>
+#include <sstream>
 
 #include "checkpoint/checkpoint_file.h"
 #include "core/build_info.h"
@@ -111,7 +113,7 @@ HoldupRow holdup_row(const Simulation& sim) {
   const MassBalance m = sim.mass_balance();
   HoldupRow r;
   r.time_s = sim.time_s();
-  r.fed_kg = m.initial_kg + m.fed_kg;
+  r.fed_kg = m.initial_kg + m.fed_kg + m.filled_kg;  // a fill lies before the steady window
   r.particles_kg = m.particles_kg;
   r.outlet_kg = m.outlet_kg;
   r.dust_made_kg = m.dust_kg;
@@ -150,9 +152,12 @@ nlohmann::ordered_json steady_state_json(const Simulation& sim, const SceneConfi
 // The product (outlet particles + dust table) and where the mass went, for result.json.
 void add_product_summary(const Simulation& sim, nlohmann::ordered_json& s) {
   const MassBalance m = sim.mass_balance();
-  s["mass_balance"] = {{"initial_kg", m.initial_kg},     {"fed_kg", m.fed_kg},
-                       {"particles_kg", m.particles_kg}, {"outlet_kg", m.outlet_kg},
-                       {"dust_kg", m.dust_kg},           {"relative_error", m.relative_error()}};
+  s["mass_balance"] = {{"initial_kg", m.initial_kg}, {"fed_kg", m.fed_kg}};
+  if (m.filled_kg > 0.0) s["mass_balance"]["filled_kg"] = m.filled_kg;
+  s["mass_balance"]["particles_kg"] = m.particles_kg;
+  s["mass_balance"]["outlet_kg"] = m.outlet_kg;
+  s["mass_balance"]["dust_kg"] = m.dust_kg;
+  s["mass_balance"]["relative_error"] = m.relative_error();
   if (const Breakage* b = sim.breakage()) {
     const BreakageStats& st = b->stats();
     s["breakage"] = {{"dust_threshold_diameter_m", b->dust_threshold_m()},
@@ -189,17 +194,19 @@ void add_product_summary(const Simulation& sim, nlohmann::ordered_json& s) {
                          {"outflow_kg", dust->outflow_kg(k)},
                          {"max_slip_m_per_s", dust->stats().max_slip_m_per_s[std::size_t(k)]}});
     }
-    const double made = sim.breakage()->dust().total_mass_kg();
+    // In: the dust made, and what a hold-up fill added.
+    const double made = sim.breakage()->dust().total_mass_kg(), in = made + dust->filled_kg();
     s["dust_ledger"] = {
         {"made_kg", made},
         {"held_kg", dust->held_kg()},
         {"outflow_kg", dust->outflow_kg()},
-        {"relative_error", made > 0.0 ? (dust->held_kg() + dust->outflow_kg() - made) / made : 0.0},
+        {"relative_error", in > 0.0 ? (dust->held_kg() + dust->outflow_kg() - in) / in : 0.0},
         {"deposits", dust->stats().deposits},
         {"displaced_deposits", dust->stats().displaced_deposits},
         {"advances", dust->stats().advances},
         {"substeps", dust->stats().substeps},
         {"classes", classes}};
+    if (dust->filled_kg() > 0.0) s["dust_ledger"]["filled_kg"] = dust->filled_kg();
     if (const DustGrinding* grinding = sim.dust_grinding()) {
       double ground = 0.0;
       for (double kg : grinding->stats().ground_kg) ground += kg;
@@ -696,12 +703,130 @@ struct LoopState {
   // the last at or before its end), for the steady-state projection.
   std::optional<MassFlows> window_start_flows, window_end_flows;
   double window_start_s = 0.0, window_end_s = 0.0;
+  // time.fill_to_projection_s: the flows where its window starts, and what the fill did (or why
+  // it did not).
+  std::optional<MassFlows> fill_start_flows;
+  double fill_start_s = 0.0, fill_at_s = 0.0;
+  std::optional<HoldupFill> fill;
+  std::string fill_skipped;
+  std::vector<int> fill_fixed;  // compartments held at their hold-up (CompartmentRates)
   template <class A>
   void checkpoint_io(A& a, TimeSeries& series) {
     io_all(a, initial_particles, initial_energy, series.columns, holdup);
     io_all(a, window_start_flows, window_end_flows, window_start_s, window_end_s);
+    io_all(a, fill_start_flows, fill_start_s, fill_at_s, fill, fill_skipped, fill_fixed);
   }
 };
+
+// The steps of a hold-up fill (time.fill_to_projection_s): where the window its projection is
+// fitted over starts (two thirds of the way to the fill) and the fill's own.
+struct FillSteps {
+  std::int64_t window_start = -1, fill = -1;
+};
+FillSteps fill_steps(const SceneConfig& scene, double dt, std::int64_t total) {
+  FillSteps f;
+  if (!scene.time.fill_to_projection_s) return f;
+  f.fill = std::clamp(std::int64_t(std::llround(*scene.time.fill_to_projection_s / dt)),
+                      std::int64_t(1), std::max<std::int64_t>(total - 1, 1));
+  f.window_start = (2 * f.fill) / 3;
+  return f;
+}
+
+// At the fill's step: the steady state projected from the window before it, and the fill to it
+// (Simulation::fill_holdup); without a steady state, the reason instead.
+void fill_to_projection(Simulation& sim, const SceneConfig& scene, LoopState& loop) {
+  loop.fill_at_s = sim.time_s();
+  const std::optional<MassFlows> now = sim.mass_flows();
+  if (!loop.fill_start_flows || !now || !(sim.time_s() > loop.fill_start_s)) {
+    loop.fill_skipped = "no mass flows over a window before the fill";
+    return;
+  }
+  CompartmentRates rates =
+      fit_rates(flows_between(*loop.fill_start_flows, *now), sim.time_s() - loop.fill_start_s);
+  const std::vector<double> held = sim.holdup_by_compartment_kg();
+  SteadyProjection projection = project_steady(rates, held, 2);
+  // A class the window saw receive mass but neither break nor leave (say the sliver of a size
+  // class above the dust threshold) has no steady hold-up of its own: it keeps what it holds, and
+  // the rest of the mill is projected around it (it passes nothing on).
+  if (!projection.exists && !projection.accumulating.empty()) {
+    rates.fixed_held_kg.assign(held.size(), -1.0);
+    for (int c : projection.accumulating)
+      rates.fixed_held_kg[std::size_t(c)] = held[std::size_t(c)];
+    projection = project_steady(rates, held, 2);
+  }
+  if (!projection.exists) {
+    const std::vector<double>& edges = sim.outlet_tally().edges_m;
+    std::string names;
+    const auto micrometres = [](double m) {
+      std::ostringstream text;
+      text << std::setprecision(3) << m * 1e6;
+      return text.str();
+    };
+    for (int c : projection.accumulating) {
+      const int slot = c % rates.slots;
+      names +=
+          concat(names.empty() ? "" : ", ", c < rates.slots ? "particles " : "dust ",
+                 slot == 0 ? "0" : micrometres(edges[std::size_t(slot - 1)]), "-",
+                 slot < int(edges.size()) ? micrometres(edges[std::size_t(slot)]) : "inf", " um");
+    }
+    loop.fill_skipped =
+        "no steady state projected: these compartments receive mass but neither "
+        "break nor leave in the window: " +
+        names;
+    return;
+  }
+  loop.fill = sim.fill_holdup(projection.held_kg, scene.seed ^ 0x66696c6cULL);  // "fill"
+  loop.fill_fixed = projection.fixed;
+}
+
+nlohmann::ordered_json fill_json(const Simulation& sim, const LoopState& loop) {
+  nlohmann::ordered_json j;
+  if (!loop.fill && loop.fill_skipped.empty()) {
+    j["status"] = "not reached";  // a run stopped before the fill
+    return j;
+  }
+  j["window_s"] = {loop.fill_start_s, loop.fill_at_s};
+  if (!loop.fill) {
+    j["status"] = "skipped";
+    if (!loop.fill_skipped.empty()) j["reason"] = loop.fill_skipped;
+    return j;
+  }
+  const HoldupFill& f = *loop.fill;
+  const int slots = int(sim.outlet_tally().edges_m.size()) + 1;
+  auto part = [&](const std::vector<double>& v, bool dust) {
+    return std::vector<double>(v.begin() + (dust ? slots : 0), v.begin() + (dust ? 2 : 1) * slots);
+  };
+  auto total = [](const std::vector<double>& v) {
+    double sum = 0.0;
+    for (double x : v) sum += x;
+    return sum;
+  };
+  j["status"] = "filled";
+  j["time_s"] = f.time_s;
+  j["particles_added"] = f.particles_added;
+  j["particles_kg"] = f.particles_kg;
+  j["dust_kg"] = f.dust_kg;
+  j["energy_j"] = f.energy_j;
+  j["rejected_draws"] = f.rejected_draws;
+  j["slots_without_source"] = f.without_source;
+  j["slots_out_of_room"] = f.out_of_room;
+  j["dust_classes_without_mass"] = f.dust_without_mass;
+  // Classes that received mass in the window but neither broke nor left: held at their hold-up.
+  nlohmann::ordered_json fixed = nlohmann::ordered_json::array();
+  for (int c : loop.fill_fixed)
+    fixed.push_back({{"phase", c < slots ? "particles" : "dust"}, {"slot", c % slots}});
+  j["held_as_they_were"] = fixed;
+  for (const bool dust : {false, true}) {
+    nlohmann::ordered_json& held = j[dust ? "dust" : "particles"];
+    held["target_kg"] = total(part(f.target_kg, dust));
+    held["before_kg"] = total(part(f.before_kg, dust));
+    held["after_kg"] = total(part(f.after_kg, dust));
+    held["target_by_slot_kg"] = part(f.target_kg, dust);
+    held["before_by_slot_kg"] = part(f.before_kg, dust);
+    held["after_by_slot_kg"] = part(f.after_kg, dust);
+  }
+  return j;
+}
 
 // A hold-up row now, and the mass flows when the row bounds the steady window.
 void record_holdup(const Simulation& sim, const SceneConfig& scene, LoopState& loop) {
@@ -951,7 +1076,18 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
   }
 
   const bool with_holdup = has_product(sim);
+  const FillSteps fill = fill_steps(scene, dt, total);
+  // Before an advance that ends at step `step`: the fill's flows and the fill itself.
+  auto fill_events = [&](std::int64_t step) {
+    if (step == fill.window_start && !loop.fill_start_flows) {
+      loop.fill_start_flows = sim.mass_flows();
+      loop.fill_start_s = sim.time_s();
+    }
+    if (step == fill.fill && !loop.fill && loop.fill_skipped.empty())
+      sim.profile().time(Phase::Population, [&] { fill_to_projection(sim, scene, loop); });
+  };
   if (!resumed) {
+    fill_events(sim.step_index());
     series.record(sim);
     if (with_holdup) record_holdup(sim, scene, loop);
     if (h5) write_snapshot(*h5, sim);
@@ -1011,8 +1147,11 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
       next = std::min(next, (now / snapshot_every + 1) * snapshot_every);
     if (checkpoint_every > 0)
       next = std::min(next, (now / checkpoint_every + 1) * checkpoint_every);
+    for (const std::int64_t at : {fill.window_start, fill.fill})
+      if (at > now) next = std::min(next, at);
     outcome.failure = sim.advance(next - now);
     const std::int64_t step = sim.step_index();
+    if (!outcome.failure) fill_events(step);
     if (options.stop_request && !outcome.failure)
       outcome.interrupted_by = options.stop_request->load(std::memory_order_relaxed);
     const bool last = step == total || outcome.failure || outcome.interrupted_by != 0;
@@ -1161,9 +1300,12 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
                               {"dust", vec3(momentum.dust)},
                               {"external_impulse", vec3(momentum.external_impulse())},
                               {"scale", sim.momentum_scale_kg_m_per_s()}};
-  s["energy"] = {{"initial", energy_json(initial_energy)},
-                 {"final", energy_json(final_energy)},
-                 {"dissipated_j", initial_energy.total_j() - final_energy.total_j()}};
+  if (scene.time.fill_to_projection_s) s["momentum_kg_m_per_s"]["filled"] = vec3(momentum.filled);
+  s["energy"] = {{"initial", energy_json(initial_energy)}, {"final", energy_json(final_energy)}};
+  if (scene.time.fill_to_projection_s) s["energy"]["filled_j"] = sim.filled_energy_j();
+  s["energy"]["dissipated_j"] =
+      initial_energy.total_j() + sim.filled_energy_j() - final_energy.total_j();
+  if (scene.time.fill_to_projection_s) s["holdup_fill"] = fill_json(sim, loop);
   if (has_product(sim)) {
     add_product_summary(sim, s);
     s["holdup_history"] = holdup_history_json(loop.holdup);

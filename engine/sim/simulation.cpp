@@ -11,6 +11,7 @@
 #include "geometry/mill.h"
 #include "parallel/thread_team.h"
 #include "particles/particle_sources.h"
+#include "process/holdup_fill.h"
 #include "process/outlet.h"
 
 namespace millsim {
@@ -1088,6 +1089,70 @@ void Simulation::process_population() {
   });
 }
 
+HoldupFill Simulation::fill_holdup(const std::vector<double>& target_kg, std::uint64_t seed) {
+  if (!mill_ || !flows_)
+    throw std::logic_error("a hold-up fill needs a mill and the run's mass flows");
+  finish_stepping_kick();  // every particle complete: the copies take their sources' state
+  catch_up_free_flight();
+  HoldupFill fill;
+  fill.time_s = time_s();
+  fill.target_kg = target_kg;
+  fill.before_kg = holdup_by_compartment_kg();
+  const int slots = flows_->slots;
+  std::vector<double> deficit(std::size_t(slots), 0.0);
+  for (int s = 0; s < slots && s < int(target_kg.size()); ++s)
+    deficit[std::size_t(s)] = target_kg[std::size_t(s)] - fill.before_kg[std::size_t(s)];
+  const auto clear_of_walls = [&](const Vec3& x, double r) {
+    if (!inside_mill(*mill_, x, r) || outlet_of(outlets_, x) >= 0) return false;
+    for (const Wall& w : walls_)
+      if (wall_gap_m(w, x) < r) return false;
+    return true;
+  };
+  Rng rng(seed);
+  const CopyPlan plan =
+      plan_copies(particles_, outlet_.edges_m, deficit, mill_->axis_point_m, clear_of_walls, rng);
+  integrate_tracked(*flows_, time_s());  // the hold-up until now, before it changes
+  for (const ParticleCopy& c : plan.copies) {
+    const std::size_t source = c.source;  // a slot held before the fill: adding moves none
+    const double d = 2.0 * particles_.radius_m[source];
+    const double scale = reduced_ ? stiffness_scale(d, reduced_->threshold_diameter_m) : 1.0;
+    const std::size_t slot =
+        particles_.add(materials_, particles_.material[source], next_id_++, c.position_m,
+                       c.velocity_m_per_s, c.angular_velocity_rad_per_s, d, scale);
+    if (breakage_) {
+      breakage_->draw_strength(particles_, slot);
+      particles_.generation[slot] = particles_.generation[source];
+    }
+    const double m = particles_.mass_kg[slot];
+    fill.particles_kg += m;
+    fill.energy_j += particle_energy_j(slot);
+    filled_momentum_ += particles_.motion[slot].velocity_m_per_s * m;
+    add_tracked(*flows_, psd_slot(outlet_.edges_m, d), m, cross_section_m2(0.5 * d));
+  }
+  if (dust_ledger_)
+    for (int k = 0; k < dust_ledger_->class_count(); ++k) {
+      const std::size_t c = std::size_t(MassFlows::dust(k, slots));
+      if (c >= target_kg.size() || !(target_kg[c] > fill.before_kg[c])) continue;
+      if (fill.before_kg[c] > 0.0)
+        fill.dust_kg += dust_ledger_->scale_class(k, target_kg[c] / fill.before_kg[c]);
+      else
+        fill.dust_without_mass.push_back(k);
+    }
+  fill.particles_added = plan.copies.size();
+  fill.rejected_draws = plan.rejected_draws;
+  fill.without_source = plan.without_source;
+  fill.out_of_room = plan.out_of_room;
+  filled_mass_kg_ += fill.particles_kg + fill.dust_kg;
+  filled_energy_j_ += fill.energy_j;
+  fill.after_kg = holdup_by_compartment_kg();
+  refresh_forces();
+  // The copies' forces in flight (the next half-kick, as momentum_balance counts them) came with
+  // them too.
+  for (std::size_t i = particles_.size() - plan.copies.size(); i < particles_.size(); ++i)
+    filled_momentum_ += particles_.load[i].force_n * (0.5 * time_.step_s);
+  return fill;
+}
+
 void Simulation::deposit_fresh_dust() {
   std::vector<Breakage::DustDeposit>& fresh = breakage_->fresh_dust();
   for (const Breakage::DustDeposit& d : fresh) {
@@ -1157,9 +1222,11 @@ MassBalance Simulation::mass_balance() const {
   MassBalance b;
   b.initial_kg = initial_mass_kg_;
   b.fed_kg = fed_mass_kg_;
+  b.filled_kg = filled_mass_kg_;
   for (double m : particles_.mass_kg) b.particles_kg += m;
   b.outlet_kg = outlet_.total_mass_kg();
   b.dust_kg = breakage_ ? breakage_->dust().total_mass_kg() : 0.0;
+  if (dust_ledger_) b.dust_kg += dust_ledger_->filled_kg();
   return b;
 }
 
@@ -1167,6 +1234,7 @@ MomentumBalance Simulation::momentum_balance() const {
   MomentumBalance b;
   b.initial = initial_momentum_;
   b.fed = fed_momentum_;
+  b.filled = filled_momentum_;
   for (std::size_t i = 0; i < particles_.size(); ++i) {
     b.particles += particles_.motion[i].velocity_m_per_s * particles_.mass_kg[i];
     b.in_flight += particles_.load[i].force_n * (0.5 * time_.step_s);

@@ -55,15 +55,16 @@ struct ReducedStiffnessInfo {
   double time_step_gain = 1.0;  // automatic step with reduction / without (§4: ≈ 3 in Fig. 9)
 };
 
-// Where the mass went: particles + outlet + dust = initial + fed, to rounding.
+// Where the mass went: particles + outlet + dust = initial + fed + filled, to rounding.
 struct MassBalance {
   double initial_kg = 0.0;
   double fed_kg = 0.0;
+  double filled_kg = 0.0;  // added by a hold-up fill (Simulation::fill_holdup), particles and dust
   double particles_kg = 0.0;
   double outlet_kg = 0.0;
-  double dust_kg = 0.0;
+  double dust_kg = 0.0;  // made by breakage, and the ledger's dust a fill added
   double relative_error() const {
-    const double in = initial_kg + fed_kg;
+    const double in = initial_kg + fed_kg + filled_kg;
     return in > 0.0 ? (particles_kg + outlet_kg + dust_kg - in) / in : 0.0;
   }
 };
@@ -80,9 +81,26 @@ enum class SimulationStart {
 // what the run started with and what the feeds brought in. Their difference is the impulse of
 // the walls, gravity and the gas: zero to rounding in a closed periodic scene without them.
 struct MomentumBalance {
-  Vec3 initial, fed, particles, in_flight, outlet, dust;
+  Vec3 initial, fed, filled, particles, in_flight, outlet, dust;  // filled: by a hold-up fill
   Vec3 held() const { return particles + in_flight + outlet + dust; }
-  Vec3 external_impulse() const { return held() - initial - fed; }
+  Vec3 external_impulse() const { return held() - initial - fed - filled; }
+};
+
+// What a hold-up fill did (Simulation::fill_holdup). Per compartment: process/mass_flows.h.
+struct HoldupFill {
+  double time_s = 0.0;
+  std::vector<double> target_kg, before_kg, after_kg;
+  std::uint64_t particles_added = 0;
+  double particles_kg = 0.0, dust_kg = 0.0;
+  double energy_j = 0.0;  // kinetic, rotational and potential energy of the particles added
+  std::uint64_t rejected_draws = 0;
+  std::vector<int> without_source, out_of_room;  // particle slots left short (holdup_fill.h)
+  std::vector<int> dust_without_mass;            // ledger classes short that held nothing
+  template <class A>
+  void checkpoint_io(A& a) {
+    io_all(a, time_s, target_kg, before_kg, after_kg, particles_added, particles_kg, dust_kg);
+    io_all(a, energy_j, rejected_draws, without_source, out_of_room, dust_without_mass);
+  }
 };
 
 class Simulation {
@@ -188,6 +206,17 @@ class Simulation {
   template <class A>
   void checkpoint_io(A& a);
 
+  // Fills the hold-up towards `target_kg` per compartment (process/mass_flows.h): a particle
+  // slot short of it with copies of its particles turned about the mill's axis
+  // (process/holdup_fill.h; `seed` draws them), a ledger dust class by scaling its mass in every
+  // cell; a compartment at or above its target is left as it is. The mass, momentum and energy
+  // added are booked as filled (mass_balance(), momentum_balance(), filled_energy_j()), the
+  // copies as tracked hold-up in the mass flows, not as fed. Then forces are recomputed and the
+  // energy guard takes the filled state as its reference (refresh_forces). Needs a mill and mass
+  // flows (a scene with outlets, feeds or breakage); throws std::logic_error otherwise.
+  HoldupFill fill_holdup(const std::vector<double>& target_kg, std::uint64_t seed);
+  double filled_energy_j() const { return filled_energy_j_; }
+
   EnergyReport energy() const;
   // Recomputes forces for the current state after editing particles by hand; the edited state
   // becomes the energy guard's reference.
@@ -289,6 +318,9 @@ class Simulation {
   Vec3 outlet_momentum_;
   double initial_mass_kg_ = 0.0;
   double fed_mass_kg_ = 0.0;
+  double filled_mass_kg_ = 0.0;  // fill_holdup's, particles and dust
+  Vec3 filled_momentum_;
+  double filled_energy_j_ = 0.0;
   Vec3 fed_momentum_;      // Σ m v of the fed particles as they entered
   Vec3 initial_momentum_;  // held by the particles at the start (with the force in flight)
   std::int64_t last_population_step_ = 0;              // when outlets and feeds were last applied
@@ -339,6 +371,7 @@ void Simulation::checkpoint_io(A& a) {
   io_all(a, outlet_, outlet_mass_kg_, outlet_momentum_, initial_mass_kg_, fed_mass_kg_,
          last_population_step_, feed_mass_bound_kg_, feed_kinetic_bound_j_, drag_relaxation_s_,
          impact_spectrum_, fed_momentum_, initial_momentum_, population_list_);
+  io_all(a, filled_mass_kg_, filled_momentum_, filled_energy_j_);
 }
 
 }  // namespace millsim

@@ -88,6 +88,21 @@ TEST(SteadyProjection, ACompartmentThatNeitherBreaksNorLeavesAccumulates) {
   ASSERT_EQ(p.accumulating.size(), 1u);
   EXPECT_EQ(p.accumulating[0], b);
   EXPECT_LT(p.time_to_steady_s, 0.0);
+  // Held at a given hold-up instead (what a hold-up fill does with such a class): the rest of the
+  // chain has its steady state, A holding F/k, and B keeps what it was given and what A sends it.
+  CompartmentRates fixed = r;
+  fixed.fixed_held_kg.assign(std::size_t(r.compartments()), -1.0);
+  fixed.fixed_held_kg[std::size_t(b)] = 3e-9;
+  const SteadyProjection q =
+      project_steady(fixed, std::vector<double>(std::size_t(r.compartments()), 0.0));
+  EXPECT_TRUE(q.exists);
+  EXPECT_TRUE(q.accumulating.empty());
+  EXPECT_EQ(q.fixed, std::vector<int>{b});
+  EXPECT_NEAR(q.held_kg[3], 2e-6 / 50.0, 1e-12 * 2e-6 / 50.0);
+  EXPECT_EQ(q.held_kg[std::size_t(b)], 3e-9);
+  double product = 0.0;
+  for (double kg_per_s : q.product_kg_per_s) product += kg_per_s;
+  EXPECT_EQ(product, 0.0) << "nothing leaves: B keeps what it receives";
 }
 
 TEST(SteadyProjection, DustCountedWhenMadePassesStraightToTheProduct) {

@@ -260,27 +260,9 @@ TEST(SpiralJetMill, ItsGasSpinUpEndsOnTheDevelopedVortex) {
 // and the run's mass balance closes with the ledger in it: fed = particles + outlet + dust (1e-12).
 TEST(SpiralJetMill, ItsOutletCarriesTrackedParticlesAndLedgerDustWithEveryKilogramCounted) {
   MILLSIM_RELEASE_ONLY("DustLedgerRun and SpiralJetMillRates");
-  std::ifstream in(std::string(MILLSIM_SOURCE_DIR) + "/cases/spiral_jet_mill.json");
-  nlohmann::json doc = nlohmann::json::parse(in);
+  nlohmann::json doc = test::mill_with_ledger_outflows(0.003, 0.0015);
   doc["gas"]["spin_up_s"] = 0.006;
-  doc["time"]["end_s"] = 0.003;
-  doc["dust"] = {{"threshold_diameter_m", 2e-5}, {"model", "ledger"}, {"grinding", "sweep"}};
   doc["output"] = {{"h5", false}, {"snapshot_interval_s", 0.0005}};
-  doc["feeds"] = {
-      {{"name", "mouth"},
-       {"material", "salt"},
-       {"mass_rate_kg_per_s", 2e-6},
-       {"region", {{"min_m", {0.0185, 0.0185, 0.0025}}, {"max_m", {0.0215, 0.0215, 0.0035}}}},
-       {"sizes", {{"distribution", "uniform"}, {"min_m", 2.5e-5}, {"max_m", 3e-5}}},
-       {"velocity_m_per_s", {0, 0, 5}},
-       {"end_s", 0.0015}},
-      {{"name", "floor_shot"},
-       {"material", "salt"},
-       {"mass_rate_kg_per_s", 2e-5},
-       {"region", {{"min_m", {0.017, 0.017, 0.0015}}, {"max_m", {0.023, 0.023, 0.0022}}}},
-       {"sizes", {{"distribution", "uniform"}, {"min_m", 1e-4}, {"max_m", 1e-4}}},
-       {"velocity_m_per_s", {0, 0, -60}},
-       {"end_s", 0.0015}}};
   std::unique_ptr<Simulation> run;
   const nlohmann::json result = test::run_scene_document(doc, &run);
   ASSERT_TRUE(run);

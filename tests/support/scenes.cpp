@@ -39,6 +39,29 @@ nlohmann::json run_scene_document(const nlohmann::json& doc, std::unique_ptr<Sim
   return nlohmann::json::parse(in);
 }
 
+nlohmann::json mill_with_ledger_outflows(double end_s, std::optional<double> feeds_end_s) {
+  std::ifstream in(std::string(MILLSIM_SOURCE_DIR) + "/cases/spiral_jet_mill.json");
+  nlohmann::json doc = nlohmann::json::parse(in);
+  doc["time"]["end_s"] = end_s;
+  doc["dust"] = {{"threshold_diameter_m", 2e-5}, {"model", "ledger"}, {"grinding", "sweep"}};
+  doc["feeds"] = {
+      {{"name", "mouth"},
+       {"material", "salt"},
+       {"mass_rate_kg_per_s", 2e-6},
+       {"region", {{"min_m", {0.0185, 0.0185, 0.0025}}, {"max_m", {0.0215, 0.0215, 0.0035}}}},
+       {"sizes", {{"distribution", "uniform"}, {"min_m", 2.5e-5}, {"max_m", 3e-5}}},
+       {"velocity_m_per_s", {0, 0, 5}}},
+      {{"name", "floor_shot"},
+       {"material", "salt"},
+       {"mass_rate_kg_per_s", 2e-5},
+       {"region", {{"min_m", {0.017, 0.017, 0.0015}}, {"max_m", {0.023, 0.023, 0.0022}}}},
+       {"sizes", {{"distribution", "uniform"}, {"min_m", 1e-4}, {"max_m", 1e-4}}},
+       {"velocity_m_per_s", {0, 0, -60}}}};
+  if (feeds_end_s)
+    for (nlohmann::json& feed : doc["feeds"]) feed["end_s"] = *feeds_end_s;
+  return doc;
+}
+
 InputErrors scene_errors(const nlohmann::json& doc) {
   InputErrors errors;
   parse_scene(doc, ".", errors);

@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -42,6 +43,12 @@ FragmentConfig power_law_fragments(double exponent, double min_ratio, double max
 
 // Every error parse_scene reports for a scene document (base directory ".").
 InputErrors scene_errors(const nlohmann::json& doc);
+
+// The shipped spiral jet mill (cases/spiral_jet_mill.json) to `end_s`, with the dust ledger
+// (threshold 20 µm, grinding on) and two feeds next to its outlet tube instead of its own: salt
+// grains of 25–30 µm rising gently into the tube's mouth, and 100 µm grains shot at the floor
+// under it at 60 m/s, where they break. Each feed ends at `feeds_end_s` when given.
+nlohmann::json mill_with_ledger_outflows(double end_s, std::optional<double> feeds_end_s);
 
 // Parses a scene document (base directory "."), runs it to its end in a fresh directory and
 // returns its result.json; a test failure and an empty object when the scene is refused or the

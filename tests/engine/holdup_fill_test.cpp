@@ -1,0 +1,348 @@
+// The hold-up fill (process/holdup_fill.h, Simulation::fill_holdup; issue 31).
+//
+// - Where copies go: each is its source turned about the axis (the same radius, height and
+//   speed, velocity and spin turned with it), none overlaps a particle, another copy or a wall
+//   (checked over every pair), and each slot ends within half a particle's mass of its target.
+//   A slot with nothing to copy, and one whose chamber is full, are named instead.
+// - In a mill: after a fill of particles and ledger dust, the hold-up by compartment is the
+//   target (the dust to rounding, a particle slot to half a particle), the mass balance and the
+//   ledger's close to 1e-12 with the added mass booked as filled, the momentum the walls, gravity
+//   and the gas gave is unchanged by the fill, and the run goes on with both balances closed.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "checkpoint/archive.h"
+#include "core/rng.h"
+#include "geometry/mill.h"
+#include "process/holdup_fill.h"
+#include "process/mass_flows.h"
+#include "scene/scene_json.h"
+#include "sim/simulation.h"
+#include "support/run_compare.h"
+#include "support/sanitizers.h"
+#include "support/scenes.h"
+
+namespace millsim {
+namespace {
+
+constexpr double kChamberRadius = 0.01, kChamberHeight = 0.004;
+const Vec3 kAxisPoint{0.02, 0.03, 0.0};
+
+bool in_chamber(const Vec3& x, double r) {
+  const Vec3 d = x - kAxisPoint;
+  return std::hypot(d.x, d.y) + r <= kChamberRadius && d.z - r >= 0.0 && d.z + r <= kChamberHeight;
+}
+
+// Spheres of two sizes placed at random in the chamber without overlap, moving with a vortex.
+ParticleStore chamber_particles(int count, std::uint64_t seed) {
+  MaterialConfig salt;
+  salt.name = "salt";
+  salt.density_kg_per_m3 = 2160;
+  salt.youngs_modulus_pa = 1e9;
+  salt.poisson_ratio = 0.25;
+  const MaterialTable materials(test::empty_scene({0, 0, 0}, {0.04, 0.06, 0.004}, salt));
+  ParticleStore p;
+  Rng rng(seed);
+  while (int(p.size()) < count) {
+    const double r = uniform01(rng) < 0.5 ? 1e-4 : 3e-4;
+    const double rho = kChamberRadius * std::sqrt(uniform01(rng)),
+                 phi = 2 * std::numbers::pi * uniform01(rng);
+    const Vec3 x = kAxisPoint +
+                   Vec3{rho * std::cos(phi), rho * std::sin(phi), kChamberHeight * uniform01(rng)};
+    if (!in_chamber(x, r)) continue;
+    bool overlaps = false;
+    for (std::size_t j = 0; j < p.size() && !overlaps; ++j)
+      overlaps = norm(p.position_m[j] - x) < r + p.radius_m[j];
+    if (overlaps) continue;
+    const Vec3 tangent{-std::sin(phi), std::cos(phi), 0.0};
+    p.add(materials, 0, p.size() + 1, x, tangent * (50.0 * rho / kChamberRadius) + Vec3{0, 0, 0.3},
+          {10.0, -20.0, 30.0}, 2.0 * r);
+  }
+  return p;
+}
+
+TEST(HoldupFill, CopiesAreTurnedSourcesThatOverlapNothingAndMeetEachTargetToHalfAParticle) {
+  const ParticleStore held = chamber_particles(300, 7);
+  // Slots: 0 below 100 µm, 1 [100, 400) µm, 2 [400, 1000) µm, 3 above: the 200 µm particles in
+  // slot 1, the 600 µm ones in slot 2; slot 0 holds nothing.
+  const std::vector<double> edges{1e-4, 4e-4, 1e-3};
+  double slot_kg[4] = {0, 0, 0, 0};
+  for (std::size_t i = 0; i < held.size(); ++i)
+    slot_kg[psd_slot(edges, 2.0 * held.radius_m[i])] += held.mass_kg[i];
+  const std::vector<double> deficit{1e-9, 1.7 * slot_kg[1], 0.9 * slot_kg[2], 0.0};
+  Rng rng(11);
+  const CopyPlan plan = plan_copies(held, edges, deficit, kAxisPoint, in_chamber, rng);
+
+  ASSERT_FALSE(plan.copies.empty());
+  EXPECT_EQ(plan.without_source, std::vector<int>{0});
+  EXPECT_TRUE(plan.out_of_room.empty());
+  std::vector<double> added(4, 0.0);
+  for (std::size_t k = 0; k < plan.copies.size(); ++k) {
+    const ParticleCopy& c = plan.copies[k];
+    const std::size_t s = c.source;
+    const double r = held.radius_m[s];
+    added[std::size_t(psd_slot(edges, 2.0 * r))] += held.mass_kg[s];
+    // The source turned about the axis: the same radius and height, the same angle turned in
+    // position, velocity and spin.
+    const Vec3 from = held.position_m[s] - kAxisPoint, to = c.position_m - kAxisPoint;
+    EXPECT_NEAR(std::hypot(to.x, to.y), std::hypot(from.x, from.y), 1e-15);
+    EXPECT_EQ(to.z, from.z);
+    const double angle = std::atan2(to.y, to.x) - std::atan2(from.y, from.x);
+    const Vec3 v = turned_about_z(held.motion[s].velocity_m_per_s, angle);
+    const Vec3 w = turned_about_z(held.motion[s].angular_velocity_rad_per_s, angle);
+    EXPECT_NEAR(norm(c.velocity_m_per_s - v), 0.0, 1e-12);
+    EXPECT_NEAR(norm(c.angular_velocity_rad_per_s - w), 0.0, 1e-12);
+    // Overlaps nothing: every held particle, every copy before it, the chamber's walls.
+    EXPECT_TRUE(in_chamber(c.position_m, r));
+    for (std::size_t j = 0; j < held.size(); ++j)
+      ASSERT_GE(norm(held.position_m[j] - c.position_m), r + held.radius_m[j]) << k << " " << j;
+    for (std::size_t j = 0; j < k; ++j)
+      ASSERT_GE(norm(plan.copies[j].position_m - c.position_m),
+                r + held.radius_m[plan.copies[j].source])
+          << k << " " << j;
+  }
+  // Each slot within half a particle of its deficit (one size per slot here).
+  const double small_kg = 2160 * std::numbers::pi / 6 * 8e-12, large_kg = 27 * small_kg;
+  EXPECT_EQ(added[0], 0.0);
+  EXPECT_NEAR(added[1], deficit[1], 0.5 * small_kg * (1 + 1e-9));
+  EXPECT_NEAR(added[2], deficit[2], 0.5 * large_kg * (1 + 1e-9));
+  EXPECT_EQ(added[3], 0.0);
+  for (int slot = 0; slot < 4; ++slot)
+    EXPECT_EQ(plan.added_kg[std::size_t(slot)], added[std::size_t(slot)]);
+  EXPECT_GT(plan.rejected_draws, 0u) << "a chamber this full turns some draws away";
+}
+
+TEST(HoldupFill, ASlotWhoseChamberIsFullIsNamedAndLeftShort) {
+  const ParticleStore held = chamber_particles(300, 7);
+  const std::vector<double> edges{1e-4, 4e-4, 1e-3};
+  Rng rng(3);
+  // Far more large particles than the chamber holds (about 16 % of its volume as a whole).
+  const double chamber_m3 = std::numbers::pi * kChamberRadius * kChamberRadius * kChamberHeight;
+  const std::vector<double> deficit{0.0, 0.0, 2160 * chamber_m3, 0.0};
+  const CopyPlan plan = plan_copies(held, edges, deficit, kAxisPoint, in_chamber, rng);
+  EXPECT_EQ(plan.out_of_room, std::vector<int>{2});
+  EXPECT_LT(plan.added_kg[2], 0.5 * deficit[2]);
+  EXPECT_GE(plan.rejected_draws, std::uint64_t(kMaxDrawsPerCopy));
+  for (std::size_t k = 0; k < plan.copies.size(); ++k)
+    for (std::size_t j = 0; j < k; ++j)
+      ASSERT_GE(norm(plan.copies[j].position_m - plan.copies[k].position_m),
+                2 * held.radius_m[plan.copies[k].source] * (1 - 1e-12));
+}
+
+SceneConfig parsed(const nlohmann::json& doc) {
+  InputErrors errors;
+  SceneConfig scene = parse_scene(doc, ".", errors);
+  EXPECT_TRUE(errors.empty()) << errors.front().path << ": " << errors.front().allowed;
+  return scene;
+}
+
+TEST(HoldupFill, AFilledMillHoldsItsTargetAndKeepsEveryKilogramAndItsMomentum) {
+  // The shipped mill with the ledger and two feeds by its outlet tube: shots that break at the
+  // floor (their dust rides the gas) and grains that rise out through the tube.
+  nlohmann::json doc = test::mill_with_ledger_outflows(8e-4, std::nullopt);
+  doc["gas"]["spin_up_s"] = 0.002;
+  doc["output"] = {{"h5", false}};
+  const SceneConfig scene = parsed(doc);
+  Simulation sim(scene);
+  const std::int64_t total = sim.total_steps();
+  ASSERT_FALSE(sim.advance(total / 2));
+  const std::vector<double> before = sim.holdup_by_compartment_kg();
+  const int slots = int(sim.outlet_tally().edges_m.size()) + 1;
+  // Targets: every particle slot that holds something 1.5 times, one that does not 1 µg more
+  // (nothing to copy), every dust class twice, one particle slot less than it holds.
+  std::vector<double> target = before;
+  int emptied = -1, unheld = -1, lowered = -1;
+  for (int s = 0; s < slots; ++s) {
+    if (before[std::size_t(s)] > 0.0) {
+      if (lowered < 0) {
+        lowered = s, target[std::size_t(s)] *= 0.5;
+        continue;
+      }
+      target[std::size_t(s)] *= 1.5;
+    } else if (unheld < 0) {
+      unheld = s, target[std::size_t(s)] = 1e-9;
+    }
+  }
+  for (int k = 0; k < sim.dust_ledger()->class_count(); ++k) {
+    const std::size_t c = std::size_t(MassFlows::dust(k, slots));
+    if (before[c] > 0.0)
+      target[c] *= 2.0;
+    else if (emptied < 0)
+      emptied = k, target[c] = 1e-12;
+  }
+  ASSERT_GE(lowered, 0);
+  ASSERT_GE(unheld, 0);
+  const MassBalance m0 = sim.mass_balance();
+  const Vec3 impulse0 = sim.momentum_balance().external_impulse();
+  const std::size_t held_particles = sim.particles().size();
+  const HoldupFill fill = sim.fill_holdup(target, 42);
+
+  // The hold-up is the target: a particle slot to within half its largest particle, a dust class
+  // to rounding; what held more keeps it, what held nothing is named.
+  double largest_kg[64] = {};
+  const ParticleStore& p = sim.particles();
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    double& l = largest_kg[psd_slot(sim.outlet_tally().edges_m, 2.0 * p.radius_m[i])];
+    l = std::max(l, p.mass_kg[i]);
+  }
+  const std::vector<double> after = sim.holdup_by_compartment_kg();
+  ASSERT_GT(fill.particles_added, 0u);
+  EXPECT_EQ(p.size(), held_particles + fill.particles_added);
+  for (int s = 0; s < slots; ++s) {
+    SCOPED_TRACE(s);
+    if (s == lowered || s == unheld) {
+      EXPECT_EQ(after[std::size_t(s)], before[std::size_t(s)]);
+      continue;
+    }
+    EXPECT_NEAR(after[std::size_t(s)], target[std::size_t(s)], 0.5 * largest_kg[s] * (1 + 1e-12));
+  }
+  EXPECT_EQ(fill.without_source, std::vector<int>{unheld});
+  for (int k = 0; k < sim.dust_ledger()->class_count(); ++k) {
+    const std::size_t c = std::size_t(MassFlows::dust(k, slots));
+    EXPECT_NEAR(after[c], target[c] * (before[c] > 0.0), 1e-12 * target[c]) << k;
+  }
+  if (emptied >= 0) {
+    EXPECT_EQ(fill.dust_without_mass, std::vector<int>{emptied});
+  }
+  EXPECT_EQ(fill.after_kg, after);
+  // No copy overlaps a particle or a wall: the force pass after the fill found the contacts the
+  // held particles had, and the copies none (every pair of a copy checked here).
+  for (std::size_t i = held_particles; i < p.size(); ++i) {
+    for (std::size_t j = 0; j < i; ++j)
+      ASSERT_GE(norm(p.position_m[i] - p.position_m[j]), p.radius_m[i] + p.radius_m[j])
+          << i << " " << j;
+    EXPECT_TRUE(inside_mill(*sim.mill(), p.position_m[i], p.radius_m[i])) << i;
+  }
+  // Booked as filled: the mass, the ledger's dust, the momentum.
+  const MassBalance m1 = sim.mass_balance();
+  EXPECT_NEAR(m1.filled_kg, fill.particles_kg + fill.dust_kg, 1e-15 * m1.filled_kg);
+  EXPECT_NEAR(sim.dust_ledger()->filled_kg(), fill.dust_kg, 1e-15 * fill.dust_kg);
+  EXPECT_EQ(m1.fed_kg, m0.fed_kg);
+  EXPECT_LT(std::abs(m1.relative_error()), 1e-12);
+  const double scale = sim.momentum_scale_kg_m_per_s();
+  // To 1e-8 of the momentum in play: the fill recomputes the held particles' forces too, and their
+  // half-kick in flight (counted as held) moves by about 1e-9 of it here.
+  EXPECT_LT(norm(sim.momentum_balance().external_impulse() - impulse0), 1e-8 * scale)
+      << "the fill gives the walls, gravity and the gas no impulse";
+
+  // The run goes on from the filled state with every kilogram counted, and a checkpoint taken
+  // after the fill continues it bit for bit.
+  ASSERT_FALSE(sim.advance(total / 4));
+  ArchiveWriter saved;
+  sim.checkpoint_io(saved);
+  Simulation resumed(scene, true);
+  ArchiveReader reader(saved.data().data(), saved.data().size());
+  resumed.checkpoint_io(reader);
+  EXPECT_TRUE(reader.at_end());
+  ASSERT_FALSE(sim.advance(total - sim.step_index()));
+  ASSERT_FALSE(resumed.advance(total - resumed.step_index()));
+  test::expect_identical(sim, resumed);
+  const MassBalance end = sim.mass_balance();
+  EXPECT_LT(std::abs(end.relative_error()), 1e-12);
+  const DustLedger& dust = *sim.dust_ledger();
+  const double in = sim.breakage()->dust().total_mass_kg() + dust.filled_kg();
+  EXPECT_NEAR(dust.held_kg() + dust.outflow_kg(), in, 1e-12 * in);
+  EXPECT_GT(sim.breakage()->stats().events, 0u);
+}
+
+// A stream of 200 µm beads fed under the mill's outlet tube, rising at 1 m/s without gravity or
+// gas into its mouth 2.9 ms (the rise time t_r, 2.8-3.0 ms over the feed region's heights) above:
+// the hold-up grows as F t until t_r, then stays at F t_r. Filled at t_f = 3.625 ms from the
+// window [2 t_f / 3, t_f], in which the stream first left at t_r, the first-order projection
+// (process/steady_projection.h) holds ∫M dt / (mass left) × F =
+//   F [(t_r² − t_a²)/2 + t_r (t_f − t_r)] / (t_f − t_r),   t_a = 2 t_f / 3,
+// more than the stream's F t_r: the copies (turned about the axis, so still under the mouth and
+// rising) leave within t_r, and from t_f + t_r the stream is steady again: over the run's last
+// third (6.67-10 ms) its outflow is its feed and its hold-up F t_r.
+nlohmann::json rising_stream_mill() {
+  return {{"name", "rising_stream_mill"},
+          {"seed", 5},
+          {"domain", {{"min_m", {0, 0, 0}}, {"max_m", {0.04, 0.04, 0.006}}}},
+          {"materials",
+           {{{"name", "glass"},
+             {"youngs_modulus_pa", 1e7},
+             {"poisson_ratio", 0.25},
+             {"density_kg_per_m3", 2500},
+             {"restitution", 0.5},
+             {"friction", 0.3}}}},
+          {"mill",
+           {{"center_xy_m", {0.02, 0.02}},
+            {"radius_m", 0.02},
+            {"wall_material", "glass"},
+            {"outlet", {{"name", "vortex_finder"}, {"radius_m", 0.005}, {"depth_m", 0.002}}}}},
+          {"sources", nlohmann::json::array()},
+          {"feeds",
+           {{{"name", "under_the_mouth"},
+             {"material", "glass"},
+             {"mass_rate_kg_per_s", 3.6e-4},
+             {"region", {{"min_m", {0.018, 0.018, 0.0009}}, {"max_m", {0.022, 0.022, 0.0013}}}},
+             {"sizes", {{"distribution", "uniform"}, {"min_m", 2e-4}, {"max_m", 2e-4}}},
+             {"velocity_m_per_s", {0, 0, 1}}}}},
+          {"time", {{"end_s", 0.01}, {"step_s", 1e-6}, {"fill_to_projection_s", 0.003625}}},
+          {"output", {{"h5", false}, {"snapshot_interval_s", 0.0005}}}};
+}
+
+TEST(HoldupFill, ARunFillsToItsProjectionAndTheSurplusRisesOut) {
+  const double feed = 3.6e-4, t_f = 0.003625, t_a = 2.0 * t_f / 3.0;
+  const double bead_kg = 2500 * std::numbers::pi / 6 * 8e-12;
+  const auto projected = [&](double t_r) {
+    return feed * (0.5 * (t_r * t_r - t_a * t_a) + t_r * (t_f - t_r)) / (t_f - t_r);
+  };
+  const nlohmann::json result = test::run_scene_document(rising_stream_mill());
+  ASSERT_TRUE(result.contains("holdup_fill"));
+  const nlohmann::json& fill = result["holdup_fill"];
+  ASSERT_EQ(fill["status"], "filled") << fill.dump();
+  EXPECT_NEAR(fill["window_s"][0].get<double>(), t_a, 1e-6);
+  EXPECT_NEAR(fill["time_s"].get<double>(), t_f, 1e-9);
+  const nlohmann::json& held = fill["particles"];
+  const double before = held["before_kg"], target = held["target_kg"], after = held["after_kg"];
+  // The stream's hold-up, F t_r, within the rise times' band; the projection within the band its
+  // formula gives over the same rise times.
+  EXPECT_GT(before, feed * 2.8e-3 - bead_kg);
+  EXPECT_LT(before, feed * 3.0e-3 + bead_kg);
+  EXPECT_GT(target, projected(2.8e-3));
+  EXPECT_LT(target, projected(3.0e-3));
+  EXPECT_NEAR(after, target, 0.5 * bead_kg * (1 + 1e-9));
+  EXPECT_NEAR(fill["particles_added"].get<double>() * bead_kg, after - before, 1e-9 * after);
+  EXPECT_EQ(fill["dust"]["target_kg"].get<double>(), 0.0);
+  // Every kilogram: fed and filled = held and gone out.
+  const nlohmann::json& m = result["mass_balance"];
+  EXPECT_NEAR(m["filled_kg"].get<double>(), after - before, 1e-9 * after);
+  EXPECT_LT(std::abs(m["relative_error"].get<double>()), 1e-12);
+  // The copies rose out with the stream: the hold-up is the stream's again.
+  const double end_held = m["particles_kg"];
+  EXPECT_NEAR(end_held, before, 3 * bead_kg);
+  EXPECT_NEAR(m["outlet_kg"].get<double>(),
+              m["fed_kg"].get<double>() + m["filled_kg"].get<double>() - end_held, 1e-12);
+  // The steady window (the last third) lies after the fill and sees a steady stream.
+  const nlohmann::json& steady = result["steady_state"];
+  ASSERT_TRUE(steady.is_object());
+  EXPECT_GE(steady["window_s"][0].get<double>(), t_f);
+  EXPECT_TRUE(steady["steady"].get<bool>()) << steady.dump();
+}
+
+TEST(HoldupFill, AFillNeedsAMillAndMustComeBeforeTheSteadyWindow) {
+  nlohmann::json doc = rising_stream_mill();
+  doc.erase("mill");
+  InputErrors errors = test::scene_errors(doc);
+  ASSERT_FALSE(errors.empty());
+  EXPECT_EQ(errors.front().path, "/time/fill_to_projection_s");
+  EXPECT_NE(errors.front().allowed.find("mill"), std::string::npos);
+  doc = rising_stream_mill();
+  doc["time"]["fill_to_projection_s"] = 0.007;  // the last third starts at 6.67 ms
+  errors = test::scene_errors(doc);
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_EQ(errors.front().path, "/time/fill_to_projection_s");
+  EXPECT_EQ(errors.front().value, "0.007");
+  doc["psd"] = {{"product_window_s", {0.008, 0.01}}};  // judged from 8 ms: the fill may be at 7
+  EXPECT_TRUE(test::scene_errors(doc).empty());
+  doc["time"]["fill_to_projection_s"] = -1;
+  errors = test::scene_errors(doc);
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_EQ(errors.front().path, "/time/fill_to_projection_s");
+}
+
+}  // namespace
+}  // namespace millsim
