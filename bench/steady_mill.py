@@ -2,7 +2,8 @@
 """A mill run towards steady state, from its result.json (holdup_history, steady_state and, with
 the dust ledger, dust_ledger.history): per interval the feed, what left (outlet particles and
 dust carried out), the dust made (what the paper's "dust exits at once" counts as product),
-the tracked hold-up by size and the ledger's, breakage events by generation; then the steady
+the tracked hold-up by size and the ledger's, breakage events by generation (a hold-up fill,
+time.fill_to_projection_s, shown on its own and left out of the feed); then the steady
 window and the product PSD over it, as it left (outlet + dust out) and as the dust table would
 have counted it (outlet + dust made). Optionally an SVG of the hold-up by size over time.
 
@@ -98,6 +99,27 @@ def main():
     h = r["holdup_history"]
     edges = r["outlet_psd"]["edges_m"]
     t = h["time_s"]
+    # A hold-up fill (time.fill_to_projection_s) is in the rows' fed_kg from its time on: the
+    # feed rates below leave it out, and it is shown on its own.
+    fill = r.get("holdup_fill") or {}
+    if fill.get("status") == "filled":
+        filled = fill["particles_kg"] + fill["dust_kg"]
+        after = [ti >= fill["time_s"] - 1e-12 for ti in t]
+        h["fed_kg"] = [f - (filled if a else 0.0) for f, a in zip(h["fed_kg"], after)]
+        h["dust_made_kg"] = [d - (fill["dust_kg"] if a else 0.0)
+                             for d, a in zip(h["dust_made_kg"], after)]
+        print(f"Hold-up fill at {fill['time_s'] * 1e3:.2f} ms from the window "
+              f"{fill['window_s'][0] * 1e3:.2f}–{fill['window_s'][1] * 1e3:.2f} ms: "
+              f"{fill['particles_added']} particles copied, particles "
+              f"{fill['particles']['before_kg'] * 1e9:.0f} → {fill['particles']['after_kg'] * 1e9:.0f} µg "
+              f"(target {fill['particles']['target_kg'] * 1e9:.0f}), ledger dust "
+              f"{fill['dust']['before_kg'] * 1e9:.0f} → {fill['dust']['after_kg'] * 1e9:.0f} µg "
+              f"(target {fill['dust']['target_kg'] * 1e9:.0f}); held as they were: "
+              f"{fill.get('held_as_they_were')}")
+        print()
+    elif fill:
+        print(f"Hold-up fill: {fill.get('status')}: {fill.get('reason', '')}")
+        print()
     rows = [0]
     for i in range(1, len(t)):
         if t[i] - t[rows[-1]] >= a.every_ms * 1e-3 - 1e-12 or i == len(t) - 1:

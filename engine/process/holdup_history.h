@@ -24,10 +24,12 @@ namespace millsim {
 
 struct HoldupRow {
   double time_s = 0.0;
-  double fed_kg = 0.0;        // cumulative, with the particles there at the start
+  // Cumulative, with the particles there at the start and what a hold-up fill added (the fill
+  // lies before the steady window, scene/scene_json.cpp).
+  double fed_kg = 0.0;
   double particles_kg = 0.0;  // the tracked hold-up now
   double outlet_kg = 0.0;     // cumulative: particles that left through outlets
-  double dust_made_kg = 0.0;  // cumulative: the breakage's dust
+  double dust_made_kg = 0.0;  // cumulative: the breakage's dust, and the ledger dust a fill added
   double dust_out_kg = 0.0;   // cumulative: the ledger's dust out of the gas outlets (table: 0)
   double dust_held_kg = 0.0;  // the ledger's dust in the gas now (table: 0)
   // Cumulative, by the broken particle's generation.
