@@ -99,10 +99,13 @@ def main():
     h = r["holdup_history"]
     edges = r["outlet_psd"]["edges_m"]
     t = h["time_s"]
-    # A hold-up fill (time.fill_to_projection_s) is in the rows' fed_kg from its time on: the
-    # feed rates below leave it out, and it is shown on its own.
-    fill = r.get("holdup_fill") or {}
-    if fill.get("status") == "filled":
+    # Hold-up fills (time.fill_to_projection_s) are in the rows' fed_kg (and the ledger's dust in
+    # dust_made_kg) from their times on: the rates below leave them out; each is shown on its own.
+    for fill in r.get("holdup_fills") or []:
+        if fill.get("status") != "filled":
+            print(f"Hold-up fill: {fill.get('status')}: {fill.get('reason', '')}")
+            print()
+            continue
         filled = fill["particles_kg"] + fill["dust_kg"]
         after = [ti >= fill["time_s"] - 1e-12 for ti in t]
         h["fed_kg"] = [f - (filled if a else 0.0) for f, a in zip(h["fed_kg"], after)]
@@ -116,9 +119,6 @@ def main():
               f"{fill['dust']['before_kg'] * 1e9:.0f} → {fill['dust']['after_kg'] * 1e9:.0f} µg "
               f"(target {fill['dust']['target_kg'] * 1e9:.0f}); held as they were: "
               f"{fill.get('held_as_they_were')}")
-        print()
-    elif fill:
-        print(f"Hold-up fill: {fill.get('status')}: {fill.get('reason', '')}")
         print()
     rows = [0]
     for i in range(1, len(t)):

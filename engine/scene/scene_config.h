@@ -134,6 +134,9 @@ struct SourceConfig {
   double velocity_spread_m_per_s = 0.0;  // std. dev. of each component, Gaussian
 };
 
+// How many hold-up fills a run may list (time.fill_to_projection_s).
+inline constexpr std::size_t kMaxHoldupFills = 16;
+
 struct TimeConfig {
   double end_s = 0.0;
   std::optional<double> step_s;   // fixed step; absent = automatic
@@ -145,9 +148,10 @@ struct TimeConfig {
   // With multi_rate: particles whose only candidates are walls step at the step their own size
   // and stiffness allow, in powers of two of the run's step (sim/multi_rate.h).
   bool wall_riders = false;
-  // A mill's hold-up filled, at this time, to the steady state the run projects from the last
-  // third before it (process/holdup_fill.h, Simulation::fill_holdup); absent: no fill.
-  std::optional<double> fill_to_projection_s;
+  // A mill's hold-up filled, at each of these times (increasing), to the steady state the run
+  // projects from the last third of the span since the fill before (process/holdup_fill.h,
+  // Simulation::fill_holdup); empty: no fill.
+  std::vector<double> fill_to_projection_s;
 };
 
 enum class ContactModel {

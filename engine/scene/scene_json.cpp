@@ -388,8 +388,31 @@ TimeConfig parse_time(JsonObjectReader& top, InputErrors& errors) {
     errors.push_back({"/time/wall_riders", "true",
                       "wall riders are a kind of multi-rate stepping: set /time/multi_rate true "
                       "as well, or remove /time/wall_riders"});
-  t.fill_to_projection_s =
-      r.optional_number("fill_to_projection_s", NumberRange::open_closed(0.0, 1e6));
+  if (const json* fills = r.child("fill_to_projection_s")) {
+    const std::string path = r.path_of("fill_to_projection_s");
+    const auto read = [&](const json& v, const std::string& at) {
+      return read_number(v, at, NumberRange::open_closed(0.0, 1e6), errors);
+    };
+    if (fills->is_array()) {
+      if (fills->empty() || fills->size() > kMaxHoldupFills)
+        errors.push_back(
+            {path, json_value_text(*fills),
+             concat("expected a time or a list of 1 to ", kMaxHoldupFills, " increasing times")});
+      for (std::size_t k = 0; k < fills->size() && k < kMaxHoldupFills; ++k) {
+        const std::optional<double> at = read((*fills)[k], concat(path, "/", k));
+        if (!at) continue;
+        if (!t.fill_to_projection_s.empty() && !(*at > t.fill_to_projection_s.back()))
+          errors.push_back({concat(path, "/", k), concat(*at),
+                            concat("expected a time after the fill before it (",
+                                   t.fill_to_projection_s.back(), " s)")});
+        t.fill_to_projection_s.push_back(*at);
+      }
+    } else if (const std::optional<double> at = read(*fills, path)) {
+      t.fill_to_projection_s.push_back(*at);
+    } else {
+      errors.back().allowed = "expected a time in (0, 1e6] s or a list of increasing times";
+    }
+  }
   r.finish();
   return t;
 }
@@ -700,8 +723,9 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
     errors.push_back({"/psd/product_window_s/1", concat((*scene.psd.product_window_s)[1]),
                       concat("expected a window inside the run: at most /time/end_s = ",
                              scene.time.end_s, " s")});
-  if (const std::optional<double> fill = scene.time.fill_to_projection_s) {
-    const std::string path = "/time/fill_to_projection_s", value = concat(*fill);
+  if (!scene.time.fill_to_projection_s.empty()) {
+    const double last = scene.time.fill_to_projection_s.back();
+    const std::string path = "/time/fill_to_projection_s", value = concat(last);
     // The steady state is judged over the product window or the run's last third: after the fill.
     const double judged_from_s = scene.psd.product_window_s ? (*scene.psd.product_window_s)[0]
                                                             : scene.time.end_s * (2.0 / 3.0);
@@ -709,10 +733,10 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
       errors.push_back({path, value,
                         "the fill places turned copies of the particles about a mill's axis: add "
                         "a mill section, or remove /time/fill_to_projection_s"});
-    else if (!(*fill < judged_from_s))
+    else if (!(last < judged_from_s))
       errors.push_back(
           {path, value,
-           concat("expected a time before the window the steady state is judged over (",
+           concat("expected the last fill before the window the steady state is judged over (",
                   judged_from_s,
                   " s: /psd/product_window_s's start, or two thirds of /time/end_s), so that the "
                   "window sees the filled mill only")});

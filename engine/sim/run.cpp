@@ -694,6 +694,21 @@ std::int64_t steps_per_interval(std::optional<double> interval_s, double fallbac
   return std::int64_t(std::clamp(steps, 1.0, 4e18));
 }
 
+// One hold-up fill (time.fill_to_projection_s): the flows where its window starts, and what it
+// did, or why it did not.
+struct FillRecord {
+  std::optional<MassFlows> start_flows;
+  double start_s = 0.0, at_s = 0.0;
+  std::optional<HoldupFill> fill;
+  std::string skipped;
+  std::vector<int> fixed;  // compartments held at their hold-up (CompartmentRates::fixed_held_kg)
+  bool done() const { return fill || !skipped.empty(); }
+  template <class A>
+  void checkpoint_io(A& a) {
+    io_all(a, start_flows, start_s, at_s, fill, skipped, fixed);
+  }
+};
+
 // What the run loop keeps besides the Simulation, in each checkpoint.
 struct LoopState {
   std::size_t initial_particles = 0;
@@ -703,46 +718,48 @@ struct LoopState {
   // the last at or before its end), for the steady-state projection.
   std::optional<MassFlows> window_start_flows, window_end_flows;
   double window_start_s = 0.0, window_end_s = 0.0;
-  // time.fill_to_projection_s: the flows where its window starts, and what the fill did (or why
-  // it did not).
-  std::optional<MassFlows> fill_start_flows;
-  double fill_start_s = 0.0, fill_at_s = 0.0;
-  std::optional<HoldupFill> fill;
-  std::string fill_skipped;
-  std::vector<int> fill_fixed;  // compartments held at their hold-up (CompartmentRates)
+  // time.fill_to_projection_s: per fill, the flows where its window starts and what it did.
+  std::vector<FillRecord> fills;
   template <class A>
   void checkpoint_io(A& a, TimeSeries& series) {
     io_all(a, initial_particles, initial_energy, series.columns, holdup);
     io_all(a, window_start_flows, window_end_flows, window_start_s, window_end_s);
-    io_all(a, fill_start_flows, fill_start_s, fill_at_s, fill, fill_skipped, fill_fixed);
+    io_all(a, fills);
   }
 };
 
-// The steps of a hold-up fill (time.fill_to_projection_s): where the window its projection is
-// fitted over starts (two thirds of the way to the fill) and the fill's own.
+// The steps of the hold-up fills (time.fill_to_projection_s): each fill's own, and where the
+// window its projection is fitted over starts: two thirds of the way from the fill before it (or
+// from the start) to it.
 struct FillSteps {
   std::int64_t window_start = -1, fill = -1;
 };
-FillSteps fill_steps(const SceneConfig& scene, double dt, std::int64_t total) {
-  FillSteps f;
-  if (!scene.time.fill_to_projection_s) return f;
-  f.fill = std::clamp(std::int64_t(std::llround(*scene.time.fill_to_projection_s / dt)),
-                      std::int64_t(1), std::max<std::int64_t>(total - 1, 1));
-  f.window_start = (2 * f.fill) / 3;
-  return f;
+std::vector<FillSteps> fill_steps(const SceneConfig& scene, double dt, std::int64_t total) {
+  std::vector<FillSteps> steps;
+  std::int64_t previous = 0;
+  for (const double at_s : scene.time.fill_to_projection_s) {
+    FillSteps f;
+    f.fill = std::clamp(std::int64_t(std::llround(at_s / dt)), previous + 1,
+                        std::max<std::int64_t>(total - 1, previous + 1));
+    f.window_start = previous + (2 * (f.fill - previous)) / 3;
+    steps.push_back(f);
+    previous = f.fill;
+  }
+  return steps;
 }
 
 // At the fill's step: the steady state projected from the window before it, and the fill to it
 // (Simulation::fill_holdup); without a steady state, the reason instead.
-void fill_to_projection(Simulation& sim, const SceneConfig& scene, LoopState& loop) {
-  loop.fill_at_s = sim.time_s();
+void fill_to_projection(Simulation& sim, const SceneConfig& scene, FillRecord& record,
+                        std::size_t index) {
+  record.at_s = sim.time_s();
   const std::optional<MassFlows> now = sim.mass_flows();
-  if (!loop.fill_start_flows || !now || !(sim.time_s() > loop.fill_start_s)) {
-    loop.fill_skipped = "no mass flows over a window before the fill";
+  if (!record.start_flows || !now || !(sim.time_s() > record.start_s)) {
+    record.skipped = "no mass flows over a window before the fill";
     return;
   }
   CompartmentRates rates =
-      fit_rates(flows_between(*loop.fill_start_flows, *now), sim.time_s() - loop.fill_start_s);
+      fit_rates(flows_between(*record.start_flows, *now), sim.time_s() - record.start_s);
   const std::vector<double> held = sim.holdup_by_compartment_kg();
   SteadyProjection projection = project_steady(rates, held, 2);
   // A class the window saw receive mass but neither break nor leave (say the sliver of a size
@@ -769,29 +786,30 @@ void fill_to_projection(Simulation& sim, const SceneConfig& scene, LoopState& lo
                  slot == 0 ? "0" : micrometres(edges[std::size_t(slot - 1)]), "-",
                  slot < int(edges.size()) ? micrometres(edges[std::size_t(slot)]) : "inf", " um");
     }
-    loop.fill_skipped =
+    record.skipped =
         "no steady state projected: these compartments receive mass but neither "
         "break nor leave in the window: " +
         names;
     return;
   }
-  loop.fill = sim.fill_holdup(projection.held_kg, scene.seed ^ 0x66696c6cULL);  // "fill"
-  loop.fill_fixed = projection.fixed;
+  record.fill = sim.fill_holdup(projection.held_kg,
+                                scene.seed ^ (0x66696c6cULL + index));  // "fill", one seed each
+  record.fixed = projection.fixed;
 }
 
-nlohmann::ordered_json fill_json(const Simulation& sim, const LoopState& loop) {
+nlohmann::ordered_json fill_json(const Simulation& sim, const FillRecord& record) {
   nlohmann::ordered_json j;
-  if (!loop.fill && loop.fill_skipped.empty()) {
+  if (!record.done()) {
     j["status"] = "not reached";  // a run stopped before the fill
     return j;
   }
-  j["window_s"] = {loop.fill_start_s, loop.fill_at_s};
-  if (!loop.fill) {
+  j["window_s"] = {record.start_s, record.at_s};
+  if (!record.fill) {
     j["status"] = "skipped";
-    if (!loop.fill_skipped.empty()) j["reason"] = loop.fill_skipped;
+    j["reason"] = record.skipped;
     return j;
   }
-  const HoldupFill& f = *loop.fill;
+  const HoldupFill& f = *record.fill;
   const int slots = int(sim.outlet_tally().edges_m.size()) + 1;
   auto part = [&](const std::vector<double>& v, bool dust) {
     return std::vector<double>(v.begin() + (dust ? slots : 0), v.begin() + (dust ? 2 : 1) * slots);
@@ -813,7 +831,7 @@ nlohmann::ordered_json fill_json(const Simulation& sim, const LoopState& loop) {
   j["dust_classes_without_mass"] = f.dust_without_mass;
   // Classes that received mass in the window but neither broke nor left: held at their hold-up.
   nlohmann::ordered_json fixed = nlohmann::ordered_json::array();
-  for (int c : loop.fill_fixed)
+  for (int c : record.fixed)
     fixed.push_back({{"phase", c < slots ? "particles" : "dust"}, {"slot", c % slots}});
   j["held_as_they_were"] = fixed;
   for (const bool dust : {false, true}) {
@@ -1076,15 +1094,19 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
   }
 
   const bool with_holdup = has_product(sim);
-  const FillSteps fill = fill_steps(scene, dt, total);
-  // Before an advance that ends at step `step`: the fill's flows and the fill itself.
+  const std::vector<FillSteps> fill = fill_steps(scene, dt, total);
+  loop.fills.resize(fill.size());  // a resumed run's records are restored below
+  // Before an advance that ends at step `step`: a fill's flows and the fill itself.
   auto fill_events = [&](std::int64_t step) {
-    if (step == fill.window_start && !loop.fill_start_flows) {
-      loop.fill_start_flows = sim.mass_flows();
-      loop.fill_start_s = sim.time_s();
+    for (std::size_t k = 0; k < fill.size(); ++k) {
+      FillRecord& record = loop.fills[k];
+      if (step == fill[k].window_start && !record.start_flows) {
+        record.start_flows = sim.mass_flows();
+        record.start_s = sim.time_s();
+      }
+      if (step == fill[k].fill && !record.done())
+        sim.profile().time(Phase::Population, [&] { fill_to_projection(sim, scene, record, k); });
     }
-    if (step == fill.fill && !loop.fill && loop.fill_skipped.empty())
-      sim.profile().time(Phase::Population, [&] { fill_to_projection(sim, scene, loop); });
   };
   if (!resumed) {
     fill_events(sim.step_index());
@@ -1147,8 +1169,9 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
       next = std::min(next, (now / snapshot_every + 1) * snapshot_every);
     if (checkpoint_every > 0)
       next = std::min(next, (now / checkpoint_every + 1) * checkpoint_every);
-    for (const std::int64_t at : {fill.window_start, fill.fill})
-      if (at > now) next = std::min(next, at);
+    for (const FillSteps& f : fill)
+      for (const std::int64_t at : {f.window_start, f.fill})
+        if (at > now) next = std::min(next, at);
     outcome.failure = sim.advance(next - now);
     const std::int64_t step = sim.step_index();
     if (!outcome.failure) fill_events(step);
@@ -1300,12 +1323,16 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
                               {"dust", vec3(momentum.dust)},
                               {"external_impulse", vec3(momentum.external_impulse())},
                               {"scale", sim.momentum_scale_kg_m_per_s()}};
-  if (scene.time.fill_to_projection_s) s["momentum_kg_m_per_s"]["filled"] = vec3(momentum.filled);
+  const bool fills = !scene.time.fill_to_projection_s.empty();
+  if (fills) s["momentum_kg_m_per_s"]["filled"] = vec3(momentum.filled);
   s["energy"] = {{"initial", energy_json(initial_energy)}, {"final", energy_json(final_energy)}};
-  if (scene.time.fill_to_projection_s) s["energy"]["filled_j"] = sim.filled_energy_j();
+  if (fills) s["energy"]["filled_j"] = sim.filled_energy_j();
   s["energy"]["dissipated_j"] =
       initial_energy.total_j() + sim.filled_energy_j() - final_energy.total_j();
-  if (scene.time.fill_to_projection_s) s["holdup_fill"] = fill_json(sim, loop);
+  if (fills) {
+    nlohmann::ordered_json& list = s["holdup_fills"] = nlohmann::ordered_json::array();
+    for (const FillRecord& record : loop.fills) list.push_back(fill_json(sim, record));
+  }
   if (has_product(sim)) {
     add_product_summary(sim, s);
     s["holdup_history"] = holdup_history_json(loop.holdup);

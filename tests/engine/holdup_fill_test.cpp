@@ -291,8 +291,9 @@ TEST(HoldupFill, ARunFillsToItsProjectionAndTheSurplusRisesOut) {
     return feed * (0.5 * (t_r * t_r - t_a * t_a) + t_r * (t_f - t_r)) / (t_f - t_r);
   };
   const nlohmann::json result = test::run_scene_document(rising_stream_mill());
-  ASSERT_TRUE(result.contains("holdup_fill"));
-  const nlohmann::json& fill = result["holdup_fill"];
+  ASSERT_TRUE(result.contains("holdup_fills"));
+  ASSERT_EQ(result["holdup_fills"].size(), 1u);
+  const nlohmann::json& fill = result["holdup_fills"][0];
   ASSERT_EQ(fill["status"], "filled") << fill.dump();
   EXPECT_NEAR(fill["window_s"][0].get<double>(), t_a, 1e-6);
   EXPECT_NEAR(fill["time_s"].get<double>(), t_f, 1e-9);
@@ -342,6 +343,52 @@ TEST(HoldupFill, AFillNeedsAMillAndMustComeBeforeTheSteadyWindow) {
   errors = test::scene_errors(doc);
   ASSERT_EQ(errors.size(), 1u);
   EXPECT_EQ(errors.front().path, "/time/fill_to_projection_s");
+  // A list: increasing, the last one before the steady window.
+  doc["time"]["fill_to_projection_s"] = {0.002, 0.004, 0.003};
+  errors = test::scene_errors(doc);
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_EQ(errors.front().path, "/time/fill_to_projection_s/2");
+  EXPECT_EQ(errors.front().value, "0.003");
+  doc["time"]["fill_to_projection_s"] = nlohmann::json::array();
+  errors = test::scene_errors(doc);
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_EQ(errors.front().path, "/time/fill_to_projection_s");
+  doc["time"]["fill_to_projection_s"] = {0.002, "soon"};
+  errors = test::scene_errors(doc);
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_EQ(errors.front().path, "/time/fill_to_projection_s/1");
+  doc["time"]["fill_to_projection_s"] = {0.002, 0.004};
+  EXPECT_TRUE(test::scene_errors(doc).empty());
+}
+
+// Two fills of the rising stream: the first as above; the second, at 8.5 ms, is projected from
+// the last third of the span since the first (6.88-8.5 ms), when the copies have risen out and
+// the stream is steady again: it holds F t_r, and the second fill adds at most a bead or two.
+TEST(HoldupFill, ASecondFillProjectsFromTheSpanSinceTheFirst) {
+  nlohmann::json doc = rising_stream_mill();
+  doc["time"]["end_s"] = 0.015;
+  doc["time"]["fill_to_projection_s"] = {0.003625, 0.0085};
+  const double bead_kg = 2500 * std::numbers::pi / 6 * 8e-12;
+  const nlohmann::json result = test::run_scene_document(doc);
+  ASSERT_TRUE(result.contains("holdup_fills"));
+  const nlohmann::json& fills = result["holdup_fills"];
+  ASSERT_EQ(fills.size(), 2u);
+  ASSERT_EQ(fills[0]["status"], "filled");
+  ASSERT_EQ(fills[1]["status"], "filled") << fills[1].dump();
+  EXPECT_NEAR(fills[1]["window_s"][0].get<double>(), 0.003625 + 2.0 / 3.0 * (0.0085 - 0.003625),
+              1e-6);
+  EXPECT_NEAR(fills[1]["window_s"][1].get<double>(), 0.0085, 1e-9);
+  const nlohmann::json& second = fills[1]["particles"];
+  EXPECT_NEAR(second["before_kg"].get<double>(), fills[0]["particles"]["before_kg"].get<double>(),
+              3 * bead_kg)
+      << "the stream's hold-up again";
+  EXPECT_NEAR(second["target_kg"].get<double>(), second["before_kg"].get<double>(), 3 * bead_kg);
+  EXPECT_LE(fills[1]["particles_added"].get<int>(), 3);
+  const nlohmann::json& m = result["mass_balance"];
+  EXPECT_NEAR(m["filled_kg"].get<double>(),
+              fills[0]["particles_kg"].get<double>() + fills[1]["particles_kg"].get<double>(),
+              1e-12 * m["filled_kg"].get<double>());
+  EXPECT_LT(std::abs(m["relative_error"].get<double>()), 1e-12);
 }
 
 }  // namespace
