@@ -25,7 +25,7 @@ namespace millsim {
 // applied, by list (Simulation::process_population), and the kept fluid forces' exchange booked
 // by count of steps (sim/multi_rate.h); 8: the hold-up fill's mass, momentum and energy, the
 // ledger's filled dust, and the run loop's fill (time.fill_to_projection_s).
-inline constexpr std::uint32_t kCheckpointFormat = 8;
+inline constexpr std::uint32_t kCheckpointFormat = 9;
 
 struct CheckpointHeader {
   std::string millsim_version;

@@ -348,6 +348,20 @@ double DustLedger::flux_pass(const std::vector<double>& face_rate, std::vector<d
   return left;
 }
 
+void DustLedger::density_kg_per_m3(std::vector<double>& out) const {
+  out.assign(grid_->padded_size, 0.0);
+  const double inverse_volume = 1.0 / grid_->cell_volume_m3();
+  parallel_ranges_if(worth_threads(classes_.size() * fluid_cells_.size()), fluid_cells_.size(),
+                     block_items(4096), [&](std::size_t begin, std::size_t end, std::size_t) {
+                       for (std::size_t i = begin; i < end; ++i) {
+                         const std::size_t c = fluid_cells_[i];
+                         double sum = 0.0;
+                         for (const std::vector<double>& m : mass_) sum += m[c];
+                         out[c] = sum * inverse_volume;
+                       }
+                     });
+}
+
 double DustLedger::held_kg(int k) const {
   double sum = 0.0;
   for (double v : mass_[std::size_t(k)]) sum += v;

@@ -13,9 +13,11 @@
 // flux is taken from one cell and given to its neighbour, so the mass is conserved to rounding,
 // and no cell gives more than it holds. Walls, inlets and solid cells pass no dust; an
 // outflow face passes what the face flux carries out (never in), into the class's outflow tally.
-// One-way coupled: the dust is carried by the gas and never acts on it (docs/dust.md gives the
-// volume fractions that justifies). The classes are carried on the engine's threads, each by one
-// thread into its own arrays, so the result is the same on any thread count.
+// The ledger only carries the dust; the compressible gas takes its mass per volume
+// (density_kg_per_m3) as inertia it must accelerate, when the scene couples them two ways
+// (gas/compressible/compressible_solver.h, "dust"; docs/dust.md). The classes are carried on the
+// engine's threads, each by one thread into its own arrays, so the result is the same on any thread
+// count.
 //
 // Valid while τ_k |∇u| is small (the expansion is in the Stokes number): the run records the
 // largest slip speed it gave each class, to set against the gas speeds.
@@ -83,6 +85,9 @@ class DustLedger {
   double outflow_kg() const;
   // Class k's mass per padded gas cell (kg).
   const std::vector<double>& cell_mass_kg(int k) const { return mass_[std::size_t(k)]; }
+  // All classes' mass per unit volume, kg/m³ per padded cell (0 where there is none), summed in
+  // class order: the dust the compressible gas carries as its own inertia when two-way coupled.
+  void density_kg_per_m3(std::vector<double>& out) const;
   const GasGrid& grid() const { return *grid_; }
   const DustLedgerStats& stats() const { return stats_; }
   // The slip w of a class of relaxation time τ in fluid cell c, from the gas as of the last

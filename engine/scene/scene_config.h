@@ -216,6 +216,10 @@ struct DustConfig {
   double threshold_diameter_m = 0.0;
   DustModel model = DustModel::Table;
   bool grinding = false;  // "sweep": the ledger's dust is ground by the particles (dust_grinding.h)
+  // The ledger's dust as mass the compressible gas accelerates (gas/compressible/
+  // compressible_solver.h, "dust"); false: carried by the gas, never acting on it. Absent from the
+  // scene: on with the compressible gas, off with the incompressible one (which has only that).
+  std::optional<bool> two_way;
 };
 
 // Size classes of the outlet PSD: explicit edges, or `bins` log-spaced edges on [min, max].

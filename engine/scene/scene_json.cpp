@@ -655,6 +655,8 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
         r.required_number("threshold_diameter_m", NumberRange::open_closed(0.0, 10.0));
     if (r.string("model", "table", {"table", "ledger"}) == "ledger") d.model = DustModel::Ledger;
     d.grinding = r.string("grinding", "none", {"none", "sweep"}) == "sweep";
+    if (r.has("gas_coupling"))
+      d.two_way = r.string("gas_coupling", "two_way", {"one_way", "two_way"}) == "two_way";
     scene.dust = d;
     r.finish();
   }
@@ -702,10 +704,18 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
                                "one breakable material; the scene has ",
                                breakable_materials, ": use \"none\"")});
   }
+  if (scene.dust && scene.dust->two_way && scene.dust->model != DustModel::Ledger)
+    errors.push_back({"/dust/gas_coupling", *scene.dust->two_way ? "\"two_way\"" : "\"one_way\"",
+                      "couples the dust ledger to the gas: set /dust/model to \"ledger\", or "
+                      "leave it out"});
   if (scene.dust && scene.dust->model == DustModel::Ledger) {
     if (!scene.gas)
       errors.push_back({"/dust/model", "\"ledger\"",
                         "the dust ledger rides the gas: add a gas section, or use \"table\""});
+    else if (scene.dust->two_way.value_or(false) && scene.gas->model != GasModel::Compressible)
+      errors.push_back({"/dust/gas_coupling", "\"two_way\"",
+                        "the dust acts on the compressible gas only: set /gas/model to "
+                        "\"compressible\", or use \"one_way\""});
     // One particle density for the dust's relaxation times.
     std::optional<double> density;
     for (const MaterialConfig& m : scene.materials) {

@@ -149,6 +149,14 @@ nlohmann::ordered_json steady_state_json(const Simulation& sim, const SceneConfi
   return j;
 }
 
+// The gas's mass in the domain (the incompressible gas: its density over the fluid cells).
+double gas_mass_kg(const GasCoupling& gas) {
+  if (const CompressibleSolver* compressible = gas.compressible())
+    return compressible->total_mass_kg();
+  const GasGrid& grid = gas.grid();
+  return gas.gas().density_kg_per_m3() * double(grid.fluid_cells) * grid.cell_volume_m3();
+}
+
 // The product (outlet particles + dust table) and where the mass went, for result.json.
 void add_product_summary(const Simulation& sim, nlohmann::ordered_json& s) {
   const MassBalance m = sim.mass_balance();
@@ -205,6 +213,9 @@ void add_product_summary(const Simulation& sim, nlohmann::ordered_json& s) {
         {"displaced_deposits", dust->stats().displaced_deposits},
         {"advances", dust->stats().advances},
         {"substeps", dust->stats().substeps},
+        {"gas_coupling", sim.dust_two_way() ? "two_way" : "one_way"},
+        {"max_cell_mass_loading", sim.dust_max_cell_loading()},
+        {"mass_loading", dust->held_kg() / gas_mass_kg(*sim.gas())},
         {"classes", classes}};
     if (dust->filled_kg() > 0.0) s["dust_ledger"]["filled_kg"] = dust->filled_kg();
     if (const DustGrinding* grinding = sim.dust_grinding()) {
@@ -484,6 +495,10 @@ void add_compressible_gas_summary(const Simulation& sim, nlohmann::ordered_json&
               {"mach_correction", g.config().mach_correction ? "loth" : "none"},
               {"max_mach_drag_factor", c.max_mach_drag_factor},
               {"gas_received_impulse_n_s", components(gas.received_impulse_n_s())}};
+  if (sim.dust_two_way()) {
+    s["gas"]["dust_impulse_n_s"] = components(gas.dust_impulse_n_s());
+    s["gas"]["dust_work_j"] = gas.dust_work_j();
+  }
   s["gas"].update(coupling_summary(sim));
 }
 

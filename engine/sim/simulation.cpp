@@ -326,6 +326,7 @@ Simulation::Simulation(const SceneConfig& scene, SimulationStart start)
         if (scene.materials[m].breakage)
           dust_grinding_.emplace(*dust_ledger_, dust_edges_m_, scene.materials[m], int(m),
                                  scene.breakage->equivalence);
+    dust_two_way_ = scene.dust->two_way.value_or(gas.model == GasModel::Compressible);
     breakage_->record_dust(true);
     window_dust_out_kg_.assign(std::size_t(dust_ledger_->class_count()), 0.0);
     dust_out_seen_kg_ = window_dust_out_kg_;
@@ -928,10 +929,26 @@ bool Simulation::health_due() const {
          contact_stats_.max_overlap_ratio > 2.0 * contact_.penetration_limit;
 }
 
+void Simulation::lay_dust_on_gas() {
+  CompressibleSolver* compressible = gas_->compressible();
+  std::vector<double>& density =
+      dust_two_way_ ? compressible->dust_density() : dust_density_scratch_;
+  dust_ledger_->density_kg_per_m3(density);
+  const GasGrid& grid = dust_ledger_->grid();
+  for (std::size_t c = 0; c < grid.padded_size; ++c) {
+    if (!(density[c] > 0.0) || !grid.fluid[c]) continue;
+    const double gas_density =
+        compressible ? compressible->density_kg_per_m3(c) : gas_->gas().density_kg_per_m3();
+    dust_max_cell_loading_ = std::max(dust_max_cell_loading_, density[c] / gas_density);
+  }
+}
+
 std::optional<StepFailure> Simulation::advance_gas() {
   std::optional<std::string> message;
-  profile_.time(Phase::Gas,
-                [&] { message = gas_->advance(particles_, time_.step_s, step_index_); });
+  profile_.time(Phase::Gas, [&] {
+    if (dust_ledger_) lay_dust_on_gas();
+    message = gas_->advance(particles_, time_.step_s, step_index_);
+  });
   multi_rate_.fluid_refresh_due = true;  // kept fluid forces (multi-rate) are stale now
   multi_rate_.gas_changed_step = step_index_;
   if (message) return StepFailure{step_index_, time_s(), 0, "gas_solver", *message};

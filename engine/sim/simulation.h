@@ -165,6 +165,8 @@ class Simulation {
   const GasCoupling* gas() const { return gas_ ? &*gas_ : nullptr; }
   // The dust ledger (absent unless the scene's dust model is "ledger").
   const DustLedger* dust_ledger() const { return dust_ledger_ ? &*dust_ledger_ : nullptr; }
+  bool dust_two_way() const { return dust_two_way_; }
+  double dust_max_cell_loading() const { return dust_max_cell_loading_; }
   // The ledger's grinding by the particles (absent unless the scene's dust.grinding is "sweep").
   const DustGrinding* dust_grinding() const { return dust_grinding_ ? &*dust_grinding_ : nullptr; }
   GasCoupling* gas() { return gas_ ? &*gas_ : nullptr; }
@@ -269,6 +271,9 @@ class Simulation {
   bool health_due() const;
   // One CFD step at the current DEM step; the failure when the gas solver stops.
   std::optional<StepFailure> advance_gas();
+  // The ledger's dust per volume onto the compressible gas (two-way) and its largest mass
+  // loading c/ρ so far, before each gas advance.
+  void lay_dust_on_gas();
   std::string describe_worst_overlap(const ContactStepStats& stats) const;
   // Counts this step's impacts into the spectrum (before breakage turns their slots stale).
   void tally_impacts();
@@ -336,9 +341,12 @@ class Simulation {
   std::optional<ImpactSpectrum> impact_spectrum_;
   std::optional<DustLedger> dust_ledger_;
   std::optional<DustGrinding> dust_grinding_;
-  std::vector<double> dust_edges_m_;     // the dust table's PSD edges (the ledger's classes)
-  double dust_density_kg_per_m3_ = 0.0;  // the breakable material's: the ledger's dust
-  std::int64_t dust_advanced_step_ = 0;  // the step the ledger was last carried to
+  std::vector<double> dust_edges_m_;          // the dust table's PSD edges (the ledger's classes)
+  double dust_density_kg_per_m3_ = 0.0;       // the breakable material's: the ledger's dust
+  std::int64_t dust_advanced_step_ = 0;       // the step the ledger was last carried to
+  bool dust_two_way_ = false;                 // the gas carries the ledger's dust as inertia
+  double dust_max_cell_loading_ = 0.0;        // the largest c/ρ of a gas cell at a gas advance
+  std::vector<double> dust_density_scratch_;  // one-way: the ledger's kg/m³, for the loading
   // The product's window (psd.product_window_s; absent: the whole run) and what left in it:
   // outlet particles, the ledger's dust out per class, or the table's dust made.
   std::optional<std::array<double, 2>> product_window_s_;
@@ -364,7 +372,7 @@ void Simulation::checkpoint_io(A& a) {
   // The modules the scene has: present in both the saved and the restoring run.
   if (breakage_) io(a, *breakage_);
   if (gas_) io(a, *gas_);
-  if (dust_ledger_) io_all(a, *dust_ledger_, dust_advanced_step_);
+  if (dust_ledger_) io_all(a, *dust_ledger_, dust_advanced_step_, dust_max_cell_loading_);
   if (dust_grinding_) io(a, *dust_grinding_);
   io_all(a, window_outlet_, window_dust_table_, window_dust_out_kg_, dust_out_seen_kg_, flows_);
   for (Feeder& f : feeders_) io(a, f);

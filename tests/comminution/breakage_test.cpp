@@ -48,7 +48,8 @@ FragmentConfig equal_fragments(int count) {
 
 void enable_breakage(SceneConfig& s, double dust_threshold_m) {
   s.breakage = BreakageConfig{};
-  s.dust = DustConfig{dust_threshold_m};
+  s.dust = DustConfig{};
+  s.dust->threshold_diameter_m = dust_threshold_m;
 }
 
 // N isolated spheres fired head-on at the floor: each sees one wall impact at speed v.

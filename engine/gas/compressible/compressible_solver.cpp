@@ -307,6 +307,8 @@ Vec3 CompressibleSolver::neighbour_velocity(std::size_t c, std::size_t n, int a)
 }
 
 void CompressibleSolver::compute_velocity_gradients() {
+  if (velocity_gradient_[0].size() != grid_.padded_size)
+    for (auto& v : velocity_gradient_) v.assign(grid_.padded_size, 0.0);
   for_cells(grid_.padded_size, on_team(), [&](std::size_t c) {
     if (role_[c] != kFluid) return;
     for (int d = 0; d < 3; ++d) {
@@ -323,7 +325,7 @@ void CompressibleSolver::compute_residual(double stage_weight) {
   compute_primitives();
   fill_ghosts();
   const bool viscous = viscosity_pa_s_ > 0.0;
-  if (viscous) compute_velocity_gradients();
+  if (viscous || dusty()) compute_velocity_gradients();
   for (auto& r : residual_) std::fill(r.begin(), r.end(), 0.0);
   const double conductivity = viscosity_pa_s_ * gas_.heat_capacity_p_j_per_kg_k() / gas_.prandtl;
 
@@ -468,6 +470,41 @@ void CompressibleSolver::compute_residual(double stage_weight) {
     residual_[4][c] += energy_source_[c];
   });
   add_jet_sources(stage_weight);
+  if (dusty()) stage_dust_sums_ = add_dust_reaction();
+}
+
+// The gas's own acceleration without the dust, ρ (a* − g) = R_m − u R_ρ + ρ (u·∇)u − ρ g from the
+// stage's residual (R_m holds every force and the convective flux; −u R_ρ + ρ (u·∇)u turns its
+// ∂(ρu)/∂t into ρ Du/Dt), is shared with the dust: F = −c ρ (a* − g) / (ρ + c).
+std::pair<Vec3, double> CompressibleSolver::add_dust_reaction() {
+  if (dust_force_.size() != grid_.padded_size) dust_force_.assign(grid_.padded_size, Vec3{});
+  for_cells(grid_.padded_size, on_team(), [&](std::size_t c) {
+    dust_force_[c] = Vec3{};
+    const double load = dust_density_[c];
+    if (role_[c] != kFluid || !(load > 0.0)) return;
+    const double rho = primitive_[0][c];
+    const Vec3 u{primitive_[1][c], primitive_[2][c], primitive_[3][c]};
+    Vec3 force;
+    for (std::size_t b = 0; b < 3; ++b) {
+      double convective = 0.0;
+      for (std::size_t d = 0; d < 3; ++d)
+        convective += u[int(d)] * velocity_gradient_[3 * b + d][c];
+      const double own = residual_[1 + b][c] - u[int(b)] * residual_[0][c] + rho * convective -
+                         rho * gravity_m_per_s2_[int(b)];
+      force[int(b)] = -load * own / (rho + load);
+    }
+    dust_force_[c] = force;
+    for (std::size_t b = 0; b < 3; ++b) residual_[1 + b][c] += force[int(b)];
+    residual_[4][c] += dot(force, u);
+  });
+  Vec3 force_sum;
+  double power_sum = 0.0;
+  for (std::size_t c = 0; c < grid_.padded_size; ++c) {
+    if (role_[c] != kFluid) continue;
+    force_sum += dust_force_[c];
+    power_sum += dot(dust_force_[c], Vec3{primitive_[1][c], primitive_[2][c], primitive_[3][c]});
+  }
+  return {force_sum, power_sum};
 }
 
 // Each jet's mass flow, momentum and stagnation enthalpy into the fluid cells behind its faces,
@@ -605,8 +642,13 @@ std::optional<std::string> CompressibleSolver::advance(double dt) {
   std::array<std::vector<double>*, kVariables> state{&density_, &momentum_[0], &momentum_[1],
                                                      &momentum_[2], &energy_};
   // Heun: U1 = U0 + dt L(U0), U = (U0 + U1 + dt L(U1)) / 2.
+  const double volume = grid_.cell_volume_m3();
   for (int stage = 0; stage < 2; ++stage) {
     compute_residual(0.5);
+    if (dusty()) {  // the gas gives the dust what it loses, by Heun's weights
+      dust_impulse_ -= stage_dust_sums_.first * (0.5 * dt * volume);
+      dust_work_j_ -= stage_dust_sums_.second * (0.5 * dt * volume);
+    }
     for_cells(grid_.padded_size, on_team(), [&](std::size_t c) {
       if (role_[c] != kFluid) return;
       for (std::size_t v = 0; v < kVariables; ++v) {

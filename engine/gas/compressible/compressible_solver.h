@@ -22,6 +22,14 @@
 //   particles   a momentum source per cell and the power of the drag on the particles as an
 //               energy source (gas/coupling.h); the gas volume fraction is kept for the drag
 //               laws but is not in these equations (dilute flow: docs/gas.md)
+//   dust        the dust ledger's mass per volume c (dust/dust_ledger.h) as mass the gas must
+//               accelerate: the dust follows the gas (its slip is small), so with every force on
+//               the gas but convection and gravity f (pressure, viscous stress, jets, particles),
+//               gas and dust share it, (ρ + c)(a − g) = f, and the dust's reaction on the gas is
+//               F = −c (a − g) = −c f / (ρ + c), solved within each stage (no added-mass lag);
+//               its power F·u is taken from the gas's energy. Sound then runs at c_s/√(1 + c/ρ)
+//               and a dusty column stands at dp/dz = −(ρ + c) g (Marble, Annu. Rev. Fluid Mech. 2
+//               (1970) 397, the equilibrium limit)
 // A step that leaves a cell with non-positive or non-finite density or pressure fails with a
 // message naming the cell, its position and the time. The state is stored as structure of
 // arrays over the padded grid (one ghost layer).
@@ -72,6 +80,13 @@ class CompressibleSolver {
   std::vector<double>& energy_source() { return energy_source_; }
   // Total momentum the gas received from the particles, N·s.
   const Vec3& received_impulse_n_s() const { return received_impulse_; }
+  // The dust's mass per unit volume, kg/m³ per padded cell (the dust ledger's, filled before
+  // advance()); empty: no dust in these equations.
+  std::vector<double>& dust_density() { return dust_density_; }
+  const std::vector<double>& dust_density() const { return dust_density_; }
+  // Total momentum the gas gave the dust it carries, N·s, and the power it gave it, J.
+  const Vec3& dust_impulse_n_s() const { return dust_impulse_; }
+  double dust_work_j() const { return dust_work_j_; }
 
   // Trilinear samples over the fluid cells around a point inside the domain (periodic axes
   // wrapped by the caller); the pressure gradient is the cells' central difference (one-sided
@@ -111,7 +126,8 @@ class CompressibleSolver {
   template <class A>
   void checkpoint_io(A& a) {
     io_all(a, density_, momentum_, energy_, fraction_, source_, energy_source_, received_impulse_,
-           jet_exit_, jet_inflow_, patch_inflow_, time_s_, steps_);
+           jet_exit_, jet_inflow_, patch_inflow_, time_s_, steps_, dust_density_, dust_impulse_,
+           dust_work_j_);
     if constexpr (A::kLoading) update_pressure_gradient();
   }
 
@@ -131,6 +147,10 @@ class CompressibleSolver {
   void compute_residual(double stage_weight);
   std::optional<std::string> check_state() const;
   void add_jet_sources(double stage_weight);
+  // The dust's reaction on the gas (above), added to the stage's residual; returns its sums over
+  // the fluid cells, in cell order: force (N/m³ summed) and power (W/m³ summed).
+  std::pair<Vec3, double> add_dust_reaction();
+  bool dusty() const { return dust_density_.size() == grid_.padded_size; }
   void update_pressure_gradient();
   template <class Field>
   auto sample(const Field& value_of, const Vec3& x) const;
@@ -163,6 +183,11 @@ class CompressibleSolver {
   std::vector<double> fraction_, energy_source_;
   std::array<std::vector<double>, 3> source_, gradient_;
   Vec3 received_impulse_;
+  std::vector<double> dust_density_;
+  std::vector<Vec3> dust_force_;  // per padded cell, this stage's F (N/m³)
+  Vec3 dust_impulse_;
+  double dust_work_j_ = 0.0;
+  std::pair<Vec3, double> stage_dust_sums_;  // add_dust_reaction's, per stage
   double time_s_ = 0.0;
   std::uint64_t steps_ = 0;
 };
