@@ -28,7 +28,11 @@ std::optional<SteadyWindow> steady_window(const std::vector<HoldupRow>& rows, do
   w.dust_held_change_kg = b->dust_held_kg - a->dust_held_kg;
   w.outflow_to_feed = w.outflow_kg / w.fed_kg;
   w.made_to_feed = (w.outlet_kg + w.dust_made_kg) / w.fed_kg;
-  w.steady = std::abs(w.outflow_to_feed - 1.0) <= kSteadyOutflowTolerance;
+  w.outflow_steady = std::abs(w.outflow_to_feed - 1.0) <= kSteadyOutflowTolerance;
+  const double allowed = kSteadyOutflowTolerance * w.fed_kg;
+  w.holdup_steady =
+      std::abs(w.particles_change_kg) <= allowed && std::abs(w.dust_held_change_kg) <= allowed;
+  w.steady = w.outflow_steady && w.holdup_steady;
   return w;
 }
 
@@ -72,6 +76,8 @@ nlohmann::ordered_json steady_window_json(const SteadyWindow& w) {
           {"particles_change_kg", w.particles_change_kg},
           {"dust_held_change_kg", w.dust_held_change_kg},
           {"tolerance", kSteadyOutflowTolerance},
+          {"outflow_steady", w.outflow_steady},
+          {"holdup_steady", w.holdup_steady},
           {"steady", w.steady}};
 }
 

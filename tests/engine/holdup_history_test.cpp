@@ -4,6 +4,8 @@
 // - a system whose outflow lags its constant feed F by a first-order delay τ (hold-up
 //   F τ (1 − e^{−t/τ})) leaves, over [a, b], F (b − a) − F τ (e^{−a/τ} − e^{−b/τ}): the window's
 //   ratio to the feed follows to rounding, and the flag turns at 10 %;
+// - an outflow equal to the feed is not steady while one phase of the hold-up fills as the other
+//   drains by more than a tenth of the feed (the mass balance alone cannot tell);
 // - a stream fed at a constant rate and falling freely through an outlet plane leaves nothing
 //   until its fall time t_f (from h = v0 t + g t²/2), then leaves at the feed rate: its run's
 //   last third is steady with an outflow equal to the feed within a particle per window, its
@@ -34,13 +36,13 @@ std::vector<HoldupRow> lagged_rows(double feed_kg_per_s, double tau_s, double en
     r.fed_kg = feed_kg_per_s * r.time_s;
     r.particles_kg = feed_kg_per_s * tau_s * (1.0 - std::exp(-r.time_s / tau_s));
     const double left = r.fed_kg - r.particles_kg;
-    // With the ledger, what left is the dust carried out; half as much again was made and
-    // still sits in the gas (held), which the table would have counted as product at once.
+    // With the ledger, what left is the dust carried out, and a third of the hold-up is dust
+    // still in the gas: made, which the table would have counted as product at once.
     if (ledger) {
       r.dust_out_kg = left;
-      r.dust_held_kg = 0.5 * left;
-      r.dust_made_kg = 1.5 * left;
-      r.particles_kg -= 0.5 * left;
+      r.dust_held_kg = r.particles_kg / 3.0;
+      r.dust_made_kg = left + r.dust_held_kg;
+      r.particles_kg -= r.dust_held_kg;
     } else {
       r.dust_made_kg = left;
     }
@@ -62,7 +64,10 @@ TEST(SteadyWindow, AFirstOrderLagLeavesTheAnalyticShareOfItsFeed) {
       EXPECT_NEAR(w->fed_kg, F * (end - a), 1e-15);
       EXPECT_NEAR(w->particles_change_kg + w->dust_held_change_kg + w->outflow_kg, w->fed_kg, 1e-15)
           << "what was fed stayed or left";
-      EXPECT_NEAR(w->made_to_feed, ledger ? 1.5 * expected : expected, 1e-12);
+      // The dust made is what left and a third of what stayed: (1 + 2 × outflow / fed) / 3.
+      EXPECT_NEAR(w->made_to_feed, ledger ? (1.0 + 2.0 * expected) / 3.0 : expected, 1e-12);
+      // The hold-up follows the outflow here: each phase's change is a share of fed − outflow.
+      EXPECT_EQ(w->holdup_steady, std::abs(expected - 1.0) <= 0.1) << a;
     }
   }
   // τ = 10 ms: over the whole 60 ms the outflow is 1 − τ/60 ms = 0.83 of the feed (not steady);
@@ -70,6 +75,39 @@ TEST(SteadyWindow, AFirstOrderLagLeavesTheAnalyticShareOfItsFeed) {
   const std::vector<HoldupRow> rows = lagged_rows(F, 0.01, end, 60, false);
   EXPECT_FALSE(steady_window(rows, 0.0, end, false)->steady);
   EXPECT_TRUE(steady_window(rows, 0.04, end, false)->steady);
+}
+
+// A mill whose outflow equals its feed while its dust drains as fast as its particles pile up
+// (the filled 50 µm mill over 38–56 ms: particles +55 mg/s, dust −53 mg/s, outflow 0.98 of the
+// feed) keeps its total hold-up, not its state: not steady. Phases trading less than a tenth of
+// the feed are.
+TEST(SteadyWindow, AnOutflowAtTheFeedRateWhileOnePhaseFillsAndTheOtherDrainsIsNotSteady) {
+  const double feed = 1e-4;
+  for (const double trade : {0.55, 0.08}) {
+    std::vector<HoldupRow> rows;
+    for (int i = 0; i <= 18; ++i) {
+      HoldupRow r;
+      r.time_s = 1e-3 * i;
+      r.fed_kg = feed * r.time_s;
+      r.particles_kg = 2e-5 + trade * feed * r.time_s;
+      r.dust_held_kg = 6e-5 - trade * feed * r.time_s;
+      r.dust_out_kg = feed * r.time_s;  // the outflow is the feed
+      r.dust_made_kg = r.dust_out_kg + r.dust_held_kg;
+      rows.push_back(r);
+    }
+    const std::optional<SteadyWindow> w = steady_window(rows, 0.0, 0.018, true);
+    ASSERT_TRUE(w);
+    EXPECT_NEAR(w->outflow_to_feed, 1.0, 1e-12);
+    EXPECT_TRUE(w->outflow_steady);
+    EXPECT_NEAR(w->particles_change_kg, trade * w->fed_kg, 1e-15);
+    EXPECT_NEAR(w->dust_held_change_kg, -trade * w->fed_kg, 1e-15);
+    EXPECT_EQ(w->holdup_steady, trade <= 0.1) << trade;
+    EXPECT_EQ(w->steady, trade <= 0.1) << trade;
+    const nlohmann::ordered_json j = steady_window_json(*w);
+    EXPECT_EQ(j["outflow_steady"].get<bool>(), true);
+    EXPECT_EQ(j["holdup_steady"].get<bool>(), trade <= 0.1);
+    EXPECT_EQ(j["steady"].get<bool>(), trade <= 0.1);
+  }
 }
 
 TEST(SteadyWindow, AWindowWithoutTwoRowsOrWithoutFeedHasNoAnswer) {
