@@ -85,6 +85,31 @@ def selection_rates(run_dir, names):
               f"{fmt(1e3 / rate if rate else None, 1, 1)} |")
 
 
+def gas_and_loading(r):
+    """The dust's weight on the gas and the mill's vortex at the end."""
+    ledger, gas, mill = r.get("dust_ledger"), r.get("gas", {}), r.get("mill", {})
+    print()
+    if ledger and "mass_loading" in ledger:
+        impulse = gas.get("dust_impulse_n_s")
+        print(f"Dust on the gas: {ledger['gas_coupling']}; dust held / gas mass at the end "
+              f"{ledger['mass_loading']:.3g} ({ledger['held_kg'] * 1e6:.2f} mg in "
+              f"{gas.get('mass_kg', 0) * 1e6:.2f} mg), largest cell loading "
+              f"{ledger['max_cell_mass_loading']:.3g}"
+              + (f"; impulse the gas gave the dust {[f'{x:.3g}' for x in impulse]} N s, work "
+                 f"{gas['dust_work_j']:.3g} J" if impulse else ""))
+    profile = mill.get("vortex_profile")
+    if profile:
+        print()
+        print("Vortex at the end (mean gas speeds by radius, force-balance cut there):")
+        print()
+        print("| r (mm) | tangential (m/s) | radial (m/s) | cut (µm) |")
+        print("| --- | --- | --- | --- |")
+        for p in profile:
+            cut = p.get("force_balance_cut_size_m")
+            print(f"| {p['radius_m'] * 1e3:.2f} | {p['tangential_gas_m_per_s']:.1f} | "
+                  f"{p['radial_gas_m_per_s']:.2f} | {fmt(cut, 1e6, 2)} |")
+
+
 def fmt(x, scale=1.0, digits=1):
     return "—" if x is None else f"{x * scale:.{digits}f}"
 
@@ -169,6 +194,7 @@ def main():
             if held > 0 or out > 0:
                 print(f"| {c['diameter_m'] * 1e6:.2f} | {held * 1e9:.3f} | {out * 1e9:.3f} |")
     selection_rates(a.run_dir, names)
+    gas_and_loading(r)
     s = r.get("steady_state")
     print()
     print("Steady state:", json.dumps(s))

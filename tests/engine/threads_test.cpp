@@ -18,6 +18,7 @@
 #include "dem/integrator.h"
 #include "dust/dust_grinding.h"
 #include "dust/dust_ledger.h"
+#include "gas/compressible/compressible_solver.h"
 #include "gas/gas_solver.h"
 #include "parallel/slot_shares.h"
 #include "parallel/thread_team.h"
@@ -397,6 +398,57 @@ TEST(Threads, DustLedgerAndItsGrindingAreBitIdenticalOnOneTwoAndThreeThreads) {
     EXPECT_TRUE(same_bits(threaded.max_slip, serial.max_slip));
     EXPECT_EQ(threaded.substeps, serial.substeps);
   }
+}
+
+// The state after 40 steps of a viscous periodic box of compressible gas with a flow pattern and
+// uneven dust on it (gas/compressible/compressible_solver.h, "dust"), on `threads` threads with
+// blocks small enough that every cell pass runs on all of them.
+std::vector<double> dusty_box_state(int threads) {
+  Threads team(threads);
+  SmallBlocks small;
+  const MinItemsForThreadsScope every_loop(1);
+  GasConfig config;
+  config.model = GasModel::Compressible;
+  config.cells = {10, 10, 10};
+  config.viscosity_pa_s = 1.8e-5;
+  CompressibleSolver solver(
+      config, build_gas_grid(config, {0, 0, 0}, {1e-2, 1e-2, 1e-2}, {true, true, true}),
+      {0, 0, -9.81});
+  const GasGrid& g = solver.grid();
+  solver.dust_density().assign(g.padded_size, 0.0);
+  for (std::size_t c = 0; c < g.padded_size; ++c) {
+    if (!g.fluid[c]) continue;
+    const std::array<int, 3> ijk = g.coords(c);
+    const double s = std::sin(1.3 * ijk[0] + 0.7 * ijk[1] + 2.1 * ijk[2]);
+    solver.set_state(c, 1.2 * (1 + 0.05 * s), Vec3{20 * s, 5 * std::cos(ijk[0]), 0},
+                     101325.0 * (1 + 0.03 * s));
+    solver.dust_density()[c] = 3.0 * (1 + s);
+  }
+  for (int step = 0; step < 40; ++step) EXPECT_FALSE(solver.advance(solver.stable_step_s(0.4)));
+  std::vector<double> state;
+  for (std::size_t c = 0; c < g.padded_size; ++c)
+    if (g.fluid[c]) {
+      const Vec3 u = solver.velocity_m_per_s(c);
+      state.insert(state.end(),
+                   {solver.density_kg_per_m3(c), u.x, u.y, u.z, solver.pressure_pa(c)});
+    }
+  const Vec3 impulse = solver.dust_impulse_n_s();
+  state.insert(state.end(), {impulse.x, impulse.y, impulse.z, solver.dust_work_j()});
+  return state;
+}
+
+TEST(Threads, TheDustyCompressibleGasIsBitIdenticalOnOneTwoAndThreeThreads) {
+  const std::uint64_t loops_before = loops_run_on_team();
+  const std::vector<double> one = dusty_box_state(1);
+  const std::vector<double> two = dusty_box_state(2), three = dusty_box_state(3);
+  EXPECT_GT(loops_run_on_team(), loops_before) << "the cell passes ran on the team";
+  ASSERT_EQ(one.size(), two.size());
+  ASSERT_EQ(one.size(), three.size());
+  for (std::size_t k = 0; k < one.size(); ++k) {
+    ASSERT_EQ(one[k], two[k]) << k;
+    ASSERT_EQ(one[k], three[k]) << k;
+  }
+  EXPECT_NE(one.back(), 0.0) << "the dust took work from the gas";
 }
 
 TEST(Threads, TheListCountsTheActiveCandidatesOfEachUnitOfSlots) {

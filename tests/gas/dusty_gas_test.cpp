@@ -4,7 +4,7 @@
 // dust follows the gas, exchanging no heat with it); an isothermal column carrying uniform dust
 // stands at dp/dz = −(ρ + c) g, the gas holding up the dust's weight, which the gas's books give
 // to the dust as impulse; and a force on dusty gas accelerates gas and dust together, each
-// keeping its share of the impulse.
+// keeping its share of the impulse (on threads: Threads.TheDustyCompressibleGas...).
 #include <gtest/gtest.h>
 
 #include <cmath>
