@@ -248,6 +248,7 @@ TEST(DustLedgerRun, OnTheCompressibleGasTheDustItCarriesWeighsOnIt) {
   nlohmann::json doc = compressible_ledger_scene();
   doc["gas"]["coupling"] = "one_way";
   doc["gas"].erase("boundaries");
+  doc["time"]["end_s"] = 0.0006;  // the target has broken for 0.4 ms by then
   const DustyRun two = run_dusty(doc);
   doc["dust"]["gas_coupling"] = "one_way";
   const DustyRun one = run_dusty(doc);
