@@ -321,7 +321,7 @@ void CompressibleSolver::compute_velocity_gradients() {
   });
 }
 
-void CompressibleSolver::compute_residual(double stage_weight) {
+std::pair<Vec3, double> CompressibleSolver::compute_residual(double stage_weight) {
   compute_primitives();
   fill_ghosts();
   const bool viscous = viscosity_pa_s_ > 0.0;
@@ -470,7 +470,7 @@ void CompressibleSolver::compute_residual(double stage_weight) {
     residual_[4][c] += energy_source_[c];
   });
   add_jet_sources(stage_weight);
-  if (dusty()) stage_dust_sums_ = add_dust_reaction();
+  return dusty() ? add_dust_reaction() : std::pair<Vec3, double>{};
 }
 
 // The gas's own acceleration without the dust, ρ (a* − g) = R_m − u R_ρ + ρ (u·∇)u − ρ g from the
@@ -644,11 +644,10 @@ std::optional<std::string> CompressibleSolver::advance(double dt) {
   // Heun: U1 = U0 + dt L(U0), U = (U0 + U1 + dt L(U1)) / 2.
   const double volume = grid_.cell_volume_m3();
   for (int stage = 0; stage < 2; ++stage) {
-    compute_residual(0.5);
-    if (dusty()) {  // the gas gives the dust what it loses, by Heun's weights
-      dust_impulse_ -= stage_dust_sums_.first * (0.5 * dt * volume);
-      dust_work_j_ -= stage_dust_sums_.second * (0.5 * dt * volume);
-    }
+    // The gas gives the dust what it loses, by Heun's weights.
+    const auto [dust_force, dust_power] = compute_residual(0.5);
+    dust_impulse_ -= dust_force * (0.5 * dt * volume);
+    dust_work_j_ -= dust_power * (0.5 * dt * volume);
     for_cells(grid_.padded_size, on_team(), [&](std::size_t c) {
       if (role_[c] != kFluid) return;
       for (std::size_t v = 0; v < kVariables; ++v) {

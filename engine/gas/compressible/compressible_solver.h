@@ -122,12 +122,12 @@ class CompressibleSolver {
   std::uint64_t steps() const { return steps_; }
 
   // Checkpoints: the conserved state, the coupling fields and the counters (the primitive
-  // variables, gradients and jets' states follow from them at the next step).
+  // variables, gradients and jets' states follow from them at the next step; the dust density is
+  // laid again before it).
   template <class A>
   void checkpoint_io(A& a) {
     io_all(a, density_, momentum_, energy_, fraction_, source_, energy_source_, received_impulse_,
-           jet_exit_, jet_inflow_, patch_inflow_, time_s_, steps_, dust_density_, dust_impulse_,
-           dust_work_j_);
+           jet_exit_, jet_inflow_, patch_inflow_, time_s_, steps_, dust_impulse_, dust_work_j_);
     if constexpr (A::kLoading) update_pressure_gradient();
   }
 
@@ -144,7 +144,8 @@ class CompressibleSolver {
   // axis a: n's own, or c's mirrored across a wall (no-slip, moving wall, or slip).
   Vec3 neighbour_velocity(std::size_t c, std::size_t n, int a) const;
   void compute_velocity_gradients();
-  void compute_residual(double stage_weight);
+  // The stage's residual; with dust, returns the sums add_dust_reaction gives (else zeros).
+  std::pair<Vec3, double> compute_residual(double stage_weight);
   std::optional<std::string> check_state() const;
   void add_jet_sources(double stage_weight);
   // The dust's reaction on the gas (above), added to the stage's residual; returns its sums over
@@ -187,7 +188,6 @@ class CompressibleSolver {
   std::vector<Vec3> dust_force_;  // per padded cell, this stage's F (N/m³)
   Vec3 dust_impulse_;
   double dust_work_j_ = 0.0;
-  std::pair<Vec3, double> stage_dust_sums_;  // add_dust_reaction's, per stage
   double time_s_ = 0.0;
   std::uint64_t steps_ = 0;
 };
