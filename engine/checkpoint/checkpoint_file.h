@@ -25,8 +25,9 @@ namespace millsim {
 // applied, by list (Simulation::process_population), and the kept fluid forces' exchange booked
 // by count of steps (sim/multi_rate.h); 8: the hold-up fill's mass, momentum and energy, the
 // ledger's filled dust, and the run loop's fill (time.fill_to_projection_s); 9: the dust on the
-// compressible gas (the impulse and work the gas gave it, the largest loading).
-inline constexpr std::uint32_t kCheckpointFormat = 9;
+// compressible gas (the impulse and work the gas gave it, the largest loading); 10: the dust
+// ledger's count of speed-bounded slips per class.
+inline constexpr std::uint32_t kCheckpointFormat = 10;
 
 struct CheckpointHeader {
   std::string millsim_version;

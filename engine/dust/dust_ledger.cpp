@@ -48,6 +48,7 @@ DustLedger::DustLedger(const GasGrid& grid, std::vector<DustClass> classes,
   velocity_.assign(grid.padded_size, Vec3{});
   previous_velocity_ = velocity_;
   stats_.max_slip_m_per_s.assign(classes_.size(), 0.0);
+  stats_.speed_bounded_cells.assign(classes_.size(), 0);
   build_faces();
 }
 
@@ -147,7 +148,12 @@ void DustLedger::move_between_classes(std::size_t c, int k, double kg,
 
 void DustLedger::update_acceleration(const GasView& gas, double now_s) {
   const GasGrid& g = *grid_;
-  for (const std::size_t c : fluid_cells_) velocity_[c] = gas.cell_velocity_m_per_s(c);
+  double fastest2 = 0.0;
+  for (const std::size_t c : fluid_cells_) {
+    velocity_[c] = gas.cell_velocity_m_per_s(c);
+    fastest2 = std::max(fastest2, norm2(velocity_[c]));
+  }
+  max_gas_speed_m_per_s_ = std::sqrt(fastest2);
   const double dt = now_s - previous_time_s_;
   const bool unsteady = have_previous_ && dt > 0.0;
   for (std::size_t slot = 0; slot < fluid_cells_.size(); ++slot) {
@@ -217,9 +223,24 @@ Vec3 DustLedger::slip_of(const SlipTerms& t, double tau) {
   return w;
 }
 
+Vec3 DustLedger::slip_bounded(const Vec3& w, double bound, bool& bounded) {
+  const double w2 = norm2(w);
+  if (!(w2 > bound * bound)) return w;
+  bounded = true;
+  return w * (bound / std::sqrt(w2));
+}
+
+Vec3 DustLedger::bounded_slip(std::size_t slot, double tau, bool& bounded) const {
+  const Vec3 w = slip_of(slip_terms_[slot], tau);
+  const double bound =
+      norm(velocity_[fluid_cells_[slot]]) + max_gas_speed_m_per_s_ + tau * norm(gravity_m_per_s2_);
+  return slip_bounded(w, bound, bounded);
+}
+
 Vec3 DustLedger::slip_m_per_s(std::size_t c, double tau) const {
   const std::uint32_t slot = fluid_slot_[c];
-  return slot == kNoSlot ? Vec3{} : slip_of(slip_terms_[slot], tau);
+  bool bounded = false;
+  return slot == kNoSlot || !(tau > 0.0) ? Vec3{} : bounded_slip(slot, tau, bounded);
 }
 
 void DustLedger::advance(const GasView& gas, double dt_s) {
@@ -251,11 +272,15 @@ void DustLedger::carry_class(std::size_t k, double dt_s, ClassScratch& scratch) 
   // Per cell: Σ outgoing speed / h, for the step bound.
   scratch.outgoing_rate.assign(g.padded_size, 0.0);
   double max_slip2 = 0.0;  // (the largest |w|², its root taken once: the same as the largest |w|)
+  std::uint64_t bounded_cells = 0;
   for (std::size_t slot = 0; slot < fluid_cells_.size(); ++slot) {
-    const Vec3 w = tau > 0.0 ? slip_of(slip_terms_[slot], tau) : Vec3{};
+    bool bounded = false;
+    const Vec3 w = tau > 0.0 ? bounded_slip(slot, tau, bounded) : Vec3{};
     scratch.slip[fluid_cells_[slot]] = w;
     max_slip2 = std::max(max_slip2, norm2(w));
+    bounded_cells += bounded ? 1 : 0;
   }
+  stats_.speed_bounded_cells[k] += bounded_cells;
   double& max_slip = stats_.max_slip_m_per_s[k];
   max_slip = std::max(max_slip, std::sqrt(max_slip2));
   const double inverse_h[3] = {1.0 / g.h_m[0], 1.0 / g.h_m[1], 1.0 / g.h_m[2]};

@@ -27,6 +27,12 @@
 namespace millsim {
 namespace {
 
+// The share of class k's (fluid cell, advance) slips the dust speed bound shortened.
+double speed_bounded_share(const DustLedger& dust, int k) {
+  const double seen = double(dust.stats().advances) * double(dust.fluid_cell_count());
+  return seen > 0.0 ? double(dust.stats().speed_bounded_cells[std::size_t(k)]) / seen : 0.0;
+}
+
 using Clock = std::chrono::steady_clock;
 
 double seconds_since(Clock::time_point t) {
@@ -200,7 +206,8 @@ void add_product_summary(const Simulation& sim, nlohmann::ordered_json& s) {
                          {"relaxation_time_s", c.relaxation_time_s},
                          {"held_kg", dust->held_kg(k)},
                          {"outflow_kg", dust->outflow_kg(k)},
-                         {"max_slip_m_per_s", dust->stats().max_slip_m_per_s[std::size_t(k)]}});
+                         {"max_slip_m_per_s", dust->stats().max_slip_m_per_s[std::size_t(k)]},
+                         {"speed_bounded_share", speed_bounded_share(*dust, k)}});
     }
     // In: the dust made, and what a hold-up fill added.
     const double made = sim.breakage()->dust().total_mass_kg(), in = made + dust->filled_kg();

@@ -11,7 +11,10 @@
 //     cut and holds the others on the ring where drift and sink balance;
 //   - in a linear 3-D flow u = u₀ + G x with a full, non-symmetric G, each cell's slip is the
 //     solution of (I + τ G) w = τ (g − G u) by Eigen's LU, with the documented fallback where
-//     det(I + τ G) ≤ 0.1 and the bound by the explicit slip, for τ G from 0.01 to 10.
+//     det(I + τ G) ≤ 0.1 and the bound by the explicit slip, for τ G from 0.01 to 10;
+//   - in a Taylor–Green vortex the slip of heavy dust is held to |u| + U_max + τ|g|, from the
+//     bound U_max + τ|g| on a particle's speed under Stokes drag (checked by integrating
+//     particles in the same vortex).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -22,6 +25,7 @@
 
 #include "dust/dust_ledger.h"
 #include "gas/gas_solver.h"
+#include "gas/gas_view.h"
 #include "support/draining_vortex.h"
 
 namespace millsim {
@@ -181,6 +185,82 @@ TEST(DustLedger, TheSlipOfHeavyDustStaysBoundedByTheGasSpeed) {
     }
 }
 
+TEST(DustLedger, NoDustSlipsFasterThanAParticleCanAndNeitherDoesAParticle) {
+  // A steady Taylor–Green vortex u = U (sin kx cos ky, −cos kx sin ky, 0) on a periodic box,
+  // gravity along z. Expectation, from the particle's equation of motion: a particle under
+  // Stokes drag that starts at the gas velocity never moves faster than U + τ|g| (its velocity
+  // is an exponentially weighted mean of the gas velocities it met plus what gravity added), so
+  // its slip from the gas at x is at most |u(x)| + U + τ|g|; a brute-force RK4 integration of
+  // such particles shows the first. The ledger holds each slip to that bound (U the fastest cell
+  // velocity), direction kept, though at τ U k = 10 the equilibrium slip τ |Du/Dt| reaches 7 U;
+  // a class at τ U k = 0.01 (slip ≤ τ U² k / √2 = 0.0071 U) is left as it is.
+  const int n = 32;
+  const double L = 0.1, h = L / n, U = 10.0, wave = 2.0 * M_PI / L;
+  const Vec3 gravity{0, 0, -9.81};
+  const GasConfig config = still_config({n, n, 2});
+  GasSolver gas(config, build_gas_grid(config, {0, 0, 0}, {L, L, 2 * h}, {true, true, true}), {});
+  const GasGrid& grid = gas.grid();
+  for (int k = 0; k <= 3; ++k)
+    for (int j = 0; j <= n + 1; ++j)
+      for (int i = 0; i <= n + 1; ++i) {  // face i of x at x = i h, of y at y = j h
+        const double x = i * h, y = j * h, xc = (i - 0.5) * h, yc = (j - 0.5) * h;
+        gas.velocity()[0][grid.index(i, j, k)] = U * std::sin(wave * x) * std::cos(wave * yc);
+        gas.velocity()[1][grid.index(i, j, k)] = -U * std::cos(wave * xc) * std::sin(wave * y);
+      }
+  const double light = 0.01 / (U * wave), heavy = 10.0 / (U * wave);
+  DustLedger dust(grid, {{1e-6, light}, {50e-6, heavy}}, gravity);
+  dust.advance(gas, 1e-6);
+  const GasView view(gas);
+  double fastest_gas = 0.0;
+  for (int j = 1; j <= n; ++j)
+    for (int i = 1; i <= n; ++i)
+      fastest_gas = std::max(fastest_gas, norm(view.cell_velocity_m_per_s(grid.index(i, j, 1))));
+  ASSERT_NEAR(dust.max_gas_speed_m_per_s(), fastest_gas, 1e-12 * U);
+  int at_bound = 0;
+  for (int j = 1; j <= n; ++j)
+    for (int i = 1; i <= n; ++i) {
+      const std::size_t c = grid.index(i, j, 1);
+      const double bound =
+          norm(view.cell_velocity_m_per_s(c)) + fastest_gas + heavy * norm(gravity);
+      const double slip = norm(dust.slip_m_per_s(c, heavy));
+      EXPECT_LE(slip, bound * (1.0 + 1e-12)) << i << ", " << j;
+      at_bound += slip > bound * (1.0 - 1e-12) ? 1 : 0;
+      EXPECT_LE(norm(dust.slip_m_per_s(c, light)), 0.0075 * U) << i << ", " << j;
+    }
+  // Cells of both z layers count, once each for the one advance.
+  EXPECT_EQ(dust.stats().speed_bounded_cells[0], 0u);
+  EXPECT_EQ(dust.stats().speed_bounded_cells[1], std::uint64_t(2 * at_bound));
+  EXPECT_GT(at_bound, 0) << "the bound acts in this field (in 96 of the 1024 cells)";
+  EXPECT_LE(dust.stats().max_slip_m_per_s[1], 2.0 * fastest_gas + heavy * norm(gravity));
+  std::printf("the bound shortened the heavy class's slip in %d of %d cells\n", at_bound, n * n);
+
+  // The particles: RK4 over 20 τ from a ring of starts, each at its gas velocity.
+  const auto gas_at = [&](const Vec3& x) {
+    return Vec3{U * std::sin(wave * x.x) * std::cos(wave * x.y),
+                -U * std::cos(wave * x.x) * std::sin(wave * x.y), 0.0};
+  };
+  double fastest_particle = 0.0;
+  for (int start = 0; start < 64; ++start) {
+    Vec3 x{L * (0.13 + 0.011 * start), L * (0.07 + 0.013 * start), 0.0}, v = gas_at(x);
+    const double dt = heavy / 200.0;
+    const auto accel = [&](const Vec3& at, const Vec3& vel) {
+      return (gas_at(at) - vel) * (1.0 / heavy) + gravity;
+    };
+    for (int step = 0; step < 4000; ++step) {
+      const Vec3 a1 = accel(x, v), x2 = x + v * (0.5 * dt), v2 = v + a1 * (0.5 * dt);
+      const Vec3 a2 = accel(x2, v2), x3 = x + v2 * (0.5 * dt), v3 = v + a2 * (0.5 * dt);
+      const Vec3 a3 = accel(x3, v3), x4 = x + v3 * dt, v4 = v + a3 * dt;
+      const Vec3 a4 = accel(x4, v4);
+      x += (v + v2 * 2.0 + v3 * 2.0 + v4) * (dt / 6.0);
+      v += (a1 + a2 * 2.0 + a3 * 2.0 + a4) * (dt / 6.0);
+      fastest_particle = std::max(fastest_particle, norm(v));
+    }
+  }
+  std::printf("fastest particle %.4f of U + τ|g| = %.4f\n", fastest_particle,
+              U + heavy * norm(gravity));
+  EXPECT_LE(fastest_particle, U + heavy * norm(gravity));
+}
+
 TEST(DustLedger, TheSlipSolvesItsLinearSystemInAThreeDimensionalLinearFlow) {
   // u = u₀ + G x on 8³ cells of 1 mm: each face holds its component at its centre, so the cell
   // velocities (the mean of two faces) and their central differences are exact for the linear
@@ -239,6 +319,8 @@ TEST(DustLedger, TheSlipSolvesItsLinearSystemInAThreeDimensionalLinearFlow) {
   EXPECT_GT(solved, 0);
   EXPECT_GT(bounded, 0);
   EXPECT_GT(fallbacks, 0);
+  // Slips of at most τ |a| ≈ 100 m/s against gas of 30 m/s: the bound by the gas speeds
+  // (|u| + U_max + τ|g|) never acts on the cells checked here.
 }
 
 TEST(DustLedger, ABoxDrainsAtTheOutletsFaceFlux) {

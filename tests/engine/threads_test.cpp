@@ -311,6 +311,7 @@ TEST(Threads, GridSearchGivesTheOneThreadListInItsOrder) {
 struct DustState {
   std::vector<std::vector<double>> mass;  // per class, per padded cell
   std::vector<double> outflow_kg, ground_kg, max_slip;
+  std::vector<std::uint64_t> speed_bounded_cells;
   std::uint64_t substeps = 0;
 };
 
@@ -362,6 +363,7 @@ DustState carry_and_grind_dust() {
   }
   state.ground_kg = grinding.stats().ground_kg;
   state.max_slip = ledger.stats().max_slip_m_per_s;
+  state.speed_bounded_cells = ledger.stats().speed_bounded_cells;
   state.substeps = ledger.stats().substeps;
   return state;
 }
@@ -396,6 +398,7 @@ TEST(Threads, DustLedgerAndItsGrindingAreBitIdenticalOnOneTwoAndThreeThreads) {
     EXPECT_TRUE(same_bits(threaded.outflow_kg, serial.outflow_kg));
     EXPECT_TRUE(same_bits(threaded.ground_kg, serial.ground_kg));
     EXPECT_TRUE(same_bits(threaded.max_slip, serial.max_slip));
+    EXPECT_EQ(threaded.speed_bounded_cells, serial.speed_bounded_cells);
     EXPECT_EQ(threaded.substeps, serial.substeps);
   }
 }

@@ -189,5 +189,31 @@ TEST(DustyGas, AForceOnTheGasAcceleratesGasAndDustTogether) {
               1e-6 * 0.5 * c * volume * speed * speed);
 }
 
+TEST(DustyGas, ABadStateNamesTheDustTheGasWasCarrying) {
+  // A cell set to negative pressure in a duct whose gas carries 3 kg/m³ of dust, 40 kg/m³ in one
+  // cell: the health check names the cell, and the dust there and the most in any cell, so that a
+  // run stopped by dust piled past a dilute phase says so.
+  const GasConfig config = dusty_config({8, 1, 1});
+  CompressibleSolver solver(
+      config, build_gas_grid(config, {0, 0, 0}, {0.08, 0.01, 0.01}, {true, true, true}), {});
+  const GasGrid& g = solver.grid();
+  ASSERT_FALSE(solver.check_state().has_value());
+  lay_dust(solver, 3.0);
+  solver.dust_density()[g.index(6, 1, 1)] = 40.0;
+  const double rho = solver.density_kg_per_m3(g.index(3, 1, 1));
+  solver.set_state(g.index(3, 1, 1), rho, {}, -5.0);
+  const std::optional<std::string> message = solver.check_state();
+  ASSERT_TRUE(message.has_value());
+  EXPECT_NE(message->find("the pressure became -5 Pa in gas cell (3, 1, 1)"), std::string::npos)
+      << *message;
+  EXPECT_NE(message->find("3 kg/m3 of dust in this cell, at most 40 kg/m3 in any"),
+            std::string::npos)
+      << *message;
+  // Without dust the message stays the gas's own.
+  solver.dust_density().clear();
+  ASSERT_TRUE(solver.check_state().has_value());
+  EXPECT_EQ(solver.check_state()->find("dust"), std::string::npos) << *solver.check_state();
+}
+
 }  // namespace
 }  // namespace millsim

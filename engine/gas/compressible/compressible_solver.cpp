@@ -624,6 +624,15 @@ std::optional<std::string> CompressibleSolver::check_state() const {
             << x.z << ") m, t = " << time_s_
             << " s: the step is too large for this flow (gas.courant) or an inflow is too strong "
                "for the grid";
+    if (dusty()) {
+      // Dust piled past what a dilute phase is (its mass per volume a sizeable share of the
+      // solid's density) is a cause too: say how much the gas was carrying.
+      double most = 0.0;
+      for (std::size_t cell = 0; cell < n; ++cell)
+        if (role_[cell] == kFluid) most = std::max(most, dust_density_[cell]);
+      message << ", or the dust it carries (dust.gas_coupling) piled up: " << dust_density_[c]
+              << " kg/m3 of dust in this cell, at most " << most << " kg/m3 in any";
+    }
     return message.str();
   }
   return std::nullopt;

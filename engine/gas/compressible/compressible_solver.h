@@ -131,6 +131,10 @@ class CompressibleSolver {
     if constexpr (A::kLoading) update_pressure_gradient();
   }
 
+  // The first fluid cell (in cell order) whose density or pressure is not positive and finite,
+  // as the message that stops the run; advance() asks it after each step.
+  std::optional<std::string> check_state() const;
+
  private:
   // Conserved variables: density, momentum (3), total energy per volume.
   static constexpr int kVariables = 5;
@@ -146,7 +150,6 @@ class CompressibleSolver {
   void compute_velocity_gradients();
   // The stage's residual; with dust, returns the sums add_dust_reaction gives (else zeros).
   std::pair<Vec3, double> compute_residual(double stage_weight);
-  std::optional<std::string> check_state() const;
   void add_jet_sources(double stage_weight);
   // The dust's reaction on the gas (above), added to the stage's residual; returns its sums over
   // the fluid cells, in cell order: force (N/m³ summed) and power (W/m³ summed).
