@@ -325,7 +325,7 @@ std::pair<Vec3, double> CompressibleSolver::compute_residual(double stage_weight
   compute_primitives();
   fill_ghosts();
   const bool viscous = viscosity_pa_s_ > 0.0;
-  if (viscous || dusty()) compute_velocity_gradients();
+  if (viscous) compute_velocity_gradients();
   for (auto& r : residual_) std::fill(r.begin(), r.end(), 0.0);
   const double conductivity = viscosity_pa_s_ * gas_.heat_capacity_p_j_per_kg_k() / gas_.prandtl;
 
@@ -484,13 +484,22 @@ std::pair<Vec3, double> CompressibleSolver::add_dust_reaction() {
     if (role_[c] != kFluid || !(load > 0.0)) return;
     const double rho = primitive_[0][c];
     const Vec3 u{primitive_[1][c], primitive_[2][c], primitive_[3][c]};
+    // (u·∇)u by donor-cell differences, from the upwind neighbour along each axis. The gas
+    // keeps ρ/(ρ + c) of its residual's convection and takes c/(ρ + c) of this one, so at a high
+    // loading this is the convection it is left with: central differences there (no
+    // dissipation, which Heun's method amplifies) let a ring of dust at c/ρ = 100 in a vortex
+    // blow the gas up within 2 200 steps.
+    Vec3 convective;
+    for (int d = 0; d < 3; ++d) {
+      const std::size_t s = grid_.stride[std::size_t(d)];
+      const bool from_below = u[d] > 0.0;
+      const Vec3 upwind = neighbour_velocity(c, from_below ? c - s : c + s, d);
+      convective += (from_below ? u - upwind : upwind - u) * (u[d] / grid_.h_m[d]);
+    }
     Vec3 force;
     for (std::size_t b = 0; b < 3; ++b) {
-      double convective = 0.0;
-      for (std::size_t d = 0; d < 3; ++d)
-        convective += u[int(d)] * velocity_gradient_[3 * b + d][c];
-      const double own = residual_[1 + b][c] - u[int(b)] * residual_[0][c] + rho * convective -
-                         rho * gravity_m_per_s2_[int(b)];
+      const double own = residual_[1 + b][c] - u[int(b)] * residual_[0][c] +
+                         rho * convective[int(b)] - rho * gravity_m_per_s2_[int(b)];
       force[int(b)] = -load * own / (rho + load);
     }
     dust_force_[c] = force;
