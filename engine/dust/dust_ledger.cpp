@@ -177,6 +177,7 @@ void DustLedger::update_acceleration(const GasView& gas, double now_s) {
     Vec3 du_dt = convective;
     if (unsteady) du_dt += (u - previous_velocity_[c]) * (1.0 / dt);
     slip_terms_[slot] = slip_terms(gravity_m_per_s2_ - du_dt, gradient);
+    slip_terms_[slot].slip_bound = norm(u) + max_gas_speed_m_per_s_;
   }
   previous_velocity_ = velocity_;
   previous_time_s_ = now_s;
@@ -223,18 +224,13 @@ Vec3 DustLedger::slip_of(const SlipTerms& t, double tau) {
   return w;
 }
 
-Vec3 DustLedger::slip_bounded(const Vec3& w, double bound, bool& bounded) {
-  const double w2 = norm2(w);
+Vec3 DustLedger::bounded_slip(std::size_t slot, double tau, bool& bounded) const {
+  const SlipTerms& terms = slip_terms_[slot];
+  const Vec3 w = slip_of(terms, tau);
+  const double bound = terms.slip_bound + tau * norm(gravity_m_per_s2_), w2 = norm2(w);
   if (!(w2 > bound * bound)) return w;
   bounded = true;
   return w * (bound / std::sqrt(w2));
-}
-
-Vec3 DustLedger::bounded_slip(std::size_t slot, double tau, bool& bounded) const {
-  const Vec3 w = slip_of(slip_terms_[slot], tau);
-  const double bound =
-      norm(velocity_[fluid_cells_[slot]]) + max_gas_speed_m_per_s_ + tau * norm(gravity_m_per_s2_);
-  return slip_bounded(w, bound, bounded);
 }
 
 Vec3 DustLedger::slip_m_per_s(std::size_t c, double tau) const {

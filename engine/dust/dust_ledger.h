@@ -140,12 +140,12 @@ class DustLedger {
   struct SlipTerms {
     Vec3 a, ga, gga;                                          // a, G a, G² a
     double trace = 0.0, minors = 0.0, det = 0.0, norm = 0.0;  // of G (norm: Frobenius)
+    double slip_bound = 0.0;  // |u| + U_max: the slip's bound less τ|g|
   };
   static SlipTerms slip_terms(const Vec3& acceleration, const std::array<Vec3, 3>& gradient);
   static Vec3 slip_of(const SlipTerms& terms, double tau);
-  // w shortened to `bound` when it is longer (its direction kept); sets `bounded` when it was.
-  static Vec3 slip_bounded(const Vec3& w, double bound, bool& bounded);
-  // Cell slot's slip for τ, bounded: what carry_class and slip_m_per_s use.
+  // Cell slot's slip for τ, shortened to |u| + U_max + τ|g| when it is longer (its direction
+  // kept; `bounded` set): what carry_class and slip_m_per_s use.
   Vec3 bounded_slip(std::size_t slot, double tau, bool& bounded) const;
   void update_acceleration(const GasView& gas, double now_s);
   // A face as the flux passes read it: its cells and those beyond (padded_size: none).
