@@ -6,6 +6,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "core/lanes.h"
 #include "gas/drag.h"
 #include "parallel/thread_team.h"
 
@@ -41,7 +42,7 @@ int dust_class_of(const std::vector<double>& edges, int class_count, double d) {
 }
 
 DustLedger::DustLedger(const GasGrid& grid, std::vector<DustClass> classes,
-                       const Vec3& gravity_m_per_s2)
+                       const Vec3& gravity_m_per_s2, DustFaceLayout layout)
     : grid_(&grid), classes_(std::move(classes)), gravity_m_per_s2_(gravity_m_per_s2) {
   mass_.assign(classes_.size(), std::vector<double>(grid.padded_size, 0.0));
   outflow_kg_.assign(classes_.size(), 0.0);
@@ -49,23 +50,41 @@ DustLedger::DustLedger(const GasGrid& grid, std::vector<DustClass> classes,
   previous_velocity_ = velocity_;
   stats_.max_slip_m_per_s.assign(classes_.size(), 0.0);
   stats_.speed_bounded_cells.assign(classes_.size(), 0);
-  build_faces();
+  build_faces(layout);
 }
 
 // Every face the dust may cross: between two fluid cells (across a periodic boundary too), or an
 // outflow face with fluid on one side. Walls, inlets and solids are left out: they pass nothing.
-void DustLedger::build_faces() {
+// The interior faces of an axis without periodic wrap become its rows (RowAxis); the others are
+// listed.
+void DustLedger::build_faces(DustFaceLayout layout) {
   const GasGrid& g = *grid_;
   // A fluid cell's neighbours lie inside the padded grid; padded_size marks one not fluid.
   const auto fluid_or_none = [&](std::size_t c) { return g.fluid[c] ? c : g.padded_size; };
   for (int a = 0; a < 3; ++a) {
     const std::size_t au = std::size_t(a), s = g.stride[au];
+    RowAxis& row = rows_[au];
+    row.on = layout == DustFaceLayout::Rows && !g.periodic[au] && g.padded_size > 3 * s;
+    if (row.on) {
+      // An interior face's cells lie inside the ghost layers, so c − s and c + 2s exist.
+      row.stride = s;
+      row.begin = s;
+      row.end = g.padded_size - 2 * s;
+      row.interior.assign(g.padded_size, 0);
+      row.slope_plus.assign(g.padded_size, 0);
+      row.slope_minus.assign(g.padded_size, 0);
+      row.gas_speed.assign(g.padded_size, 0.0);
+    }
     for (std::size_t f = 0; f + s < g.padded_size; ++f) {
       const FaceKind kind = g.face[au][f];
       if (kind == FaceKind::None || kind == FaceKind::Periodic || kind == FaceKind::Solid) continue;
       const std::size_t low = g.wrap_cell(f, a), high = g.wrap_cell(f + s, a);
       const bool fluid_low = g.fluid[low] != 0, fluid_high = g.fluid[high] != 0;
-      if (fluid_low && fluid_high) {
+      if (fluid_low && fluid_high && row.on) {
+        row.interior[f] = 1;
+        row.slope_plus[f] = g.fluid[f - s];
+        row.slope_minus[f] = g.fluid[f + 2 * s];
+      } else if (fluid_low && fluid_high) {
         // The cells beyond each side, for the limited slope (none beyond a wall or an outlet).
         faces_.push_back({f, low, high, fluid_or_none(g.wrap_cell(low - s, a)),
                           fluid_or_none(g.wrap_cell(high + s, a)), a, false, false});
@@ -85,6 +104,12 @@ void DustLedger::build_faces() {
     pass_faces_.push_back({std::uint32_t(face.low), std::uint32_t(face.high),
                            std::uint32_t(face.below), std::uint32_t(face.above)});
     if (!face.outflow_low && !face.outflow_high) ++interior_faces_;
+  }
+  // Each axis's listed interior faces, one run (they were found axis by axis).
+  for (std::size_t f = 0; f < interior_faces_; ++f) {
+    const std::size_t a = std::size_t(faces_[f].axis);
+    if (listed_end_[a] == 0) listed_begin_[a] = f;
+    listed_end_[a] = f + 1;
   }
   fluid_slot_.assign(g.padded_size, kNoSlot);
   for (std::size_t c = 0; c < g.padded_size; ++c)
@@ -247,6 +272,12 @@ void DustLedger::advance(const GasView& gas, double dt_s) {
     const Face& face = faces_[f];
     gas_face_speed_[f] = gas.face_velocity_m_per_s(face.axis, face.face, face.low, face.high);
   }
+  for (int a = 0; a < 3; ++a) {
+    RowAxis& row = rows_[std::size_t(a)];
+    if (!row.on) continue;
+    for (std::size_t c = row.begin; c < row.end; ++c)
+      if (row.interior[c]) row.gas_speed[c] = gas.face_velocity_m_per_s(a, c, c, c + row.stride);
+  }
   // The classes are carried independently, each by one thread into its own mass, outflow and
   // counters, so the result is the same on any thread count.
   class_substeps_.assign(classes_.size(), 0);
@@ -260,10 +291,15 @@ void DustLedger::advance(const GasView& gas, double dt_s) {
 
 // Class k over dt_s: its slip per cell, its speed through each face, the sub-steps its fastest
 // cell needs, and Heun's method over them. `scratch` holds nothing between calls.
+//
+// Every sum over a cell's faces runs in the order of the faces' list before the rows existed:
+// axis by axis, within an axis by face (the face below a cell before the face above it), the
+// outflow faces last. A row face that is not interior adds 0, which changes no sum, so the
+// result is the same to the bit.
 void DustLedger::carry_class(std::size_t k, double dt_s, ClassScratch& scratch) {
   const GasGrid& g = *grid_;
   const double tau = classes_[k].relaxation_time_s;
-  scratch.slip.resize(g.padded_size);
+  for (std::vector<double>& component : scratch.slip) component.resize(g.padded_size);
   scratch.face_rate.resize(faces_.size());
   // Per cell: Σ outgoing speed / h, for the step bound.
   scratch.outgoing_rate.assign(g.padded_size, 0.0);
@@ -272,7 +308,8 @@ void DustLedger::carry_class(std::size_t k, double dt_s, ClassScratch& scratch) 
   for (std::size_t slot = 0; slot < fluid_cells_.size(); ++slot) {
     bool bounded = false;
     const Vec3 w = tau > 0.0 ? bounded_slip(slot, tau, bounded) : Vec3{};
-    scratch.slip[fluid_cells_[slot]] = w;
+    const std::size_t c = fluid_cells_[slot];
+    for (int a = 0; a < 3; ++a) scratch.slip[std::size_t(a)][c] = w[a];
     max_slip2 = std::max(max_slip2, norm2(w));
     bounded_cells += bounded ? 1 : 0;
   }
@@ -280,28 +317,71 @@ void DustLedger::carry_class(std::size_t k, double dt_s, ClassScratch& scratch) 
   double& max_slip = stats_.max_slip_m_per_s[k];
   max_slip = std::max(max_slip, std::sqrt(max_slip2));
   const double inverse_h[3] = {1.0 / g.h_m[0], 1.0 / g.h_m[1], 1.0 / g.h_m[2]};
-  for (std::size_t f = 0; f < interior_faces_; ++f) {  // fluid on both sides
-    const Face& face = faces_[f];
-    const int a = face.axis;
-    const double speed =
-        gas_face_speed_[f] + 0.5 * (scratch.slip[face.low][a] + scratch.slip[face.high][a]);
-    const double rate = speed * inverse_h[a];  // 1/s, signed as the speed
-    scratch.face_rate[f] = rate;
-    scratch.outgoing_rate[speed > 0.0 ? face.low : face.high] += std::abs(rate);
+  double* outgoing = scratch.outgoing_rate.data();
+  for (int a = 0; a < 3; ++a) {
+    const std::size_t au = std::size_t(a);
+    const RowAxis& row = rows_[au];
+    if (row.on) {
+      // Outside its faces a row's rate and transfer are 0 (the scratch may have served another
+      // grid before).
+      std::vector<double>& rate = scratch.row_rate[au];
+      for (std::vector<double>* v : {&rate, &scratch.row_transfer[au]}) {
+        v->resize(g.padded_size);
+        std::fill(v->begin(), v->begin() + std::ptrdiff_t(row.begin), 0.0);
+        std::fill(v->begin() + std::ptrdiff_t(row.end), v->end(), 0.0);
+      }
+      const std::size_t s = row.stride;
+      const std::uint8_t* interior = row.interior.data();
+      const double* gas_speed = row.gas_speed.data();
+      const double* slip = scratch.slip[au].data();
+      double* r = rate.data();
+      const Lanes half = splat_lanes(0.5), per_h = splat_lanes(inverse_h[a]), zero{};
+      std::size_t c = row.begin;
+      for (; c + kLanes <= row.end; c += kLanes) {
+        const Lanes speed =
+            load_lanes(gas_speed + c) + half * (load_lanes(slip + c) + load_lanes(slip + c + s));
+        store_lanes(r + c, select_lanes(load_flag_lanes(interior + c), speed * per_h, zero));
+      }
+      for (; c < row.end; ++c) {
+        const double speed = gas_speed[c] + 0.5 * (slip[c] + slip[c + s]);
+        r[c] = interior[c] ? speed * inverse_h[a] : 0.0;  // 1/s, signed as the speed
+      }
+      // A cell's outgoing rate: through the face below it (flow along −), then the one above.
+      c = s;
+      for (; c + kLanes + s <= g.padded_size; c += kLanes) {
+        const Lanes below = load_lanes(r + c - s), above = load_lanes(r + c);
+        const Lanes gained = load_lanes(outgoing + c) + select_lanes(below > zero, zero, -below);
+        store_lanes(outgoing + c, gained + select_lanes(above > zero, above, zero));
+      }
+      for (; c + s < g.padded_size; ++c) {
+        outgoing[c] += r[c - s] > 0.0 ? 0.0 : -r[c - s];
+        outgoing[c] += r[c] > 0.0 ? r[c] : 0.0;
+      }
+      continue;
+    }
+    for (std::size_t f = listed_begin_[au]; f < listed_end_[au]; ++f) {
+      const Face& face = faces_[f];
+      const double speed =
+          gas_face_speed_[f] + 0.5 * (scratch.slip[au][face.low] + scratch.slip[au][face.high]);
+      const double rate = speed * inverse_h[a];  // 1/s, signed as the speed
+      scratch.face_rate[f] = rate;
+      outgoing[speed > 0.0 ? face.low : face.high] += std::abs(rate);
+    }
   }
   for (std::size_t f = interior_faces_; f < faces_.size(); ++f) {  // outflow: fluid on one side
     const Face& face = faces_[f];
     const int a = face.axis;
-    double speed = gas_face_speed_[f] + scratch.slip[face.outflow_low ? face.low : face.high][a];
+    double speed =
+        gas_face_speed_[f] + scratch.slip[std::size_t(a)][face.outflow_low ? face.low : face.high];
     // An outflow face carries dust out only.
     if (face.outflow_low && speed < 0.0) speed = 0.0;
     if (face.outflow_high && speed > 0.0) speed = 0.0;
     const double rate = speed * inverse_h[a];
     scratch.face_rate[f] = rate;
-    scratch.outgoing_rate[speed > 0.0 ? face.low : face.high] += std::abs(rate);
+    outgoing[speed > 0.0 ? face.low : face.high] += std::abs(rate);
   }
   double fastest = 0.0;  // 1/s: the largest share of a cell's mass leaving per second
-  for (const std::size_t c : fluid_cells_) fastest = std::max(fastest, scratch.outgoing_rate[c]);
+  for (const std::size_t c : fluid_cells_) fastest = std::max(fastest, outgoing[c]);
   const int substeps = std::max(1, int(std::ceil(dt_s * fastest / 0.5 - 1e-12)));
   const double h = dt_s / substeps;
   class_substeps_[k] = std::uint64_t(substeps);
@@ -310,31 +390,91 @@ void DustLedger::carry_class(std::size_t k, double dt_s, ClassScratch& scratch) 
   std::vector<double>& m = mass_[k];
   for (int step = 0; step < substeps; ++step) {
     scratch.start = m;
-    const double out_first = flux_pass(scratch.face_rate, scratch.transfer, scratch.start, m, h);
+    const double out_first = flux_pass(scratch, scratch.start, m, h);
     scratch.stage = m;
-    const double out_second = flux_pass(scratch.face_rate, scratch.transfer, scratch.stage, m, h);
-    for (const std::size_t c : fluid_cells_) m[c] = 0.5 * (scratch.start[c] + m[c]);
+    const double out_second = flux_pass(scratch, scratch.stage, m, h);
+    mean_into(scratch.start, m);
     outflow_kg_[k] += 0.5 * (out_first + out_second);
   }
 }
 
-// One forward-Euler pass over dt_s: each face carries the mass of its upwind cell, reconstructed
-// to the face with van Leer's limited slope (first order at outlets and where the cell beyond is
-// not fluid), from `from` into `to`. Van Leer's φ(r) = (r + |r|)/(1 + |r|), r the ratio of the
-// upwind to the downwind difference, adds ½ φ(r) × (downwind difference) to the upwind value: in
-// its harmonic-mean form, u d / (u + d) where the differences u and d have one sign, else 0 (at
-// an extremum). The face value lies in [0, 2 m_upwind], so with the outgoing Courant sum ≤ 0.5
-// no cell gives more than it holds. Returns the mass that left.
+// m = ½ (start + m) in every padded cell: a cell without fluid holds the same in both (no face
+// moves its mass), and ½ (x + x) is x exactly.
+void DustLedger::mean_into(const std::vector<double>& start, std::vector<double>& m) {
+  const Lanes half = splat_lanes(0.5);
+  std::size_t c = 0;
+  for (; c + kLanes <= m.size(); c += kLanes)
+    store_lanes(m.data() + c, half * (load_lanes(start.data() + c) + load_lanes(m.data() + c)));
+  for (; c < m.size(); ++c) m[c] = 0.5 * (start[c] + m[c]);
+}
+
+// Each face carries the mass of its upwind cell, reconstructed to the face with van Leer's
+// limited slope (first order at outlets and where the cell beyond is not fluid). Van Leer's
+// φ(r) = (r + |r|)/(1 + |r|), r the ratio of the upwind to the downwind difference, adds
+// ½ φ(r) × (downwind difference) to the upwind value: in its harmonic-mean form, u d / (u + d)
+// where the differences u and d have one sign, else 0 (at an extremum). The face value lies in
+// [0, 2 m_upwind], so with the outgoing Courant sum ≤ 0.5 no cell gives more than it holds.
 //
-// The faces' transfers are found first, each from `from` alone, and applied after: applied as
-// they are found, each face's update of a cell would wait for the one before it (the same cell's
-// other face), a chain through the limiter's division.
-double DustLedger::flux_pass(const std::vector<double>& face_rate, std::vector<double>& transfer,
-                             const std::vector<double>& from, std::vector<double>& to,
-                             double dt_s) const {
+// A row's transfers, from `from` alone, without a branch on the flow's direction: a face's
+// upwind, downwind and beyond cells are chosen by the sign of its rate.
+void DustLedger::row_transfers(const RowAxis& row, const std::vector<double>& rate,
+                               std::vector<double>& transfer, const std::vector<double>& from,
+                               double dt_s) const {
+  const std::size_t s = row.stride;
+  const double* m = from.data();
+  const double* r = rate.data();
+  const std::uint8_t* slope_plus = row.slope_plus.data();
+  const std::uint8_t* slope_minus = row.slope_minus.data();
+  double* t = transfer.data();
+  std::size_t c = row.begin;
+  const Lanes zero{}, step = splat_lanes(dt_s);
+  for (; c + kLanes <= row.end; c += kLanes) {
+    const Lanes face_rate = load_lanes(r + c);
+    const LaneMask forward = face_rate > zero;
+    const Lanes low = load_lanes(m + c), high = load_lanes(m + c + s);
+    const Lanes up = select_lanes(forward, low, high), down = select_lanes(forward, high, low);
+    const Lanes beyond = select_lanes(forward, load_lanes(m + c - s), load_lanes(m + c + 2 * s));
+    const LaneMask sloped =
+        select_masks(forward, load_flag_lanes(slope_plus + c), load_flag_lanes(slope_minus + c));
+    const Lanes upwind_difference = up - beyond, downwind_difference = down - up;
+    const Lanes product = upwind_difference * downwind_difference;
+    const Lanes value = select_lanes(sloped & (product > zero),
+                                     up + product / (upwind_difference + downwind_difference), up);
+    store_lanes(t + c, value * (face_rate * step));  // kg from c to c + s
+  }
+  for (; c < row.end; ++c) {  // the same operations, one face at a time
+    const bool forward = r[c] > 0.0;
+    const double up = forward ? m[c] : m[c + s], down = forward ? m[c + s] : m[c];
+    const double beyond = forward ? m[c - s] : m[c + 2 * s];
+    const bool sloped = (forward ? slope_plus[c] : slope_minus[c]) != 0;
+    const double upwind_difference = up - beyond, downwind_difference = down - up;
+    const double product = upwind_difference * downwind_difference;
+    const double value =
+        sloped && product > 0.0 ? up + product / (upwind_difference + downwind_difference) : up;
+    t[c] = value * (r[c] * dt_s);
+  }
+}
+
+// What a row's transfers do to `to`: each cell gains what came through the face below it and
+// loses what left through the face above (the order of the faces' list).
+void DustLedger::apply_row(const RowAxis& row, const std::vector<double>& transfer,
+                           std::vector<double>& to) const {
+  const std::size_t s = row.stride, end = to.size() - s;
+  const double* t = transfer.data();  // 0 outside [begin, end)
+  double* m = to.data();
+  std::size_t c = s;
+  for (; c + kLanes <= end; c += kLanes)
+    store_lanes(m + c, load_lanes(m + c) + load_lanes(t + c - s) - load_lanes(t + c));
+  for (; c < end; ++c) m[c] = m[c] + t[c - s] - t[c];
+}
+
+// The listed faces' transfers (a periodic axis), each from `from` alone.
+void DustLedger::listed_transfers(std::size_t begin, std::size_t end,
+                                  const std::vector<double>& face_rate,
+                                  std::vector<double>& transfer, const std::vector<double>& from,
+                                  double dt_s) const {
   const std::uint32_t none = std::uint32_t(grid_->padded_size);
-  transfer.resize(pass_faces_.size());
-  for (std::size_t f = 0; f < interior_faces_; ++f) {
+  for (std::size_t f = begin; f < end; ++f) {
     const double rate = face_rate[f];  // signed: > 0 from low to high
     const PassFace& face = pass_faces_[f];
     const bool forward = rate > 0.0;
@@ -351,16 +491,36 @@ double DustLedger::flux_pass(const std::vector<double>& face_rate, std::vector<d
     }
     transfer[f] = value * (rate * dt_s);  // kg from low to high
   }
-  for (std::size_t f = 0; f < interior_faces_; ++f) {
-    const PassFace& face = pass_faces_[f];
-    to[face.low] -= transfer[f];
-    to[face.high] += transfer[f];
+}
+
+// One forward-Euler pass over dt_s, axis by axis: the faces' transfers are found first, each
+// from `from` alone, and then applied to `to` (applied as they are found, each face's update of
+// a cell would wait for the one before it, a chain through the limiter's division). A row adds
+// to each cell what came through the face below it, then takes what left through the face
+// above: the order of the faces' list. Returns the mass that left through outflow faces.
+double DustLedger::flux_pass(ClassScratch& scratch, const std::vector<double>& from,
+                             std::vector<double>& to, double dt_s) const {
+  scratch.transfer.resize(pass_faces_.size());
+  for (std::size_t a = 0; a < 3; ++a) {
+    const RowAxis& row = rows_[a];
+    if (row.on) {
+      row_transfers(row, scratch.row_rate[a], scratch.row_transfer[a], from, dt_s);
+      apply_row(row, scratch.row_transfer[a], to);
+      continue;
+    }
+    listed_transfers(listed_begin_[a], listed_end_[a], scratch.face_rate, scratch.transfer, from,
+                     dt_s);
+    for (std::size_t f = listed_begin_[a]; f < listed_end_[a]; ++f) {
+      const PassFace& face = pass_faces_[f];
+      to[face.low] -= scratch.transfer[f];
+      to[face.high] += scratch.transfer[f];
+    }
   }
   // Outflow faces, first order: out of the fluid side only (their rate points out or is 0).
   double left = 0.0;
   for (std::size_t f = interior_faces_; f < pass_faces_.size(); ++f) {
     const PassFace& face = pass_faces_[f];
-    const double rate = face_rate[f];
+    const double rate = scratch.face_rate[f];
     const std::uint32_t up = rate > 0.0 ? face.low : face.high;
     const double moved = from[up] * (std::abs(rate) * dt_s);
     to[up] -= moved;

@@ -72,9 +72,15 @@ struct DustLedgerStats {
   }
 };
 
+// How the flux passes walk the faces: an axis without periodic wrap as rows of the padded grid
+// (the passes' own layout), or every face from a list (what the rows replaced: kept as the
+// reference they are tested against, bit for bit).
+enum class DustFaceLayout { Rows, Listed };
+
 class DustLedger {
  public:
-  DustLedger(const GasGrid& grid, std::vector<DustClass> classes, const Vec3& gravity_m_per_s2);
+  DustLedger(const GasGrid& grid, std::vector<DustClass> classes, const Vec3& gravity_m_per_s2,
+             DustFaceLayout layout = DustFaceLayout::Rows);
 
   int class_count() const { return int(classes_.size()); }
   const std::vector<DustClass>& classes() const { return classes_; }
@@ -132,7 +138,7 @@ class DustLedger {
     int axis;
     bool outflow_low, outflow_high;  // an outflow face with only that side fluid
   };
-  void build_faces();
+  void build_faces(DustFaceLayout layout);
   std::size_t containing_cell(const Vec3& x) const;  // the interior cell x lies in (clamped)
   std::size_t nearest_fluid_cell(const Vec3& x) const;
   // Per fluid cell, the gas's acceleration term a = g − Du/Dt and its velocity gradient G = ∇u
@@ -152,26 +158,56 @@ class DustLedger {
   struct PassFace {
     std::uint32_t low, high, below, above;
   };
+  // The faces normal to an axis without periodic wrap, as rows of the padded grid: face c joins
+  // cells c and c + stride, and the limited slope reads c − stride or c + 2 stride, so the passes
+  // run over contiguous arrays with no index per face and no branch on the flow's direction. A
+  // row face that is not interior carries nothing (its rate is 0). Periodic axes keep their faces
+  // listed (a face across the wrap joins cells that are not a stride apart).
+  struct RowAxis {
+    bool on = false;
+    std::size_t stride = 0, begin = 0, end = 0;  // its faces c lie in [begin, end)
+    std::vector<std::uint8_t> interior;          // per padded cell c: face c joins two fluid cells
+    // Per padded cell c: the cell beyond face c's upwind side is fluid, for flow along + (c −
+    // stride) and along − (c + 2 stride): where it is not, the face takes its upwind cell's mass.
+    std::vector<std::uint8_t> slope_plus, slope_minus;
+    std::vector<double>
+        gas_speed;  // per padded cell c: the gas's speed through face c, this advance
+  };
   // A class's work arrays while it is carried: each thread's own, overwritten before read.
   struct ClassScratch {
-    std::vector<Vec3> slip;             // per padded cell (fluid ones written)
-    std::vector<double> face_rate;      // per face: (the gas's speed + the class's slip) / h
+    std::array<std::vector<double>, 3> slip;  // per component, per padded cell (fluid ones written)
+    std::vector<double> face_rate;      // per listed face: (the gas's speed + the class's slip) / h
     std::vector<double> outgoing_rate;  // per padded cell
     std::vector<double> start, stage;   // the mass at the step's start and after its first stage
-    std::vector<double> transfer;       // per face: the mass a pass moves from low to high
+    std::vector<double> transfer;       // per listed face: the mass a pass moves from low to high
+    std::array<std::vector<double>, 3> row_rate, row_transfer;  // per row axis, per padded cell
   };
   void carry_class(std::size_t k, double dt_s, ClassScratch& scratch);
-  double flux_pass(const std::vector<double>& face_rate, std::vector<double>& transfer,
-                   const std::vector<double>& from, std::vector<double>& to, double dt_s) const;
+  // One forward-Euler pass of the class's rates over dt_s from `from` into `to` (which holds
+  // `from` on entry); returns the mass that left through outflow faces.
+  double flux_pass(ClassScratch& scratch, const std::vector<double>& from, std::vector<double>& to,
+                   double dt_s) const;
+  void row_transfers(const RowAxis& row, const std::vector<double>& rate,
+                     std::vector<double>& transfer, const std::vector<double>& from,
+                     double dt_s) const;
+  static void mean_into(const std::vector<double>& start, std::vector<double>& m);
+  void apply_row(const RowAxis& row, const std::vector<double>& transfer,
+                 std::vector<double>& to) const;
+  void listed_transfers(std::size_t begin, std::size_t end, const std::vector<double>& face_rate,
+                        std::vector<double>& transfer, const std::vector<double>& from,
+                        double dt_s) const;
   static constexpr std::uint32_t kNoSlot = 0xffffffffu;
 
   const GasGrid* grid_;
   std::vector<DustClass> classes_;
   Vec3 gravity_m_per_s2_;
+  // The listed faces: the interior faces of periodic axes, axis by axis, then the outflow faces.
   std::vector<Face> faces_;
   std::vector<PassFace> pass_faces_;  // faces_ as the passes read them
   std::size_t interior_faces_ = 0;    // faces_ and pass_faces_: these first, then outflow faces
-  std::vector<std::vector<double>> mass_;  // per class, per padded cell
+  std::array<std::size_t, 3> listed_begin_{}, listed_end_{};  // per axis: its interior faces_
+  std::array<RowAxis, 3> rows_;                               // the axes without periodic wrap
+  std::vector<std::vector<double>> mass_;                     // per class, per padded cell
   std::vector<double> outflow_kg_;
   std::vector<Vec3> velocity_, previous_velocity_;  // per padded cell
   std::vector<SlipTerms> slip_terms_;               // per fluid cell, as of the last advance
