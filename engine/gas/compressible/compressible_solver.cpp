@@ -73,11 +73,13 @@ void euler_flux(const IdealGas& gas, const Primitive& w, int a, Flux& flux, Flux
 // (numerical viscosity ~ c h instead of ~ |u| h), which at Mach 0.01–0.1 swamps the physical
 // viscosity of a mill's vortex; with it the dissipation scales with the flow's own speed.
 // Density and pressure are left as they are, so shocks are captured as before.
-void low_mach_correction(const IdealGas& gas, Primitive& left, Primitive& right) {
+// c_left and c_right are the states' sound speeds (the correction leaves ρ and p, so they hold
+// after it too).
+void low_mach_correction(Primitive& left, Primitive& right, double c_left, double c_right) {
   double m_left = 0.0, m_right = 0.0;
   for (std::size_t b = 1; b <= 3; ++b) m_left += left[b] * left[b], m_right += right[b] * right[b];
-  m_left = std::sqrt(m_left) / gas.sound_speed_m_per_s(left[0], left[4]);
-  m_right = std::sqrt(m_right) / gas.sound_speed_m_per_s(right[0], right[4]);
+  m_left = std::sqrt(m_left) / c_left;
+  m_right = std::sqrt(m_right) / c_right;
   const double z = std::min(1.0, std::max(m_left, m_right));
   if (z >= 1.0) return;
   for (std::size_t b = 1; b <= 3; ++b) {
@@ -87,11 +89,10 @@ void low_mach_correction(const IdealGas& gas, Primitive& left, Primitive& right)
   }
 }
 
-// Kurganov–Noelle–Petrova central-upwind flux along axis a between face states left and right.
-Flux central_upwind_flux(const IdealGas& gas, const Primitive& left, const Primitive& right,
-                         int a) {
-  const double c_left = gas.sound_speed_m_per_s(left[0], left[4]);
-  const double c_right = gas.sound_speed_m_per_s(right[0], right[4]);
+// Kurganov–Noelle–Petrova central-upwind flux along axis a between face states left and right,
+// whose sound speeds are c_left and c_right.
+Flux central_upwind_flux(const IdealGas& gas, const Primitive& left, const Primitive& right, int a,
+                         double c_left, double c_right) {
   const double u_left = left[std::size_t(1 + a)], u_right = right[std::size_t(1 + a)];
   const double a_plus = std::max({u_left + c_left, u_right + c_right, 0.0});
   const double a_minus = std::min({u_left - c_left, u_right - c_right, 0.0});
@@ -103,6 +104,12 @@ Flux central_upwind_flux(const IdealGas& gas, const Primitive& left, const Primi
     flux[v] = (a_plus * f_left[v] - a_minus * f_right[v] + a_plus * a_minus * (u_r[v] - u_l[v])) *
               inverse;
   return flux;
+}
+
+Flux central_upwind_flux(const IdealGas& gas, const Primitive& left, const Primitive& right,
+                         int a) {
+  return central_upwind_flux(gas, left, right, a, gas.sound_speed_m_per_s(left[0], left[4]),
+                             gas.sound_speed_m_per_s(right[0], right[4]));
 }
 
 }  // namespace
@@ -321,32 +328,25 @@ void CompressibleSolver::compute_velocity_gradients() {
   });
 }
 
-std::pair<Vec3, double> CompressibleSolver::compute_residual(double stage_weight) {
-  compute_primitives();
-  fill_ghosts();
+// A wall neighbour stands for the wall's ghost: density and pressure mirrored, the velocity as
+// the viscous stress sees it (no slip: 2 u_wall − u, so the slope next to a wall follows the
+// boundary layer instead of being clipped to zero, which left a first-order numerical viscosity
+// of about |u| h / 4 in the wall cells); an inviscid flow's walls mirror only the normal velocity
+// (slip). The slope is a cell's own, whichever face it is read for.
+void CompressibleSolver::compute_slopes(int a) {
+  for (std::vector<double>& v : slope_) v.resize(grid_.padded_size);
   const bool viscous = viscosity_pa_s_ > 0.0;
-  if (viscous) compute_velocity_gradients();
-  for (auto& r : residual_) std::fill(r.begin(), r.end(), 0.0);
-  const double conductivity = viscosity_pa_s_ * gas_.heat_capacity_p_j_per_kg_k() / gas_.prandtl;
-
-  // The face state of fluid cell c on its side `sign` (±1) along axis a (MUSCL, van Leer). A
-  // wall neighbour stands for the wall's ghost: density and pressure mirrored, the velocity as
-  // the viscous stress sees it (no slip: 2 u_wall − u, so the slope next to a wall follows the
-  // boundary layer instead of being clipped to zero, which left a first-order numerical
-  // viscosity of about |u| h / 4 in the wall cells); an inviscid flow's walls mirror only the
-  // normal velocity (slip).
-  const auto reconstruct = [&](std::size_t c, int a, double sign) {
-    const std::size_t s = grid_.stride[std::size_t(a)];
-    std::array<std::size_t, 2> n{c - s, c + s};
+  const std::size_t s = grid_.stride[std::size_t(a)];
+  for_cells(grid_.padded_size, on_team(), [&](std::size_t c) {
+    if (role_[c] != kFluid) return;
+    const std::array<std::size_t, 2> n{c - s, c + s};
     std::array<Vec3, 2> wall_velocity{};
-    for (int k = 0; k < 2; ++k)
-      if (is_wall(role_[n[std::size_t(k)]])) {
-        wall_velocity[std::size_t(k)] =
-            viscous ? neighbour_velocity(c, n[std::size_t(k)], a)
-                    : Vec3{primitive_[1][c], primitive_[2][c], primitive_[3][c]};
-        if (!viscous) wall_velocity[std::size_t(k)][a] = -wall_velocity[std::size_t(k)][a];
+    for (std::size_t k = 0; k < 2; ++k)
+      if (is_wall(role_[n[k]])) {
+        wall_velocity[k] = viscous ? neighbour_velocity(c, n[k], a)
+                                   : Vec3{primitive_[1][c], primitive_[2][c], primitive_[3][c]};
+        if (!viscous) wall_velocity[k][a] = -wall_velocity[k][a];
       }
-    Primitive w;
     for (std::size_t v = 0; v < 5; ++v) {
       const double own = primitive_[v][c];
       double neighbour[2];
@@ -356,8 +356,24 @@ std::pair<Vec3, double> CompressibleSolver::compute_residual(double stage_weight
         else
           neighbour[k] = v >= 1 && v <= 3 ? wall_velocity[k][int(v - 1)] : own;
       }
-      w[v] = own + 0.5 * sign * van_leer(own - neighbour[0], neighbour[1] - own);
+      slope_[v][c] = van_leer(own - neighbour[0], neighbour[1] - own);
     }
+  });
+}
+
+std::pair<Vec3, double> CompressibleSolver::compute_residual(double stage_weight) {
+  compute_primitives();
+  fill_ghosts();
+  const bool viscous = viscosity_pa_s_ > 0.0;
+  if (viscous) compute_velocity_gradients();
+  for (auto& r : residual_) std::fill(r.begin(), r.end(), 0.0);
+  const double conductivity = viscosity_pa_s_ * gas_.heat_capacity_p_j_per_kg_k() / gas_.prandtl;
+
+  // The face state of fluid cell c on its side `sign` (±1) along the faces' axis, from its
+  // slope (compute_slopes).
+  const auto reconstruct = [&](std::size_t c, double sign) {
+    Primitive w;
+    for (std::size_t v = 0; v < 5; ++v) w[v] = primitive_[v][c] + 0.5 * sign * slope_[v][c];
     return w;
   };
   // The faces normal to axis a, slab by slab across the third axis: a face writes only the two
@@ -370,6 +386,7 @@ std::pair<Vec3, double> CompressibleSolver::compute_residual(double stage_weight
     const double inverse_h = 1.0 / grid_.h_m[a], area = grid_.face_area_m2(a);
     const int b_axis = (a + 1) % 3, c_axis = (a + 2) % 3;
     const int first = grid_.periodic[au] ? 1 : 0;
+    compute_slopes(a);
     const std::size_t slabs = std::size_t(grid_.n[std::size_t(c_axis)]);
     if (slab_inflow_.size() < slabs) slab_inflow_.resize(slabs);
     parallel_blocks_if(team, slabs, [&](std::size_t slab) {
@@ -391,12 +408,13 @@ std::pair<Vec3, double> CompressibleSolver::compute_residual(double stage_weight
 
           Flux flux;
           if (fluid_l && fluid_r) {
-            Primitive w_left = reconstruct(left, a, 1.0), w_right = reconstruct(right, a, -1.0);
-            low_mach_correction(gas_, w_left, w_right);
-            flux = central_upwind_flux(gas_, w_left, w_right, a);
+            Primitive w_left = reconstruct(left, 1.0), w_right = reconstruct(right, -1.0);
+            const double c_left = gas_.sound_speed_m_per_s(w_left[0], w_left[4]);
+            const double c_right = gas_.sound_speed_m_per_s(w_right[0], w_right[4]);
+            low_mach_correction(w_left, w_right, c_left, c_right);
+            flux = central_upwind_flux(gas_, w_left, w_right, a, c_left, c_right);
           } else if (is_wall(role_l) || is_wall(role_r)) {
-            const Primitive inside =
-                fluid_l ? reconstruct(left, a, 1.0) : reconstruct(right, a, -1.0);
+            const Primitive inside = fluid_l ? reconstruct(left, 1.0) : reconstruct(right, -1.0);
             flux = fluid_l ? central_upwind_flux(gas_, inside, mirrored(inside, a), a)
                            : central_upwind_flux(gas_, mirrored(inside, a), inside, a);
             flux[0] = flux[4] = 0.0;  // nothing crosses a wall (exactly 0 already, by symmetry)
@@ -404,8 +422,8 @@ std::pair<Vec3, double> CompressibleSolver::compute_residual(double stage_weight
             const std::size_t ghost = fluid_l ? right : left;
             Primitive outside;
             for (std::size_t v = 0; v < 5; ++v) outside[v] = primitive_[v][ghost];
-            flux = fluid_l ? central_upwind_flux(gas_, reconstruct(left, a, 1.0), outside, a)
-                           : central_upwind_flux(gas_, outside, reconstruct(right, a, -1.0), a);
+            flux = fluid_l ? central_upwind_flux(gas_, reconstruct(left, 1.0), outside, a)
+                           : central_upwind_flux(gas_, outside, reconstruct(right, -1.0), a);
             const int patch = grid_.ghost[ghost].patch;
             if (patch >= 0)
               inflow.emplace_back(patch, stage_weight * (fluid_l ? -flux[0] : flux[0]) * area);

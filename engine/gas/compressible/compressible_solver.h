@@ -148,6 +148,9 @@ class CompressibleSolver {
   // axis a: n's own, or c's mirrored across a wall (no-slip, moving wall, or slip).
   Vec3 neighbour_velocity(std::size_t c, std::size_t n, int a) const;
   void compute_velocity_gradients();
+  // Each fluid cell's limited slope of every primitive along axis a (MUSCL, van Leer), into
+  // slope_: a face's two states are its cells' values ∓ half their slopes.
+  void compute_slopes(int a);
   // The stage's residual; with dust, returns the sums add_dust_reaction gives (else zeros).
   std::pair<Vec3, double> compute_residual(double stage_weight);
   void add_jet_sources(double stage_weight);
@@ -176,6 +179,8 @@ class CompressibleSolver {
   std::array<std::vector<double>, kVariables> primitive_;
   // ∂u_b/∂x_d per fluid cell, index 3b + d (viscous flows only).
   std::array<std::vector<double>, 9> velocity_gradient_;
+  // The limited slope per primitive and fluid cell along the axis whose faces are being summed.
+  std::array<std::vector<double>, kVariables> slope_;
 
   std::vector<double> patch_inflow_;
   std::vector<std::vector<std::pair<int, double>>>
