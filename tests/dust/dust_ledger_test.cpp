@@ -34,6 +34,7 @@
 #include "gas/gas_solver.h"
 #include "gas/gas_view.h"
 #include "support/draining_vortex.h"
+#include "support/ledger_state.h"
 
 namespace millsim {
 namespace {
@@ -475,34 +476,14 @@ const std::vector<DustClass> kMixedClasses = {
     {1e-6, 0.0}, {5e-6, 2e-5}, {20e-6, 3e-4}, {50e-6, 2e-3}};
 const Vec3 kDown{0.0, 0.0, -9.81};
 
-// Every class's mass in every padded cell, its outflow and the ledger's counters.
-struct LedgerBits {
-  std::vector<std::vector<double>> mass;
-  std::vector<double> outflow, max_slip;
-  std::uint64_t substeps = 0;
-  std::vector<std::uint64_t> bounded;
-  bool operator==(const LedgerBits&) const = default;
-};
-LedgerBits bits_of(const DustLedger& dust) {
-  LedgerBits b;
-  for (int k = 0; k < dust.class_count(); ++k) {
-    b.mass.push_back(dust.cell_mass_kg(k));
-    b.outflow.push_back(dust.outflow_kg(k));
-  }
-  b.max_slip = dust.stats().max_slip_m_per_s;
-  b.substeps = dust.stats().substeps;
-  b.bounded = dust.stats().speed_bounded_cells;
-  return b;
-}
-
-LedgerBits carry(const GasSolver& gas, DustFaceLayout layout, int advances) {
+test::LedgerState carry(const GasSolver& gas, DustFaceLayout layout, int advances) {
   DustLedger dust(gas.grid(), kMixedClasses, kDown, layout);
   fill_randomly(dust, 11);
   const double made = dust.held_kg();
   // 2 ms: the fastest faces need several sub-steps, the slowest classes one.
   for (int a = 0; a < advances; ++a) dust.advance(gas, 2e-4);
   EXPECT_NEAR(dust.held_kg() + dust.outflow_kg(), made, 1e-12 * made) << "mass conserved";
-  return bits_of(dust);
+  return test::ledger_state(dust);
 }
 
 TEST(DustLedger, ItsRowsCarryTheDustAsTheFaceListDoesToTheBit) {
@@ -510,10 +491,10 @@ TEST(DustLedger, ItsRowsCarryTheDustAsTheFaceListDoesToTheBit) {
        {std::array<bool, 3>{false, false, false}, std::array<bool, 3>{true, false, false},
         std::array<bool, 3>{false, true, false}}) {
     const GasSolver gas = random_box_gas({9, 7, 6}, periodic, 3);
-    const LedgerBits rows = carry(gas, DustFaceLayout::Rows, 10);
-    const LedgerBits listed = carry(gas, DustFaceLayout::Listed, 10);
+    const test::LedgerState rows = carry(gas, DustFaceLayout::Rows, 10);
+    const test::LedgerState listed = carry(gas, DustFaceLayout::Listed, 10);
     EXPECT_GT(listed.substeps, 10u * kMixedClasses.size()) << "some classes took sub-steps";
-    EXPECT_GT(listed.outflow[0], 0.0);
+    EXPECT_GT(listed.outflow_kg[0], 0.0);
     EXPECT_TRUE(rows == listed) << "periodic " << periodic[0] << periodic[1] << periodic[2];
     for (std::size_t k = 0; k < kMixedClasses.size(); ++k)
       EXPECT_EQ(0, std::memcmp(rows.mass[k].data(), listed.mass[k].data(),
@@ -534,10 +515,10 @@ TEST(DustLedger, ItsResultDoesNotDependOnWhatItsThreadCarriedBefore) {
     std::thread thread(work);
     thread.join();
   };
-  LedgerBits alone;
+  test::LedgerState alone;
   on_a_new_thread([&] { alone = carry(wide, DustFaceLayout::Rows, 3); });
   for (const GasSolver* before : {&deep, &large}) {
-    LedgerBits after;
+    test::LedgerState after;
     on_a_new_thread([&] {
       carry(*before, DustFaceLayout::Rows, 3);
       after = carry(wide, DustFaceLayout::Rows, 3);

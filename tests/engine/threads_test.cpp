@@ -26,6 +26,7 @@
 #include "search/hashed_grid.h"
 #include "sim/simulation.h"
 #include "support/draining_vortex.h"
+#include "support/ledger_state.h"
 #include "support/run_compare.h"
 #include "support/sanitizers.h"
 #include "support/scenes.h"
@@ -309,10 +310,8 @@ TEST(Threads, GridSearchGivesTheOneThreadListInItsOrder) {
 // particles of 60-200 µm moving at up to 150 m/s through it: 12 advances of the ledger, each
 // followed by a grinding pass. Returns the ledger and the grinding as they end.
 struct DustState {
-  std::vector<std::vector<double>> mass;  // per class, per padded cell
-  std::vector<double> outflow_kg, ground_kg, max_slip;
-  std::vector<std::uint64_t> speed_bounded_cells;
-  std::uint64_t substeps = 0;
+  test::LedgerState ledger;
+  std::vector<double> ground_kg;
 };
 
 DustState carry_and_grind_dust() {
@@ -356,16 +355,7 @@ DustState carry_and_grind_dust() {
     ledger.advance(gas, 2e-5);
     grinding.grind(ledger, particles, table, 2e-5);
   }
-  DustState state;
-  for (int k = 0; k < ledger.class_count(); ++k) {
-    state.mass.push_back(ledger.cell_mass_kg(k));
-    state.outflow_kg.push_back(ledger.outflow_kg(k));
-  }
-  state.ground_kg = grinding.stats().ground_kg;
-  state.max_slip = ledger.stats().max_slip_m_per_s;
-  state.speed_bounded_cells = ledger.stats().speed_bounded_cells;
-  state.substeps = ledger.stats().substeps;
-  return state;
+  return {test::ledger_state(ledger), grinding.stats().ground_kg};
 }
 
 bool same_bits(const std::vector<double>& a, const std::vector<double>& b) {
@@ -381,25 +371,25 @@ TEST(Threads, DustLedgerAndItsGrindingAreBitIdenticalOnOneTwoAndThreeThreads) {
   }
   // The case must exercise what it is here for: dust left, classes sub-stepped, dust ground.
   double out = 0.0, ground = 0.0;
-  for (double kg : serial.outflow_kg) out += kg;
+  for (double kg : serial.ledger.outflow_kg) out += kg;
   for (double kg : serial.ground_kg) ground += kg;
   EXPECT_GT(out, 0.0);
   EXPECT_GT(ground, 0.0);
-  EXPECT_GT(serial.substeps, 12u * serial.mass.size());
+  EXPECT_GT(serial.ledger.substeps, 12u * serial.ledger.mass.size());
   for (int threads : {2, 3}) {
     SCOPED_TRACE(threads);
     Threads team(threads);
     const std::uint64_t loops_before = loops_run_on_team();
     const DustState threaded = carry_and_grind_dust();
     EXPECT_GE(loops_run_on_team() - loops_before, 24u) << "each advance and pass on the team";
-    ASSERT_EQ(threaded.mass.size(), serial.mass.size());
-    for (std::size_t k = 0; k < serial.mass.size(); ++k)
-      EXPECT_TRUE(same_bits(threaded.mass[k], serial.mass[k])) << "class " << k;
-    EXPECT_TRUE(same_bits(threaded.outflow_kg, serial.outflow_kg));
+    ASSERT_EQ(threaded.ledger.mass.size(), serial.ledger.mass.size());
+    for (std::size_t k = 0; k < serial.ledger.mass.size(); ++k)
+      EXPECT_TRUE(same_bits(threaded.ledger.mass[k], serial.ledger.mass[k])) << "class " << k;
+    EXPECT_TRUE(same_bits(threaded.ledger.outflow_kg, serial.ledger.outflow_kg));
     EXPECT_TRUE(same_bits(threaded.ground_kg, serial.ground_kg));
-    EXPECT_TRUE(same_bits(threaded.max_slip, serial.max_slip));
-    EXPECT_EQ(threaded.speed_bounded_cells, serial.speed_bounded_cells);
-    EXPECT_EQ(threaded.substeps, serial.substeps);
+    EXPECT_TRUE(same_bits(threaded.ledger.max_slip, serial.ledger.max_slip));
+    EXPECT_EQ(threaded.ledger.speed_bounded_cells, serial.ledger.speed_bounded_cells);
+    EXPECT_EQ(threaded.ledger.substeps, serial.ledger.substeps);
   }
 }
 

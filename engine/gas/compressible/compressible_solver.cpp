@@ -150,6 +150,7 @@ CompressibleSolver::CompressibleSolver(const GasConfig& config, GasGrid grid,
   for (auto& v : start_) v.assign(size, 0.0);
   for (auto& v : residual_) v.assign(size, 0.0);
   for (auto& v : primitive_) v.assign(size, 0.0);
+  for (auto& v : slope_) v.assign(size, 0.0);
   if (viscosity_pa_s_ > 0.0)
     for (auto& v : velocity_gradient_) v.assign(size, 0.0);
   patch_inflow_.assign(patches_.size(), 0.0);
@@ -334,7 +335,6 @@ void CompressibleSolver::compute_velocity_gradients() {
 // of about |u| h / 4 in the wall cells); an inviscid flow's walls mirror only the normal velocity
 // (slip). The slope is a cell's own, whichever face it is read for.
 void CompressibleSolver::compute_slopes(int a) {
-  for (std::vector<double>& v : slope_) v.resize(grid_.padded_size);
   const bool viscous = viscosity_pa_s_ > 0.0;
   const std::size_t s = grid_.stride[std::size_t(a)];
   for_cells(grid_.padded_size, on_team(), [&](std::size_t c) {
