@@ -110,4 +110,45 @@ CopyPlan plan_copies(const ParticleStore& particles, const std::vector<double>& 
   return plan;
 }
 
+RemovalPlan plan_removals(const ParticleStore& particles, const std::vector<double>& edges_m,
+                          const std::vector<double>& excess_kg, Rng& rng) {
+  const int slots = int(edges_m.size()) + 1;
+  RemovalPlan plan;
+  plan.removed_kg.assign(std::size_t(slots), 0.0);
+  std::vector<std::vector<std::uint32_t>> held(static_cast<std::size_t>(slots));
+  for (std::size_t i = 0; i < particles.size(); ++i)
+    held[std::size_t(psd_slot(edges_m, 2.0 * particles.radius_m[i]))].push_back(std::uint32_t(i));
+  for (int slot = 0; slot < slots; ++slot) {
+    const double excess = slot < int(excess_kg.size()) ? excess_kg[std::size_t(slot)] : 0.0;
+    std::vector<std::uint32_t>& pool = held[std::size_t(slot)];
+    double& removed = plan.removed_kg[std::size_t(slot)];
+    // Drawn without replacement: a partial Fisher–Yates shuffle of the slot's particles.
+    for (std::size_t k = 0; excess > 0.0 && k < pool.size(); ++k) {
+      const std::size_t pick = k + std::size_t(uniform01(rng) * double(pool.size() - k));
+      std::swap(pool[k], pool[std::min(pick, pool.size() - 1)]);
+      const double m = particles.mass_kg[pool[k]];
+      if (!(removed + 0.5 * m < excess)) break;
+      removed += m;
+      plan.particles.push_back(pool[k]);
+    }
+  }
+  std::sort(plan.particles.begin(), plan.particles.end(), std::greater<>());
+  return plan;
+}
+
+std::vector<double> relaxed_target_kg(const std::vector<double>& held_kg,
+                                      const std::vector<double>& projected_kg, double omega) {
+  std::vector<double> target(projected_kg.size(), 0.0);
+  for (std::size_t c = 0; c < target.size(); ++c) {
+    const double from = c < held_kg.size() ? held_kg[c] : 0.0, to = projected_kg[c];
+    if (omega >= 1.0)
+      target[c] = to;
+    else if (from > 0.0 && to > 0.0)
+      target[c] = std::exp((1.0 - omega) * std::log(from) + omega * std::log(to));
+    else
+      target[c] = (1.0 - omega) * from + omega * to;
+  }
+  return target;
+}
+
 }  // namespace millsim

@@ -14,6 +14,12 @@
 // copy: both are reported. Slots are filled coarsest first, as a packing is. The caller
 // (Simulation::fill_holdup) adds the copies and books their mass; the dust is scaled in place
 // (DustLedger::scale_class).
+//
+// A slot above its target (with time.fill_removes) loses particles drawn at random from it,
+// each removed while that brings the slot's mass closer to its target: the ones it keeps are a
+// fair sample of where and how fast it held them. Repeated fills under-relaxed towards each
+// new projection (relaxed_target_kg) iterate the hold-up towards the one the mill's own rates
+// reproduce.
 #pragma once
 
 #include <cstdint>
@@ -55,5 +61,22 @@ inline Vec3 turned_about_z(const Vec3& v, double angle_rad) {
 CopyPlan plan_copies(const ParticleStore& particles, const std::vector<double>& edges_m,
                      const std::vector<double>& deficit_kg, const Vec3& axis_point_m,
                      const std::function<bool(const Vec3&, double)>& clear_of_walls, Rng& rng);
+
+// The particles (slots of the store, highest first) whose removal brings each PSD slot of
+// `edges_m` towards `excess_kg` less (per slot; 0 or less: none), drawn at random from the slot;
+// `removed_kg` per PSD slot.
+struct RemovalPlan {
+  std::vector<std::uint32_t> particles;
+  std::vector<double> removed_kg;
+};
+RemovalPlan plan_removals(const ParticleStore& particles, const std::vector<double>& edges_m,
+                          const std::vector<double>& excess_kg, Rng& rng);
+
+// Each compartment's hold-up moved the share `omega` in (0, 1] of the way from `held_kg` to
+// `projected_kg`: geometrically, held^(1−ω) projected^ω, where both are positive (a class
+// projected at 50 times what it holds moves 7 times at ω = ½, one projected at a fiftieth to a
+// seventh), else arithmetically; ω = 1 gives the projection.
+std::vector<double> relaxed_target_kg(const std::vector<double>& held_kg,
+                                      const std::vector<double>& projected_kg, double omega);
 
 }  // namespace millsim

@@ -134,16 +134,17 @@ bool solve_group(const CompartmentRates& r, const std::vector<int>& group, doubl
     const std::size_t k = std::size_t(c);
     done[k] = 1;
     double held = 0.0;
+    const bool fixed = !r.fixed_held_kg.empty() && r.fixed_held_kg[k] >= 0.0;
     if (r.pass_through[k]) {
       p.product_kg_per_s[k % slots] += inflow[k];
+    } else if (fixed && (inflow[k] > 0.0 || r.fixed_held_kg[k] > 0.0)) {
+      held = r.fixed_held_kg[k], p.fixed.push_back(c);
+      p.product_kg_per_s[k % slots] += r.leave_per_s[k] * held;
     } else if (const double out = r.out_per_s(c, area); out > 0.0) {
       held = inflow[k] / out;
       p.product_kg_per_s[k % slots] += r.leave_per_s[k] * held;
     } else if (inflow[k] > 0.0) {
-      if (!r.fixed_held_kg.empty() && r.fixed_held_kg[k] >= 0.0)
-        held = r.fixed_held_kg[k], p.fixed.push_back(c);
-      else
-        p.accumulating.push_back(c);
+      p.accumulating.push_back(c);
     }
     p.held_kg[k] = held;
     for (int to = 0; to < n; ++to) {

@@ -60,11 +60,12 @@ struct CompartmentRates {
   double mean_area_m2 = 0.0;           // the particles' cross-section, ∫A dt / window
   std::vector<double> events, wall_events, left_count;
   std::vector<char> pass_through;  // held nothing, received mass: all of it leaves at once
-  // Per compartment, or empty: a compartment that would accumulate (it receives mass, neither
-  // breaks nor leaves) is taken to hold this much (>= 0) at steady state instead, what it
-  // receives staying in it; < 0: it accumulates. A hold-up fill (sim/run.cpp) sets its current
-  // hold-up for such a compartment, so that one class the window saw no event of leaves the rest
-  // of the mill a steady state.
+  // Per compartment, or empty: a compartment with a value >= 0 is taken to hold this much at
+  // steady state, whatever it receives, and passes mass on at its rates times that hold-up; < 0:
+  // its balance decides. A hold-up fill (sim/run.cpp) sets the current hold-up of a compartment
+  // that would accumulate (it receives mass, neither breaks nor leaves), so that one class the
+  // window saw no event of leaves the rest of the mill a steady state, and of a particle
+  // compartment whose rates rest on too few counts (time.fill_min_events).
   std::vector<double> fixed_held_kg;
 
   int compartments() const { return 2 * slots; }

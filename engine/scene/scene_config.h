@@ -152,6 +152,18 @@ struct TimeConfig {
   // projects from the last third of the span since the fill before (process/holdup_fill.h,
   // Simulation::fill_holdup); empty: no fill.
   std::vector<double> fill_to_projection_s;
+  // How far each fill moves a class towards its projected hold-up: to held^(1−ω) target^ω
+  // (geometric, so that a class projected at 50 times its hold-up moves 7 times at ω = ½); 1:
+  // all the way. Fills repeated with ω < 1 iterate the hold-up towards the one the mill's own
+  // rates reproduce, each projected from a mill nearer to it.
+  double fill_relaxation = 1.0;
+  // Whether a fill also takes mass from the classes above their target (particles drawn at
+  // random from the class, the ledger's dust scaled down); false: it only adds.
+  bool fill_removes = false;
+  // A particle class whose window saw fewer breakage events and particles leave than this is
+  // held at its hold-up (its rates from a handful of counts are not a projection) and passes
+  // mass on at its measured rates.
+  int fill_min_events = 0;
 };
 
 enum class ContactModel {

@@ -413,6 +413,15 @@ TimeConfig parse_time(JsonObjectReader& top, InputErrors& errors) {
       errors.back().allowed = "expected a time in (0, 1e6] s or a list of increasing times";
     }
   }
+  // The fill's settings: only with fills to set.
+  for (const char* key : {"fill_relaxation", "fill_removes", "fill_min_events"})
+    if (t.fill_to_projection_s.empty() && r.child(key))
+      errors.push_back({r.path_of(key), json_value_text(*r.child(key)),
+                        "sets how a hold-up fill moves the mill's hold-up: add "
+                        "/time/fill_to_projection_s, or remove it"});
+  t.fill_relaxation = r.number("fill_relaxation", 1.0, NumberRange::open_closed(0.0, 1.0));
+  t.fill_removes = r.boolean("fill_removes", false);
+  t.fill_min_events = int(r.integer("fill_min_events", 0, 0, 1000000));
   r.finish();
   return t;
 }

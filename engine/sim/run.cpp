@@ -18,6 +18,7 @@
 #include "io/text_file.h"
 #include "parallel/thread_team.h"
 #include "process/classification.h"
+#include "process/holdup_fill.h"
 #include "process/holdup_history.h"
 #include "process/impact_spectrum_plot.h"
 #include "process/mass_flows.h"
@@ -724,10 +725,12 @@ struct FillRecord {
   std::optional<HoldupFill> fill;
   std::string skipped;
   std::vector<int> fixed;  // compartments held at their hold-up (CompartmentRates::fixed_held_kg)
+  std::vector<int> few_counts;       // of those, the ones held for too few counts (fill_min_events)
+  std::vector<double> projected_kg;  // per compartment: the projection, before the relaxation
   bool done() const { return fill || !skipped.empty(); }
   template <class A>
   void checkpoint_io(A& a) {
-    io_all(a, start_flows, start_s, at_s, fill, skipped, fixed);
+    io_all(a, start_flows, start_s, at_s, fill, skipped, fixed, few_counts, projected_kg);
   }
 };
 
@@ -783,12 +786,20 @@ void fill_to_projection(Simulation& sim, const SceneConfig& scene, FillRecord& r
   CompartmentRates rates =
       fit_rates(flows_between(*record.start_flows, *now), sim.time_s() - record.start_s);
   const std::vector<double> held = sim.holdup_by_compartment_kg();
+  // A particle class whose rates rest on fewer counts than time.fill_min_events keeps what it
+  // holds and passes mass on at its measured rates.
+  rates.fixed_held_kg.assign(held.size(), -1.0);
+  for (int c = 0; c < rates.slots; ++c) {
+    const std::size_t k = std::size_t(c);
+    const double counts = rates.events[k] + rates.left_count[k];
+    if (held[k] > 0.0 && counts < double(scene.time.fill_min_events))
+      rates.fixed_held_kg[k] = held[k], record.few_counts.push_back(c);
+  }
   SteadyProjection projection = project_steady(rates, held, 2);
   // A class the window saw receive mass but neither break nor leave (say the sliver of a size
   // class above the dust threshold) has no steady hold-up of its own: it keeps what it holds, and
   // the rest of the mill is projected around it (it passes nothing on).
   if (!projection.exists && !projection.accumulating.empty()) {
-    rates.fixed_held_kg.assign(held.size(), -1.0);
     for (int c : projection.accumulating)
       rates.fixed_held_kg[std::size_t(c)] = held[std::size_t(c)];
     projection = project_steady(rates, held, 2);
@@ -814,8 +825,11 @@ void fill_to_projection(Simulation& sim, const SceneConfig& scene, FillRecord& r
         names;
     return;
   }
-  record.fill = sim.fill_holdup(projection.held_kg,
-                                scene.seed ^ (0x66696c6cULL + index));  // "fill", one seed each
+  record.projected_kg = projection.held_kg;
+  record.fill =
+      sim.fill_holdup(relaxed_target_kg(held, projection.held_kg, scene.time.fill_relaxation),
+                      scene.seed ^ (0x66696c6cULL + index),  // "fill", one seed each
+                      scene.time.fill_removes);
   record.fixed = projection.fixed;
 }
 
@@ -846,6 +860,9 @@ nlohmann::ordered_json fill_json(const Simulation& sim, const FillRecord& record
   j["particles_added"] = f.particles_added;
   j["particles_kg"] = f.particles_kg;
   j["dust_kg"] = f.dust_kg;
+  j["particles_removed"] = f.particles_removed;
+  j["particles_removed_kg"] = f.particles_removed_kg;
+  j["dust_removed_kg"] = f.dust_removed_kg;
   j["energy_j"] = f.energy_j;
   j["rejected_draws"] = f.rejected_draws;
   j["slots_without_source"] = f.without_source;
@@ -856,8 +873,14 @@ nlohmann::ordered_json fill_json(const Simulation& sim, const FillRecord& record
   for (int c : record.fixed)
     fixed.push_back({{"phase", c < slots ? "particles" : "dust"}, {"slot", c % slots}});
   j["held_as_they_were"] = fixed;
+  // Of those, the particle classes held because their window counted too few events.
+  j["held_for_few_counts"] = record.few_counts;
   for (const bool dust : {false, true}) {
     nlohmann::ordered_json& held = j[dust ? "dust" : "particles"];
+    if (!record.projected_kg.empty()) {
+      held["projected_kg"] = total(part(record.projected_kg, dust));
+      held["projected_by_slot_kg"] = part(record.projected_kg, dust);
+    }
     held["target_kg"] = total(part(f.target_kg, dust));
     held["before_kg"] = total(part(f.before_kg, dust));
     held["after_kg"] = total(part(f.after_kg, dust));

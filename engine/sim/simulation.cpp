@@ -1106,7 +1106,8 @@ void Simulation::process_population() {
   });
 }
 
-HoldupFill Simulation::fill_holdup(const std::vector<double>& target_kg, std::uint64_t seed) {
+HoldupFill Simulation::fill_holdup(const std::vector<double>& target_kg, std::uint64_t seed,
+                                   bool removes) {
   if (!mill_ || !flows_)
     throw std::logic_error("a hold-up fill needs a mill and the run's mass flows");
   finish_stepping_kick();  // every particle complete: the copies take their sources' state
@@ -1126,9 +1127,30 @@ HoldupFill Simulation::fill_holdup(const std::vector<double>& target_kg, std::ui
     return true;
   };
   Rng rng(seed);
+  integrate_tracked(*flows_, time_s());  // the hold-up until now, before it changes
+  // The forces in flight (the next half-kick, counted as held) change with the population: the
+  // removed particles' go, the copies' come, and a removed particle's contacts leave its partners.
+  // All of that change is the fill's.
+  const Vec3 in_flight_before = momentum_balance().in_flight;
+  if (removes) {
+    // First, so that the copies may take the room the removed particles leave.
+    std::vector<double> excess(deficit.size());
+    for (std::size_t s = 0; s < deficit.size(); ++s) excess[s] = -deficit[s];
+    const RemovalPlan removal = plan_removals(particles_, outlet_.edges_m, excess, rng);
+    for (const std::uint32_t i : removal.particles) {  // highest slot first
+      const double m = particles_.mass_kg[i];
+      fill.particles_removed_kg += m;
+      fill.energy_j -= particle_energy_j(i);
+      filled_momentum_ -= particles_.motion[i].velocity_m_per_s * m;
+      if (gas_) gas_->release(particles_, i);
+      add_tracked(*flows_, psd_slot(outlet_.edges_m, 2.0 * particles_.radius_m[i]), -m,
+                  -cross_section_m2(particles_.radius_m[i]));
+      particles_.remove_swap(i);
+    }
+    fill.particles_removed = removal.particles.size();
+  }
   const CopyPlan plan =
       plan_copies(particles_, outlet_.edges_m, deficit, mill_->axis_point_m, clear_of_walls, rng);
-  integrate_tracked(*flows_, time_s());  // the hold-up until now, before it changes
   for (const ParticleCopy& c : plan.copies) {
     const std::size_t source = c.source;  // a slot held before the fill: adding moves none
     const double d = 2.0 * particles_.radius_m[source];
@@ -1149,7 +1171,12 @@ HoldupFill Simulation::fill_holdup(const std::vector<double>& target_kg, std::ui
   if (dust_ledger_)
     for (int k = 0; k < dust_ledger_->class_count(); ++k) {
       const std::size_t c = std::size_t(MassFlows::dust(k, slots));
-      if (c >= target_kg.size() || !(target_kg[c] > fill.before_kg[c])) continue;
+      if (c >= target_kg.size()) continue;
+      if (removes && target_kg[c] < fill.before_kg[c]) {
+        fill.dust_removed_kg -= dust_ledger_->scale_class(k, target_kg[c] / fill.before_kg[c]);
+        continue;
+      }
+      if (!(target_kg[c] > fill.before_kg[c])) continue;
       if (fill.before_kg[c] > 0.0)
         fill.dust_kg += dust_ledger_->scale_class(k, target_kg[c] / fill.before_kg[c]);
       else
@@ -1159,14 +1186,12 @@ HoldupFill Simulation::fill_holdup(const std::vector<double>& target_kg, std::ui
   fill.rejected_draws = plan.rejected_draws;
   fill.without_source = plan.without_source;
   fill.out_of_room = plan.out_of_room;
-  filled_mass_kg_ += fill.particles_kg + fill.dust_kg;
+  filled_mass_kg_ +=
+      fill.particles_kg + fill.dust_kg - fill.particles_removed_kg - fill.dust_removed_kg;
   filled_energy_j_ += fill.energy_j;
   fill.after_kg = holdup_by_compartment_kg();
   refresh_forces();
-  // The copies' forces in flight (the next half-kick, as momentum_balance counts them) came with
-  // them too.
-  for (std::size_t i = particles_.size() - plan.copies.size(); i < particles_.size(); ++i)
-    filled_momentum_ += particles_.load[i].force_n * (0.5 * time_.step_s);
+  filled_momentum_ += momentum_balance().in_flight - in_flight_before;
   return fill;
 }
 

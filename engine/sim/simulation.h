@@ -92,14 +92,18 @@ struct HoldupFill {
   std::vector<double> target_kg, before_kg, after_kg;
   std::uint64_t particles_added = 0;
   double particles_kg = 0.0, dust_kg = 0.0;
-  double energy_j = 0.0;  // kinetic, rotational and potential energy of the particles added
+  double energy_j = 0.0;  // kinetic, rotational and potential energy added, less that removed
   std::uint64_t rejected_draws = 0;
   std::vector<int> without_source, out_of_room;  // particle slots left short (holdup_fill.h)
   std::vector<int> dust_without_mass;            // ledger classes short that held nothing
+  // With removal: the particles taken from slots above their target, and the dust.
+  std::uint64_t particles_removed = 0;
+  double particles_removed_kg = 0.0, dust_removed_kg = 0.0;
   template <class A>
   void checkpoint_io(A& a) {
     io_all(a, time_s, target_kg, before_kg, after_kg, particles_added, particles_kg, dust_kg);
     io_all(a, energy_j, rejected_draws, without_source, out_of_room, dust_without_mass);
+    io_all(a, particles_removed, particles_removed_kg, dust_removed_kg);
   }
 };
 
@@ -211,12 +215,15 @@ class Simulation {
   // Fills the hold-up towards `target_kg` per compartment (process/mass_flows.h): a particle
   // slot short of it with copies of its particles turned about the mill's axis
   // (process/holdup_fill.h; `seed` draws them), a ledger dust class by scaling its mass in every
-  // cell; a compartment at or above its target is left as it is. The mass, momentum and energy
-  // added are booked as filled (mass_balance(), momentum_balance(), filled_energy_j()), the
-  // copies as tracked hold-up in the mass flows, not as fed. Then forces are recomputed and the
+  // cell; a compartment at or above its target is left as it is, unless `removes`: then a
+  // particle slot above it loses particles drawn at random from it and a dust class is scaled
+  // down. The mass, momentum and energy added, less those removed, are booked as filled
+  // (mass_balance(), momentum_balance(), filled_energy_j()), the copies and removals as tracked
+  // hold-up in the mass flows, not as fed or left. Then forces are recomputed and the
   // energy guard takes the filled state as its reference (refresh_forces). Needs a mill and mass
   // flows (a scene with outlets, feeds or breakage); throws std::logic_error otherwise.
-  HoldupFill fill_holdup(const std::vector<double>& target_kg, std::uint64_t seed);
+  HoldupFill fill_holdup(const std::vector<double>& target_kg, std::uint64_t seed,
+                         bool removes = false);
   double filled_energy_j() const { return filled_energy_j_; }
 
   EnergyReport energy() const;

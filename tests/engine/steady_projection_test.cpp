@@ -105,6 +105,25 @@ TEST(SteadyProjection, ACompartmentThatNeitherBreaksNorLeavesAccumulates) {
   EXPECT_EQ(product, 0.0) << "nothing leaves: B keeps what it receives";
 }
 
+// A compartment held at a given hold-up (a hold-up fill does so with a class counted too few
+// times) passes mass on at its measured rate times that hold-up: with A held at M, B receives
+// k M and holds k M / E, and the product is k M, whatever the feed.
+TEST(SteadyProjection, ACompartmentHeldAtAGivenHoldUpPassesMassOnAtItsRates) {
+  const double feed = 2e-6, k = 50.0, e = 5.0, held_a = 7e-8;
+  const int b = MassFlows::dust(2, make_mass_flows(kEdges).slots);
+  CompartmentRates r = fit_rates(chain_flows(feed, k, e, b), 1.0);
+  r.fixed_held_kg.assign(std::size_t(r.compartments()), -1.0);
+  r.fixed_held_kg[3] = held_a;
+  const SteadyProjection p =
+      project_steady(r, std::vector<double>(std::size_t(r.compartments()), 0.0));
+  ASSERT_TRUE(p.exists);
+  EXPECT_EQ(p.fixed, std::vector<int>{3});
+  EXPECT_EQ(p.held_kg[3], held_a);
+  EXPECT_NEAR(p.held_kg[std::size_t(b)], k * held_a / e, 1e-12 * k * held_a / e);
+  EXPECT_NEAR(p.product_kg_per_s[2], k * held_a, 1e-12 * k * held_a);
+  EXPECT_NEAR(p.feed_kg_per_s, feed, 1e-12 * feed) << "the feed is still the feed";
+}
+
 TEST(SteadyProjection, DustCountedWhenMadePassesStraightToTheProduct) {
   const double feed = 2e-6, k = 50.0;
   MassFlows f = make_mass_flows(kEdges);
