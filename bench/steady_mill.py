@@ -131,19 +131,26 @@ def main():
             print(f"Hold-up fill: {fill.get('status')}: {fill.get('reason', '')}")
             print()
             continue
-        filled = fill["particles_kg"] + fill["dust_kg"]
+        # Net of what a fill with time.fill_removes took away (absent before it existed).
+        dust_net = fill["dust_kg"] - fill.get("dust_removed_kg", 0.0)
+        filled = fill["particles_kg"] - fill.get("particles_removed_kg", 0.0) + dust_net
         after = [ti >= fill["time_s"] - 1e-12 for ti in t]
         h["fed_kg"] = [f - (filled if a else 0.0) for f, a in zip(h["fed_kg"], after)]
-        h["dust_made_kg"] = [d - (fill["dust_kg"] if a else 0.0)
+        h["dust_made_kg"] = [d - (dust_net if a else 0.0)
                              for d, a in zip(h["dust_made_kg"], after)]
         print(f"Hold-up fill at {fill['time_s'] * 1e3:.2f} ms from the window "
               f"{fill['window_s'][0] * 1e3:.2f}–{fill['window_s'][1] * 1e3:.2f} ms: "
-              f"{fill['particles_added']} particles copied, particles "
+              f"{fill['particles_added']} particles copied, "
+              f"{fill.get('particles_removed', 0)} removed, particles "
               f"{fill['particles']['before_kg'] * 1e9:.0f} → {fill['particles']['after_kg'] * 1e9:.0f} µg "
               f"(target {fill['particles']['target_kg'] * 1e9:.0f}), ledger dust "
               f"{fill['dust']['before_kg'] * 1e9:.0f} → {fill['dust']['after_kg'] * 1e9:.0f} µg "
               f"(target {fill['dust']['target_kg'] * 1e9:.0f}); held as they were: "
               f"{fill.get('held_as_they_were')}")
+        if "projected_kg" in fill["particles"]:
+            print(f"  projected: particles {fill['particles']['projected_kg'] * 1e9:.0f} µg, "
+                  f"ledger dust {fill['dust']['projected_kg'] * 1e9:.0f} µg; held for few counts "
+                  f"(slots): {fill.get('held_for_few_counts')}")
         print()
     rows = [0]
     for i in range(1, len(t)):

@@ -195,6 +195,9 @@ class ThermoLog {
           p.eta_s);
   }
 
+  // An event of the run (a hold-up fill), as it happens.
+  void note(const std::string& text) { write("%s\n", text.c_str()); }
+
   // The gas spin-up before the first step: a line at its start, every interval and at its end.
   void report_spin_up(const SpinUpProgress& p) {
     if (spin_up_lines_ > 0 && !p.last && p.elapsed_s - last_spin_up_s_ < interval_s_) return;
@@ -278,12 +281,17 @@ int cmd_run(const std::vector<std::string>& args) {
     if (isatty(STDERR_FILENO)) {
       if (!run_args.quiet) options.on_progress = print_progress;
       if (!run_args.quiet) options.on_spin_up_progress = print_spin_up_progress;
+      if (!run_args.quiet)
+        options.on_notice = [](const std::string& text) {
+          std::fprintf(stderr, "\n%s\n", text.c_str());  // below the progress line
+        };
     } else {
       thermo = std::make_unique<ThermoLog>(options.out_dir, run_args.log_interval_s);
       options.on_progress = [&thermo](const RunProgress& p) { thermo->report(p); };
       options.on_spin_up_progress = [&thermo](const SpinUpProgress& p) {
         thermo->report_spin_up(p);
       };
+      options.on_notice = [&thermo](const std::string& text) { thermo->note(text); };
     }
     // SIGINT (Ctrl-C), SIGTERM (a batch system's stop, a wall-time limit) and SIGUSR1 end the
     // run after the step under way, with run.h5 and result.json complete.

@@ -833,6 +833,29 @@ void fill_to_projection(Simulation& sim, const SceneConfig& scene, FillRecord& r
   record.fixed = projection.fixed;
 }
 
+// One line for the log: what a fill moved (µg), or why it did not.
+std::string fill_notice(const FillRecord& record, std::size_t index) {
+  std::ostringstream line;
+  line << std::fixed << std::setprecision(1) << "fill " << index + 1 << " at " << record.at_s * 1e3
+       << " ms: ";
+  if (!record.fill) return line.str() + "skipped: " + record.skipped;
+  const HoldupFill& f = *record.fill;
+  const auto micrograms = [](const std::vector<double>& v, std::size_t from, std::size_t to) {
+    double sum = 0.0;
+    for (std::size_t c = from; c < to && c < v.size(); ++c) sum += v[c];
+    return sum * 1e9;
+  };
+  const std::size_t slots = f.before_kg.size() / 2, all = f.before_kg.size();
+  line << "particles " << micrograms(f.before_kg, 0, slots) << " -> "
+       << micrograms(f.after_kg, 0, slots) << " ug (projected "
+       << micrograms(record.projected_kg, 0, slots) << "), ledger dust "
+       << micrograms(f.before_kg, slots, all) << " -> " << micrograms(f.after_kg, slots, all)
+       << " ug (projected " << micrograms(record.projected_kg, slots, all) << "); "
+       << f.particles_added << " copied, " << f.particles_removed << " removed, "
+       << record.few_counts.size() << " classes held for few counts";
+  return line.str();
+}
+
 nlohmann::ordered_json fill_json(const Simulation& sim, const FillRecord& record) {
   nlohmann::ordered_json j;
   if (!record.done()) {
@@ -1149,8 +1172,10 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
         record.start_flows = sim.mass_flows();
         record.start_s = sim.time_s();
       }
-      if (step == fill[k].fill && !record.done())
+      if (step == fill[k].fill && !record.done()) {
         sim.profile().time(Phase::Population, [&] { fill_to_projection(sim, scene, record, k); });
+        if (options.on_notice) options.on_notice(fill_notice(record, k));
+      }
     }
   };
   if (!resumed) {

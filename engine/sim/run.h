@@ -57,6 +57,9 @@ struct RunOptions {
   // shared with other runs through the cache in spin_up_cache_dir (empty: none).
   std::filesystem::path spin_up_cache_dir;
   std::function<void(const SpinUpProgress&)> on_spin_up_progress;
+  // A line about an event of the run that a user watching its log wants to see when it happens
+  // (a hold-up fill: what it moved, or why it did not), without a newline.
+  std::function<void(const std::string&)> on_notice;
 };
 
 // A checkpoint that cannot be continued: another scene's, another build's layout, or every one

@@ -397,41 +397,14 @@ TEST(HoldupFill, AFillThatRemovesTakesTheSurplusAndKeepsEveryKilogramAndItsMomen
 // more than the stream's F t_r: the copies (turned about the axis, so still under the mouth and
 // rising) leave within t_r, and from t_f + t_r the stream is steady again: over the run's last
 // third (6.67-10 ms) its outflow is its feed and its hold-up F t_r.
-nlohmann::json rising_stream_mill() {
-  return {{"name", "rising_stream_mill"},
-          {"seed", 5},
-          {"domain", {{"min_m", {0, 0, 0}}, {"max_m", {0.04, 0.04, 0.006}}}},
-          {"materials",
-           {{{"name", "glass"},
-             {"youngs_modulus_pa", 1e7},
-             {"poisson_ratio", 0.25},
-             {"density_kg_per_m3", 2500},
-             {"restitution", 0.5},
-             {"friction", 0.3}}}},
-          {"mill",
-           {{"center_xy_m", {0.02, 0.02}},
-            {"radius_m", 0.02},
-            {"wall_material", "glass"},
-            {"outlet", {{"name", "vortex_finder"}, {"radius_m", 0.005}, {"depth_m", 0.002}}}}},
-          {"sources", nlohmann::json::array()},
-          {"feeds",
-           {{{"name", "under_the_mouth"},
-             {"material", "glass"},
-             {"mass_rate_kg_per_s", 3.6e-4},
-             {"region", {{"min_m", {0.018, 0.018, 0.0009}}, {"max_m", {0.022, 0.022, 0.0013}}}},
-             {"sizes", {{"distribution", "uniform"}, {"min_m", 2e-4}, {"max_m", 2e-4}}},
-             {"velocity_m_per_s", {0, 0, 1}}}}},
-          {"time", {{"end_s", 0.01}, {"step_s", 1e-6}, {"fill_to_projection_s", 0.003625}}},
-          {"output", {{"h5", false}, {"snapshot_interval_s", 0.0005}}}};
-}
-
+// (test::rising_stream_mill, tests/support/scenes.h.)
 TEST(HoldupFill, ARunFillsToItsProjectionAndTheSurplusRisesOut) {
   const double feed = 3.6e-4, t_f = 0.003625, t_a = 2.0 * t_f / 3.0;
   const double bead_kg = 2500 * std::numbers::pi / 6 * 8e-12;
   const auto projected = [&](double t_r) {
     return feed * (0.5 * (t_r * t_r - t_a * t_a) + t_r * (t_f - t_r)) / (t_f - t_r);
   };
-  const nlohmann::json result = test::run_scene_document(rising_stream_mill());
+  const nlohmann::json result = test::run_scene_document(test::rising_stream_mill());
   ASSERT_TRUE(result.contains("holdup_fills"));
   ASSERT_EQ(result["holdup_fills"].size(), 1u);
   const nlohmann::json& fill = result["holdup_fills"][0];
@@ -466,13 +439,13 @@ TEST(HoldupFill, ARunFillsToItsProjectionAndTheSurplusRisesOut) {
 }
 
 TEST(HoldupFill, AFillNeedsAMillAndMustComeBeforeTheSteadyWindow) {
-  nlohmann::json doc = rising_stream_mill();
+  nlohmann::json doc = test::rising_stream_mill();
   doc.erase("mill");
   InputErrors errors = test::scene_errors(doc);
   ASSERT_FALSE(errors.empty());
   EXPECT_EQ(errors.front().path, "/time/fill_to_projection_s");
   EXPECT_NE(errors.front().allowed.find("mill"), std::string::npos);
-  doc = rising_stream_mill();
+  doc = test::rising_stream_mill();
   doc["time"]["fill_to_projection_s"] = 0.007;  // the last third starts at 6.67 ms
   errors = test::scene_errors(doc);
   ASSERT_EQ(errors.size(), 1u);
@@ -506,7 +479,7 @@ TEST(HoldupFill, AFillNeedsAMillAndMustComeBeforeTheSteadyWindow) {
 // the last third of the span since the first (6.88-8.5 ms), when the copies have risen out and
 // the stream is steady again: it holds F t_r, and the second fill adds at most a bead or two.
 TEST(HoldupFill, ASecondFillProjectsFromTheSpanSinceTheFirst) {
-  nlohmann::json doc = rising_stream_mill();
+  nlohmann::json doc = test::rising_stream_mill();
   doc["time"]["end_s"] = 0.015;
   doc["time"]["fill_to_projection_s"] = {0.003625, 0.0085};
   const double bead_kg = 2500 * std::numbers::pi / 6 * 8e-12;
@@ -542,7 +515,7 @@ TEST(HoldupFill, ARelaxedFillGoesPartOfTheWayAndAClassCountedTooFewTimesIsHeld) 
   const auto projected = [&](double t_r) {
     return feed * (0.5 * (t_r * t_r - t_a * t_a) + t_r * (t_f - t_r)) / (t_f - t_r);
   };
-  nlohmann::json doc = rising_stream_mill();
+  nlohmann::json doc = test::rising_stream_mill();
   doc["time"]["end_s"] = 0.006;
   doc["time"]["fill_relaxation"] = 0.5;
   nlohmann::json result = test::run_scene_document(doc);
@@ -582,7 +555,7 @@ TEST(HoldupFill, ARelaxedFillGoesPartOfTheWayAndAClassCountedTooFewTimesIsHeld) 
 TEST(HoldupFill, ASecondFillRemovesWhatItsProjectionFindsTooMuch) {
   const double feed = 3.6e-4;
   const double bead_kg = 2500 * std::numbers::pi / 6 * 8e-12;
-  nlohmann::json doc = rising_stream_mill();
+  nlohmann::json doc = test::rising_stream_mill();
   doc["time"]["end_s"] = 0.015;
   doc["time"]["fill_to_projection_s"] = {0.003625, 0.006025};
   doc["time"]["fill_removes"] = true;
@@ -624,7 +597,7 @@ TEST(HoldupFill, ASecondFillRemovesWhatItsProjectionFindsTooMuch) {
 
 // The fill's settings need fills to set, and each its range.
 TEST(HoldupFill, TheFillsSettingsAreCheckedByName) {
-  nlohmann::json doc = rising_stream_mill();
+  nlohmann::json doc = test::rising_stream_mill();
   doc["time"]["fill_relaxation"] = 0.5;
   doc["time"]["fill_removes"] = true;
   doc["time"]["fill_min_events"] = 10;

@@ -259,6 +259,34 @@ TEST(CliRun, SignalsStopARunWithEveryFileComplete) {
   }
 }
 
+// A hold-up fill is written to the log when it happens, with what it moved: the same numbers as
+// result.json's holdup_fills, to the 0.1 µg the line gives.
+TEST(CliRun, AHoldUpFillIsLoggedWhenItHappens) {
+  test::TempDir dir;
+  nlohmann::json scene = test::rising_stream_mill();
+  scene["time"]["end_s"] = 0.006;
+  write_file(dir.path() / "stream.json", scene.dump());
+  const CommandResult r = run_millsim("run stream.json --out out --quiet", dir.path());
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json result = nlohmann::json::parse(r.out);
+  ASSERT_TRUE(result.contains("holdup_fills"));
+  const nlohmann::json& fill = result["holdup_fills"][0];
+  ASSERT_EQ(fill["status"], "filled");
+  const std::string log = test::read_file(dir.path() / "out/log.txt");
+  const std::size_t at = log.find("fill 1 at 3.6 ms: particles ");
+  ASSERT_NE(at, std::string::npos) << log;
+  double before = 0.0, after = 0.0, projected = 0.0;
+  ASSERT_EQ(
+      std::sscanf(log.c_str() + at, "fill 1 at 3.6 ms: particles %lf -> %lf ug (projected %lf)",
+                  &before, &after, &projected),
+      3)
+      << log.substr(at, 200);
+  EXPECT_NEAR(before, fill["particles"]["before_kg"].get<double>() * 1e9, 0.051);
+  EXPECT_NEAR(after, fill["particles"]["after_kg"].get<double>() * 1e9, 0.051);
+  EXPECT_NEAR(projected, fill["particles"]["projected_kg"].get<double>() * 1e9, 0.051);
+  EXPECT_LT(log.find("fill 1"), log.rfind('\n', log.size() - 2)) << "before the run's last line";
+}
+
 // In a batch log (stderr not a terminal) a run writes LAMMPS-style thermo lines: a header, a line
 // per interval and one at the end, to stderr and to DIR/log.txt; once only when stderr already is
 // DIR/log.txt (as under the service's executors).

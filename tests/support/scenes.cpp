@@ -39,6 +39,34 @@ nlohmann::json run_scene_document(const nlohmann::json& doc, std::unique_ptr<Sim
   return nlohmann::json::parse(in);
 }
 
+nlohmann::json rising_stream_mill() {
+  return {{"name", "rising_stream_mill"},
+          {"seed", 5},
+          {"domain", {{"min_m", {0, 0, 0}}, {"max_m", {0.04, 0.04, 0.006}}}},
+          {"materials",
+           {{{"name", "glass"},
+             {"youngs_modulus_pa", 1e7},
+             {"poisson_ratio", 0.25},
+             {"density_kg_per_m3", 2500},
+             {"restitution", 0.5},
+             {"friction", 0.3}}}},
+          {"mill",
+           {{"center_xy_m", {0.02, 0.02}},
+            {"radius_m", 0.02},
+            {"wall_material", "glass"},
+            {"outlet", {{"name", "vortex_finder"}, {"radius_m", 0.005}, {"depth_m", 0.002}}}}},
+          {"sources", nlohmann::json::array()},
+          {"feeds",
+           {{{"name", "under_the_mouth"},
+             {"material", "glass"},
+             {"mass_rate_kg_per_s", 3.6e-4},
+             {"region", {{"min_m", {0.018, 0.018, 0.0009}}, {"max_m", {0.022, 0.022, 0.0013}}}},
+             {"sizes", {{"distribution", "uniform"}, {"min_m", 2e-4}, {"max_m", 2e-4}}},
+             {"velocity_m_per_s", {0, 0, 1}}}}},
+          {"time", {{"end_s", 0.01}, {"step_s", 1e-6}, {"fill_to_projection_s", 0.003625}}},
+          {"output", {{"h5", false}, {"snapshot_interval_s", 0.0005}}}};
+}
+
 nlohmann::json mill_with_ledger_outflows(double end_s, std::optional<double> feeds_end_s) {
   std::ifstream in(std::string(MILLSIM_SOURCE_DIR) + "/cases/spiral_jet_mill.json");
   nlohmann::json doc = nlohmann::json::parse(in);

@@ -50,6 +50,11 @@ InputErrors scene_errors(const nlohmann::json& doc);
 // under it at 60 m/s, where they break. Each feed ends at `feeds_end_s` when given.
 nlohmann::json mill_with_ledger_outflows(double end_s, std::optional<double> feeds_end_s);
 
+// A stream of 200 µm glass beads fed at 0.36 g/s under a mill's outlet tube, rising at 1 m/s
+// without gravity or gas into its mouth about 2.9 ms above, to 10 ms, with a hold-up fill at
+// 3.625 ms (the hold-up fill tests derive what the fill projects).
+nlohmann::json rising_stream_mill();
+
 // Parses a scene document (base directory "."), runs it to its end in a fresh directory and
 // returns its result.json; a test failure and an empty object when the scene is refused or the
 // run fails. With `kept`, the run's Simulation is handed over there for its final state.
