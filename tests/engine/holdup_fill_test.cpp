@@ -209,13 +209,17 @@ SceneConfig parsed(const nlohmann::json& doc) {
   return scene;
 }
 
-TEST(HoldupFill, AFilledMillHoldsItsTargetAndKeepsEveryKilogramAndItsMomentum) {
-  // The shipped mill with the ledger and two feeds by its outlet tube: shots that break at the
-  // floor (their dust rides the gas) and grains that rise out through the tube.
+// The shipped mill with the ledger and two feeds by its outlet tube: shots that break at the
+// floor (their dust rides the gas) and grains that rise out through the tube.
+SceneConfig ledger_mill_scene() {
   nlohmann::json doc = test::mill_with_ledger_outflows(8e-4, std::nullopt);
   doc["gas"]["spin_up_s"] = 0.002;
   doc["output"] = {{"h5", false}};
-  const SceneConfig scene = parsed(doc);
+  return parsed(doc);
+}
+
+TEST(HoldupFill, AFilledMillHoldsItsTargetAndKeepsEveryKilogramAndItsMomentum) {
+  const SceneConfig scene = ledger_mill_scene();
   Simulation sim(scene);
   const std::int64_t total = sim.total_steps();
   ASSERT_FALSE(sim.advance(total / 2));
@@ -323,10 +327,7 @@ TEST(HoldupFill, AFilledMillHoldsItsTargetAndKeepsEveryKilogramAndItsMomentum) {
 // momentum and energy taken are booked as filled (negative), and the run goes on with every
 // kilogram counted.
 TEST(HoldupFill, AFillThatRemovesTakesTheSurplusAndKeepsEveryKilogramAndItsMomentum) {
-  nlohmann::json doc = test::mill_with_ledger_outflows(8e-4, std::nullopt);
-  doc["gas"]["spin_up_s"] = 0.002;
-  doc["output"] = {{"h5", false}};
-  const SceneConfig scene = parsed(doc);
+  const SceneConfig scene = ledger_mill_scene();
   Simulation sim(scene);
   const std::int64_t total = sim.total_steps();
   ASSERT_FALSE(sim.advance(total / 2));
