@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <stdexcept>
 #include <utility>
 
 #include <Eigen/Dense>
@@ -119,6 +120,23 @@ CompartmentRates fit_rates(const MassFlows& w, double window_s) {
     }
   }
   return r;
+}
+
+void take_particle_rates(CompartmentRates& r, const CompartmentRates& pooled) {
+  if (pooled.slots != r.slots)
+    throw std::logic_error("take_particle_rates: rates over different compartments");
+  const std::size_t n = std::size_t(r.compartments());
+  for (std::size_t c = 0; c < std::size_t(r.slots); ++c) {
+    if (!(r.mean_held_kg[c] > 0.0)) continue;  // empty in the window: passes through, or nothing
+    r.leave_per_s[c] = pooled.leave_per_s[c];
+    r.events[c] = pooled.events[c];
+    r.wall_events[c] = pooled.wall_events[c];
+    r.left_count[c] = pooled.left_count[c];
+    std::copy_n(pooled.move_per_s.begin() + std::ptrdiff_t(c * n), n,
+                r.move_per_s.begin() + std::ptrdiff_t(c * n));
+    std::copy_n(pooled.grind_per_m2_s.begin() + std::ptrdiff_t(c * n), n,
+                r.grind_per_m2_s.begin() + std::ptrdiff_t(c * n));
+  }
 }
 
 namespace {

@@ -89,6 +89,13 @@ struct CompartmentRates {
 // The rates over a window's flows (flows_between) of length window_s > 0.
 CompartmentRates fit_rates(const MassFlows& window, double window_s);
 
+// `r` with its particle compartments' rates (rows [0, S): outflow, moves, their counts) taken
+// from `pooled`, fitted over a longer span of the same run that contains r's window, wherever
+// r's window held them; the dust's rates, the feed and the hold-ups stay r's. The first-order
+// estimate over the longer span, Σ moved / Σ ∫M dt, counts every event since the span began
+// (time.fill_pools_particle_rates).
+void take_particle_rates(CompartmentRates& r, const CompartmentRates& pooled);
+
 struct SteadyProjection {
   bool exists = false;            // every compartment that receives mass also loses it
   std::vector<int> accumulating;  // those that do not

@@ -727,10 +727,15 @@ struct FillRecord {
   std::vector<int> fixed;  // compartments held at their hold-up (CompartmentRates::fixed_held_kg)
   std::vector<int> few_counts;       // of those, the ones held for too few counts (fill_min_events)
   std::vector<double> projected_kg;  // per compartment: the projection, before the relaxation
+  // Where the particle classes' rates were fitted from (time.fill_pools_particle_rates: the first
+  // fill's window start; else start_s), and the counts they rest on, per particle slot.
+  double particle_rates_from_s = 0.0;
+  std::vector<double> particle_events, particles_left;
   bool done() const { return fill || !skipped.empty(); }
   template <class A>
   void checkpoint_io(A& a) {
     io_all(a, start_flows, start_s, at_s, fill, skipped, fixed, few_counts, projected_kg);
+    io_all(a, particle_rates_from_s, particle_events, particles_left);
   }
 };
 
@@ -773,10 +778,11 @@ std::vector<FillSteps> fill_steps(const SceneConfig& scene, double dt, std::int6
   return steps;
 }
 
-// At the fill's step: the steady state projected from the window before it, and the fill to it
-// (Simulation::fill_holdup); without a steady state, the reason instead.
-void fill_to_projection(Simulation& sim, const SceneConfig& scene, FillRecord& record,
-                        std::size_t index) {
+// At the fill's step: the steady state projected from the window before it (the particle
+// classes' rates from the first fill's window on, with time.fill_pools_particle_rates), and the
+// fill to it (Simulation::fill_holdup); without a steady state, the reason instead.
+void fill_to_projection(Simulation& sim, const SceneConfig& scene, const FillRecord& first,
+                        FillRecord& record, std::size_t index) {
   record.at_s = sim.time_s();
   const std::optional<MassFlows> now = sim.mass_flows();
   if (!record.start_flows || !now || !(sim.time_s() > record.start_s)) {
@@ -785,6 +791,14 @@ void fill_to_projection(Simulation& sim, const SceneConfig& scene, FillRecord& r
   }
   CompartmentRates rates =
       fit_rates(flows_between(*record.start_flows, *now), sim.time_s() - record.start_s);
+  record.particle_rates_from_s = record.start_s;
+  if (scene.time.fill_pools_particle_rates && first.start_flows && &first != &record) {
+    take_particle_rates(
+        rates, fit_rates(flows_between(*first.start_flows, *now), sim.time_s() - first.start_s));
+    record.particle_rates_from_s = first.start_s;
+  }
+  record.particle_events.assign(rates.events.begin(), rates.events.begin() + rates.slots);
+  record.particles_left.assign(rates.left_count.begin(), rates.left_count.begin() + rates.slots);
   const std::vector<double> held = sim.holdup_by_compartment_kg();
   // A particle class whose rates rest on fewer counts than time.fill_min_events keeps what it
   // holds and passes mass on at its measured rates.
@@ -863,6 +877,12 @@ nlohmann::ordered_json fill_json(const Simulation& sim, const FillRecord& record
     return j;
   }
   j["window_s"] = {record.start_s, record.at_s};
+  if (!record.particle_events.empty()) {
+    // The span the particle classes' rates were fitted over, and the counts they rest on.
+    j["particle_rates_window_s"] = {record.particle_rates_from_s, record.at_s};
+    j["particle_events_by_slot"] = record.particle_events;
+    j["particles_left_by_slot"] = record.particles_left;
+  }
   if (!record.fill) {
     j["status"] = "skipped";
     j["reason"] = record.skipped;
@@ -1173,7 +1193,8 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
         record.start_s = sim.time_s();
       }
       if (step == fill[k].fill && !record.done()) {
-        sim.profile().time(Phase::Population, [&] { fill_to_projection(sim, scene, record, k); });
+        sim.profile().time(Phase::Population,
+                           [&] { fill_to_projection(sim, scene, loop.fills[0], record, k); });
         if (options.on_notice) options.on_notice(fill_notice(record, k));
       }
     }
