@@ -151,6 +151,14 @@ def main():
             print(f"  projected: particles {fill['particles']['projected_kg'] * 1e9:.0f} µg, "
                   f"ledger dust {fill['dust']['projected_kg'] * 1e9:.0f} µg; held for few counts "
                   f"(slots): {fill.get('held_for_few_counts')}")
+        if "particle_rates_window_s" in fill:
+            w = fill["particle_rates_window_s"]
+            events = fill["particle_events_by_slot"]
+            left = fill["particles_left_by_slot"]
+            counted = [(s, int(e), int(n)) for s, (e, n) in enumerate(zip(events, left)) if e or n]
+            print(f"  particle rates from {w[0] * 1e3:.2f}–{w[1] * 1e3:.2f} ms: "
+                  f"{int(sum(events))} breakage events, {int(sum(left))} particles left; "
+                  f"(slot, events, left): {counted}")
         print()
     rows = [0]
     for i in range(1, len(t)):
