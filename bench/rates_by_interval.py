@@ -2,7 +2,7 @@
 """Whether a mill's breakage is first order: its particles' breakage rate per particle, by size,
 interval by interval, against what the mill held (run.h5's event log and snapshots, result.json's
 holdup_history). A hold-up fill that pools the particle rates over its windows
-(time.fill_pools_particle_rates) assumes these rates do not move with the hold-up; the mean
+(time.fill_particle_rate_windows) assumes these rates do not move with the hold-up; the mean
 specific impact energy of the events says whether the impacts softened.
 
     /usr/bin/python3 bench/rates_by_interval.py RUN_DIR [--edges-ms 20,30,...]

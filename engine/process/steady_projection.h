@@ -93,7 +93,7 @@ CompartmentRates fit_rates(const MassFlows& window, double window_s);
 // from `pooled`, fitted over a longer span of the same run that contains r's window, wherever
 // r's window held them; the dust's rates, the feed and the hold-ups stay r's. The first-order
 // estimate over the longer span, Σ moved / Σ ∫M dt, counts every event since the span began
-// (time.fill_pools_particle_rates).
+// (time.fill_particle_rate_windows).
 void take_particle_rates(CompartmentRates& r, const CompartmentRates& pooled);
 
 struct SteadyProjection {

@@ -164,13 +164,14 @@ struct TimeConfig {
   // held at its hold-up (its rates from a handful of counts are not a projection) and passes
   // mass on at its measured rates.
   int fill_min_events = 0;
-  // Whether each fill fits the particle classes' rates over the span from the first fill's window
-  // to it, not over its own window alone: a class's breakage by wall impacts and its outflow are
-  // first order whatever the hold-up, so every kilogram-second it was held since the mill began
-  // to fill counts, where a window of a few milliseconds counts a handful of events a class. The
-  // dust's rates, which follow the gas and the particles it meets, stay those of the fill's own
-  // window.
-  bool fill_pools_particle_rates = false;
+  // Over how many fills' windows each fill fits the particle classes' rates: K pools the span
+  // from the window start of the fill K − 1 before it (or the first fill's) to it; 1: its own
+  // window alone. A class's breakage by wall impacts and its outflow are first order whatever the
+  // hold-up, so every kilogram-second it was held counts, where a window of a few milliseconds
+  // counts a handful of events a class; a class whose rate drifts as the mill fills wants a
+  // recent span. The dust's rates, which follow the gas and the particles it meets, stay those of
+  // the fill's own window.
+  int fill_particle_rate_windows = 1;
 };
 
 enum class ContactModel {

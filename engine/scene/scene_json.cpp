@@ -415,7 +415,7 @@ TimeConfig parse_time(JsonObjectReader& top, InputErrors& errors) {
   }
   // The fill's settings: only with fills to set.
   for (const char* key :
-       {"fill_relaxation", "fill_removes", "fill_min_events", "fill_pools_particle_rates"})
+       {"fill_relaxation", "fill_removes", "fill_min_events", "fill_particle_rate_windows"})
     if (t.fill_to_projection_s.empty() && r.child(key))
       errors.push_back({r.path_of(key), json_value_text(*r.child(key)),
                         "sets how a hold-up fill moves the mill's hold-up: add "
@@ -423,7 +423,8 @@ TimeConfig parse_time(JsonObjectReader& top, InputErrors& errors) {
   t.fill_relaxation = r.number("fill_relaxation", 1.0, NumberRange::open_closed(0.0, 1.0));
   t.fill_removes = r.boolean("fill_removes", false);
   t.fill_min_events = int(r.integer("fill_min_events", 0, 0, 1000000));
-  t.fill_pools_particle_rates = r.boolean("fill_pools_particle_rates", false);
+  t.fill_particle_rate_windows =
+      int(r.integer("fill_particle_rate_windows", 1, 1, std::int64_t(kMaxHoldupFills)));
   r.finish();
   return t;
 }

@@ -727,8 +727,8 @@ struct FillRecord {
   std::vector<int> fixed;  // compartments held at their hold-up (CompartmentRates::fixed_held_kg)
   std::vector<int> few_counts;       // of those, the ones held for too few counts (fill_min_events)
   std::vector<double> projected_kg;  // per compartment: the projection, before the relaxation
-  // Where the particle classes' rates were fitted from (time.fill_pools_particle_rates: the first
-  // fill's window start; else start_s), and the counts they rest on, per particle slot.
+  // Where the particle classes' rates were fitted from (time.fill_particle_rate_windows: an
+  // earlier fill's window start; else start_s), and the counts they rest on, per particle slot.
   double particle_rates_from_s = 0.0;
   std::vector<double> particle_events, particles_left;
   bool done() const { return fill || !skipped.empty(); }
@@ -779,10 +779,13 @@ std::vector<FillSteps> fill_steps(const SceneConfig& scene, double dt, std::int6
 }
 
 // At the fill's step: the steady state projected from the window before it (the particle
-// classes' rates from the first fill's window on, with time.fill_pools_particle_rates), and the
-// fill to it (Simulation::fill_holdup); without a steady state, the reason instead.
-void fill_to_projection(Simulation& sim, const SceneConfig& scene, const FillRecord& first,
-                        FillRecord& record, std::size_t index) {
+// classes' rates from an earlier fill's window on, time.fill_particle_rate_windows), and the fill
+// to it (Simulation::fill_holdup); without a steady state, the reason instead.
+void fill_to_projection(Simulation& sim, const SceneConfig& scene, std::vector<FillRecord>& fills,
+                        std::size_t index) {
+  FillRecord& record = fills[index];
+  const FillRecord& first =
+      fills[index - std::min(index, std::size_t(scene.time.fill_particle_rate_windows - 1))];
   record.at_s = sim.time_s();
   const std::optional<MassFlows> now = sim.mass_flows();
   if (!record.start_flows || !now || !(sim.time_s() > record.start_s)) {
@@ -792,7 +795,7 @@ void fill_to_projection(Simulation& sim, const SceneConfig& scene, const FillRec
   CompartmentRates rates =
       fit_rates(flows_between(*record.start_flows, *now), sim.time_s() - record.start_s);
   record.particle_rates_from_s = record.start_s;
-  if (scene.time.fill_pools_particle_rates && first.start_flows && &first != &record) {
+  if (&first != &record && first.start_flows) {
     take_particle_rates(
         rates, fit_rates(flows_between(*first.start_flows, *now), sim.time_s() - first.start_s));
     record.particle_rates_from_s = first.start_s;
@@ -1194,7 +1197,7 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
       }
       if (step == fill[k].fill && !record.done()) {
         sim.profile().time(Phase::Population,
-                           [&] { fill_to_projection(sim, scene, loop.fills[0], record, k); });
+                           [&] { fill_to_projection(sim, scene, loop.fills, k); });
         if (options.on_notice) options.on_notice(fill_notice(record, k));
       }
     }

@@ -596,54 +596,53 @@ TEST(HoldupFill, ASecondFillRemovesWhatItsProjectionFindsTooMuch) {
   EXPECT_TRUE(result["steady_state"]["steady"].get<bool>()) << result["steady_state"].dump();
 }
 
-// Pooled particle rates (time.fill_pools_particle_rates): the rising stream filled at 4.5 and
-// 7.5 ms. The second fill's own window is 6.5-7.5 ms, but its particle rates are fitted from
-// the first fill's window start, 3 ms, on: the beads it counts leaving are every bead the
-// outlet tally took between the hold-up rows at 3 and 7.5 ms (a separate count: the outlet's,
-// not the mass flows'), where without pooling they are those of 6.5-7.5 ms alone.
-TEST(HoldupFill, PooledParticleRatesCountEveryBeadThatLeftSinceTheFirstWindow) {
+// Pooled particle rates (time.fill_particle_rate_windows K): the rising stream filled at 4.5,
+// 7.5 and 10.5 ms, whose own windows start at 3, 6.5 and 9.5 ms. Each fill fits its particle
+// rates from the window start of the fill K − 1 before it (or the first's): the beads it counts
+// leaving are every bead the outlet tally took between the hold-up rows at that start and the
+// fill (a separate count: the outlet's, not the mass flows'). K = 1 is each fill's own window,
+// K = 2 reaches back one fill, K = 16 to the first window.
+TEST(HoldupFill, PooledParticleRatesCountEveryBeadThatLeftSinceTheirSpanBegan) {
   const double bead_kg = 2500 * std::numbers::pi / 6 * 8e-12;
   nlohmann::json doc = test::rising_stream_mill();
-  doc["time"]["end_s"] = 0.012;
-  doc["time"]["fill_to_projection_s"] = {0.0045, 0.0075};
+  doc["time"]["end_s"] = 0.016;
+  const std::vector<double> at = {0.0045, 0.0075, 0.0105}, window = {0.003, 0.0065, 0.0095};
+  doc["time"]["fill_to_projection_s"] = at;
   const auto beads_out = [&](const nlohmann::json& result, double from_s, double to_s) {
     const nlohmann::json& rows = result["holdup_history"];
-    const auto at = [&](double t) {
+    const auto outlet_at = [&](double t) {
       for (std::size_t i = 0; i < rows["time_s"].size(); ++i)
         if (std::abs(rows["time_s"][i].get<double>() - t) < 1e-9)
           return rows["outlet_kg"][i].get<double>();
       ADD_FAILURE() << "no hold-up row at " << t << " s";
       return 0.0;
     };
-    return std::llround((at(to_s) - at(from_s)) / bead_kg);
+    return std::llround((outlet_at(to_s) - outlet_at(from_s)) / bead_kg);
   };
   const auto counted = [](const nlohmann::json& fill) {
     double sum = 0.0;
     for (const nlohmann::json& n : fill["particles_left_by_slot"]) sum += n.get<double>();
     return std::llround(sum);
   };
-  for (const bool pooled : {true, false}) {
-    SCOPED_TRACE(pooled ? "pooled" : "each fill's own window");
-    doc["time"]["fill_pools_particle_rates"] = pooled;
+  for (const int windows : {1, 2, 16}) {
+    SCOPED_TRACE(std::to_string(windows) + " windows");
+    doc["time"]["fill_particle_rate_windows"] = windows;
     const nlohmann::json result = test::run_scene_document(doc);
     ASSERT_TRUE(result.contains("holdup_fills"));
     ASSERT_TRUE(result.contains("holdup_history"));
     const nlohmann::json& fills = result["holdup_fills"];
-    ASSERT_EQ(fills.size(), 2u);
-    ASSERT_EQ(fills[0]["status"], "filled") << fills[0].dump();
-    ASSERT_EQ(fills[1]["status"], "filled") << fills[1].dump();
-    // The first fill has nothing before it to pool: its own window, 3-4.5 ms.
-    EXPECT_EQ(fills[0]["particle_rates_window_s"], fills[0]["window_s"]);
-    EXPECT_NEAR(fills[0]["window_s"][0].get<double>(), 0.003, 1e-9);
-    EXPECT_EQ(counted(fills[0]), beads_out(result, 0.003, 0.0045));
-    EXPECT_NEAR(fills[1]["window_s"][0].get<double>(), 0.0065, 1e-9);
-    const double from = pooled ? 0.003 : 0.0065;
-    EXPECT_NEAR(fills[1]["particle_rates_window_s"][0].get<double>(), from, 1e-9);
-    EXPECT_NEAR(fills[1]["particle_rates_window_s"][1].get<double>(), 0.0075, 1e-9);
-    const long long out = beads_out(result, from, 0.0075);
-    // The stream carries F / m = 34 beads a millisecond (more after a fill).
-    EXPECT_GT(double(out), 0.5 * 3.6e-4 * (0.0075 - from) / bead_kg);
-    EXPECT_EQ(counted(fills[1]), out);
+    ASSERT_EQ(fills.size(), 3u);
+    for (std::size_t k = 0; k < 3; ++k) {
+      ASSERT_EQ(fills[k]["status"], "filled") << fills[k].dump();
+      EXPECT_NEAR(fills[k]["window_s"][0].get<double>(), window[k], 1e-9);
+      const double from = window[k - std::min<std::size_t>(k, std::size_t(windows - 1))];
+      EXPECT_NEAR(fills[k]["particle_rates_window_s"][0].get<double>(), from, 1e-9) << k;
+      EXPECT_NEAR(fills[k]["particle_rates_window_s"][1].get<double>(), at[k], 1e-9) << k;
+      const long long out = beads_out(result, from, at[k]);
+      // The stream carries F / m = 34 beads a millisecond (more after a fill).
+      EXPECT_GT(double(out), 0.5 * 3.6e-4 * (at[k] - from) / bead_kg) << k;
+      EXPECT_EQ(counted(fills[k]), out) << k;
+    }
     EXPECT_LT(std::abs(result["mass_balance"]["relative_error"].get<double>()), 1e-12);
   }
 }
@@ -654,12 +653,18 @@ TEST(HoldupFill, TheFillsSettingsAreCheckedByName) {
   doc["time"]["fill_relaxation"] = 0.5;
   doc["time"]["fill_removes"] = true;
   doc["time"]["fill_min_events"] = 10;
-  doc["time"]["fill_pools_particle_rates"] = true;
+  doc["time"]["fill_particle_rate_windows"] = 16;
   EXPECT_TRUE(test::scene_errors(doc).empty());
   const std::vector<std::pair<const char*, nlohmann::json>> bad = {
-      {"fill_relaxation", 0.0},        {"fill_relaxation", 1.5}, {"fill_relaxation", "half"},
-      {"fill_removes", "yes"},         {"fill_min_events", -1},  {"fill_min_events", 2.5},
-      {"fill_pools_particle_rates", 1}};
+      {"fill_relaxation", 0.0},
+      {"fill_relaxation", 1.5},
+      {"fill_relaxation", "half"},
+      {"fill_removes", "yes"},
+      {"fill_min_events", -1},
+      {"fill_min_events", 2.5},
+      {"fill_particle_rate_windows", 0},
+      {"fill_particle_rate_windows", 17},
+      {"fill_particle_rate_windows", "all"}};
   for (const auto& [key, value] : bad) {
     nlohmann::json d = doc;
     d["time"][key] = value;

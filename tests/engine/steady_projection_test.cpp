@@ -193,7 +193,7 @@ TEST(SteadyProjection, ItsSpreadNarrowsAsTheCountsGrow) {
   EXPECT_EQ(projection_spread(few, empty, kEdges, 200, 7).d50_m, wide.d50_m);
 }
 
-// A fill's rates pooled over windows (time.fill_pools_particle_rates). Particles A (slot 3, beads
+// A fill's rates pooled over windows (time.fill_particle_rate_windows). Particles A (slot 3, beads
 // of m each) fed at F break by wall impact at a first-order rate k into dust B, which leaves at a
 // rate that changes from window to window (the gas changes as the mill fills). A is held at its
 // steady F/k and counts Poisson(k F/k w / m) events a window. The pooled rates take A's from
