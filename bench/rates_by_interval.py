@@ -17,6 +17,23 @@ import numpy as np
 SIZE_GROUPS_UM = [50, 100, 200, 1e9]
 
 
+def snapshot_counts(f, edges_m):
+    """The snapshots' times and their particles counted into the size groups of edges_m."""
+    snaps = sorted(f["snapshots"].keys(), key=lambda s: f["snapshots"][s].attrs["time_s"])
+    times = np.array([f["snapshots"][s].attrs["time_s"] for s in snaps])
+    counts = np.array([np.histogram(f["snapshots"][s]["diameter"][:], bins=edges_m)[0]
+                       for s in snaps], dtype=float)
+    return times, counts
+
+
+def particle_seconds(times, counts):
+    """Particle-seconds per size group: the trapezoid over the snapshots given."""
+    exposure = np.zeros(counts.shape[1])
+    for k in range(1, len(times)):
+        exposure += 0.5 * (counts[k] + counts[k - 1]) * (times[k] - times[k - 1])
+    return exposure
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("run_dir")
@@ -30,11 +47,8 @@ def main():
         bounds = [f["time_s"] for f in r.get("holdup_fills") or [] if f.get("status") == "filled"]
         bounds.append(r["simulated_time_s"])
     f = h5py.File(f"{a.run_dir}/run.h5", "r")
-    snaps = sorted(f["snapshots"].keys(), key=lambda s: f["snapshots"][s].attrs["time_s"])
-    times = np.array([f["snapshots"][s].attrs["time_s"] for s in snaps])
     edges = [x * 1e-6 for x in SIZE_GROUPS_UM]
-    counts = np.array([np.histogram(f["snapshots"][s]["diameter"][:], bins=edges)[0]
-                       for s in snaps], dtype=float)
+    times, counts = snapshot_counts(f, edges)
     ev = f["breakage_events"]
     ev_t, ev_d = ev["time_s"][:], ev["parent_diameter_m"][:]
     ev_e = ev["specific_energy_j_per_kg"][:]
@@ -48,12 +62,9 @@ def main():
           + " | ".join(names) + " | events | mean energy (J/kg) |")
     print("| --- " * (len(names) + 5) + "|")
     for t0, t1 in zip(bounds, bounds[1:]):
-        # Particle-seconds by the trapezoid over the snapshots inside [t0, t1].
         inside = (times >= t0 - 1e-9) & (times <= t1 + 1e-9)
-        ts, cs = times[inside], counts[inside]
-        exposure = np.zeros(len(names))
-        for k in range(1, len(ts)):
-            exposure += 0.5 * (cs[k] + cs[k - 1]) * (ts[k] - ts[k - 1])
+        ts = times[inside]
+        exposure = particle_seconds(ts, counts[inside])
         span = ts[-1] - ts[0] if len(ts) > 1 else 0.0
         sel = (ev_t >= ts[0]) & (ev_t < ts[-1]) if len(ts) > 1 else np.zeros_like(ev_t, bool)
         events = np.histogram(ev_d[sel], bins=edges)[0]

@@ -57,16 +57,13 @@ def selection_rates(run_dir, names):
     try:
         import h5py
         import numpy as np
+        from rates_by_interval import particle_seconds, snapshot_counts
         f = h5py.File(f"{run_dir}/run.h5", "r")
     except (ImportError, OSError):
         return
     edges = [x * 1e-6 for x in SIZE_GROUPS_UM]
-    snaps = sorted(f["snapshots"].keys())
-    times = [f["snapshots"][s].attrs["time_s"] for s in snaps]
-    counts = [np.histogram(f["snapshots"][s]["diameter"][:], bins=edges)[0] for s in snaps]
-    exposure = np.zeros(len(edges) - 1)  # particle-seconds per group
-    for k in range(1, len(snaps)):
-        exposure += 0.5 * (counts[k] + counts[k - 1]) * (times[k] - times[k - 1])
+    times, counts = snapshot_counts(f, edges)
+    exposure = particle_seconds(times, counts)  # particle-seconds per group
     if "breakage_events" not in f:
         return
     ev = f["breakage_events"]
