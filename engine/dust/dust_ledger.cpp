@@ -281,12 +281,16 @@ void DustLedger::advance(const GasView& gas, double dt_s) {
   // The classes are carried independently, each by one thread into its own mass, outflow and
   // counters, so the result is the same on any thread count.
   class_substeps_.assign(classes_.size(), 0);
+  class_fastest_rate_.assign(classes_.size(), 0.0);
   parallel_blocks_if(worth_threads(classes_.size() * fluid_cells_.size()), classes_.size(),
                      [&](std::size_t k) {
                        static thread_local ClassScratch scratch;  // the running thread's own
                        carry_class(k, dt_s, scratch);
                      });
   for (const std::uint64_t n : class_substeps_) stats_.substeps += n;
+  fastest_rate_per_s_ = 0.0;
+  for (const double rate : class_fastest_rate_)
+    fastest_rate_per_s_ = std::max(fastest_rate_per_s_, rate);
 }
 
 // Class k over dt_s: its slip per cell, its speed through each face, the sub-steps its fastest
@@ -385,6 +389,7 @@ void DustLedger::carry_class(std::size_t k, double dt_s, ClassScratch& scratch) 
   const int substeps = std::max(1, int(std::ceil(dt_s * fastest / 0.5 - 1e-12)));
   const double h = dt_s / substeps;
   class_substeps_[k] = std::uint64_t(substeps);
+  class_fastest_rate_[k] = fastest;
   // Heun's method (SSP-RK2): each stage a conservative, positive flux pass, their mean the
   // step, so what left is the mean of the stages' outflows. Cells without fluid hold nothing.
   std::vector<double>& m = mass_[k];

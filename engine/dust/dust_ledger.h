@@ -110,6 +110,13 @@ class DustLedger {
   Vec3 slip_m_per_s(std::size_t c, double tau) const;
   // The fastest gas speed in a fluid cell as of the last advance (U_max of the slip bound).
   double max_gas_speed_m_per_s() const { return max_gas_speed_m_per_s_; }
+  // The time the ledger may go before its next carry: `courant` over the largest outgoing rate
+  // (1/s: Σ over a cell's faces of the speed out of it over the cell's size) any class had in any
+  // fluid cell at the last advance, so that over it no class's Courant sum passes `courant` while
+  // the gas stays as it was then. 0 before the first advance and where nothing moved.
+  double carry_interval_s(double courant) const {
+    return fastest_rate_per_s_ > 0.0 ? courant / fastest_rate_per_s_ : 0.0;
+  }
   // The fluid cells the last advance saw (the denominator of speed_bounded_cells per advance).
   std::size_t fluid_cell_count() const { return fluid_cells_.size(); }
   // The padded cell x lies in (clamped into the grid; it may be a solid one).
@@ -127,7 +134,7 @@ class DustLedger {
   template <class A>
   void checkpoint_io(A& a) {
     io_all(a, mass_, outflow_kg_, unplaced_kg_, previous_velocity_, previous_time_s_,
-           have_previous_, stats_, filled_kg_);
+           have_previous_, stats_, filled_kg_, fastest_rate_per_s_);
   }
 
  private:
@@ -220,6 +227,8 @@ class DustLedger {
   std::vector<std::size_t> fluid_cells_;       // the padded indices of the fluid cells, ascending
   std::vector<double> gas_face_speed_;         // per face, this advance
   std::vector<std::uint64_t> class_substeps_;  // per class, this advance
+  std::vector<double> class_fastest_rate_;     // per class, this advance: its largest outgoing rate
+  double fastest_rate_per_s_ = 0.0;            // over the classes, as of the last advance
   DustLedgerStats stats_;
 };
 

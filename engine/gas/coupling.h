@@ -142,6 +142,8 @@ class GasCoupling {
 
   // True when the CFD step is due at this DEM step.
   bool due(std::int64_t step_index) const { return step_index >= next_cfd_step_; }
+  // The DEM step of the next CFD step.
+  std::int64_t next_cfd_step() const { return next_cfd_step_; }
   // One CFD step at DEM step `step_index`: deposits the particles' volume and the impulse they
   // took since the last CFD step, advances the gas over that same interval, hands the implicit
   // drag response back, clears the DEM-cell table and chooses the next interval from the gas's

@@ -240,6 +240,10 @@ struct DustConfig {
   // compressible_solver.h, "dust"); false: carried by the gas, never acting on it. Absent from the
   // scene: on with the compressible gas, off with the incompressible one (which has only that).
   std::optional<bool> two_way;
+  // The ledger is carried at its own step, not the gas's acoustic one: at the last CFD step before
+  // the time since its last carry would pass carry_courant over the largest outgoing rate of any
+  // class at that carry (DustLedger::carry_interval_s). 0: at every CFD step.
+  double carry_courant = 0.5;
 };
 
 // Size classes of the outlet PSD: explicit edges, or `bins` log-spaced edges on [min, max].

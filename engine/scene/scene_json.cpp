@@ -660,6 +660,7 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
     r.finish();
     scene.breakage = b;
   }
+  bool carry_courant_given = false;
   if (const json* v = top.child("dust")) {
     JsonObjectReader r(*v, "/dust", errors);
     DustConfig d;
@@ -669,6 +670,9 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
     d.grinding = r.string("grinding", "none", {"none", "sweep"}) == "sweep";
     if (r.has("gas_coupling"))
       d.two_way = r.string("gas_coupling", "two_way", {"one_way", "two_way"}) == "two_way";
+    carry_courant_given = r.has("carry_courant");
+    if (carry_courant_given)
+      d.carry_courant = r.number("carry_courant", 0.5, NumberRange::closed(0.0, 0.5));
     scene.dust = d;
     r.finish();
   }
@@ -716,6 +720,10 @@ SceneConfig parse_scene(const json& doc, const std::filesystem::path& base_dir,
                                "one breakable material; the scene has ",
                                breakable_materials, ": use \"none\"")});
   }
+  if (scene.dust && carry_courant_given && scene.dust->model != DustModel::Ledger)
+    errors.push_back({"/dust/carry_courant", concat(scene.dust->carry_courant),
+                      "sets how often the dust ledger is carried: set /dust/model to \"ledger\", "
+                      "or leave it out"});
   if (scene.dust && scene.dust->two_way && scene.dust->model != DustModel::Ledger)
     errors.push_back({"/dust/gas_coupling", *scene.dust->two_way ? "\"two_way\"" : "\"one_way\"",
                       "couples the dust ledger to the gas: set /dust/model to \"ledger\", or "

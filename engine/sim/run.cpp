@@ -221,6 +221,7 @@ void add_product_summary(const Simulation& sim, nlohmann::ordered_json& s) {
         {"displaced_deposits", dust->stats().displaced_deposits},
         {"advances", dust->stats().advances},
         {"substeps", dust->stats().substeps},
+        {"carry_courant", sim.dust_carry_courant()},
         {"gas_coupling", sim.dust_two_way() ? "two_way" : "one_way"},
         {"max_cell_mass_loading", sim.dust_max_cell_loading()},
         {"mass_loading", dust->held_kg() / gas_mass_kg(*sim.gas())},

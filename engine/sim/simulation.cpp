@@ -327,6 +327,7 @@ Simulation::Simulation(const SceneConfig& scene, SimulationStart start)
           dust_grinding_.emplace(*dust_ledger_, dust_edges_m_, scene.materials[m], int(m),
                                  scene.breakage->equivalence);
     dust_two_way_ = scene.dust->two_way.value_or(gas.model == GasModel::Compressible);
+    dust_carry_courant_ = scene.dust->carry_courant;
     breakage_->record_dust(true);
     window_dust_out_kg_.assign(std::size_t(dust_ledger_->class_count()), 0.0);
     dust_out_seen_kg_ = window_dust_out_kg_;
@@ -952,7 +953,7 @@ std::optional<StepFailure> Simulation::advance_gas() {
   multi_rate_.fluid_refresh_due = true;  // kept fluid forces (multi-rate) are stale now
   multi_rate_.gas_changed_step = step_index_;
   if (message) return StepFailure{step_index_, time_s(), 0, "gas_solver", *message};
-  if (dust_ledger_) {
+  if (dust_ledger_ && dust_carry_due()) {
     // The dust rides the gas just solved over the DEM time since it was last carried.
     profile_.time(Phase::Gas, [&] {
       const double dt = double(step_index_ - dust_advanced_step_) * time_.step_s;
@@ -977,6 +978,18 @@ std::optional<StepFailure> Simulation::advance_gas() {
     }
   }
   return std::nullopt;
+}
+
+// The ledger's dust moves at the gas's speed plus its slip, far below the gas's sound speed that
+// sets the CFD step, so it is carried at its own step: at the last CFD step before the time since
+// its last carry would pass carry_courant over its fastest class's outgoing rate at that carry.
+// Each class still takes the sub-steps its rates need (a gas that sped up meanwhile costs a
+// sub-step, never stability). At every CFD step until the first carry, and while nothing moves.
+bool Simulation::dust_carry_due() const {
+  if (!(dust_carry_courant_ > 0.0) || dust_ledger_->stats().advances == 0) return true;
+  const double since_s = double(step_index_ - dust_advanced_step_) * time_.step_s;
+  const double next_s = double(gas_->next_cfd_step() - step_index_) * time_.step_s;
+  return since_s + next_s > dust_ledger_->carry_interval_s(dust_carry_courant_);
 }
 
 double Simulation::particle_energy_j(std::size_t i) const {

@@ -170,6 +170,7 @@ class Simulation {
   // The dust ledger (absent unless the scene's dust model is "ledger").
   const DustLedger* dust_ledger() const { return dust_ledger_ ? &*dust_ledger_ : nullptr; }
   bool dust_two_way() const { return dust_two_way_; }
+  double dust_carry_courant() const { return dust_carry_courant_; }
   double dust_max_cell_loading() const { return dust_max_cell_loading_; }
   // The ledger's grinding by the particles (absent unless the scene's dust.grinding is "sweep").
   const DustGrinding* dust_grinding() const { return dust_grinding_ ? &*dust_grinding_ : nullptr; }
@@ -351,6 +352,7 @@ class Simulation {
   std::vector<double> dust_edges_m_;          // the dust table's PSD edges (the ledger's classes)
   double dust_density_kg_per_m3_ = 0.0;       // the breakable material's: the ledger's dust
   std::int64_t dust_advanced_step_ = 0;       // the step the ledger was last carried to
+  double dust_carry_courant_ = 0.0;           // /dust/carry_courant (0: every CFD step)
   bool dust_two_way_ = false;                 // the gas carries the ledger's dust as inertia
   double dust_max_cell_loading_ = 0.0;        // the largest c/ρ of a gas cell at a gas advance
   std::vector<double> dust_density_scratch_;  // one-way: the ledger's kg/m³, for the loading
@@ -364,6 +366,8 @@ class Simulation {
     return !product_window_s_ ||
            (time_s() >= (*product_window_s_)[0] && time_s() < (*product_window_s_)[1]);
   }
+  // Whether the ledger is carried at this CFD step (/dust/carry_courant).
+  bool dust_carry_due() const;
   // Moves the dust the breakage made this step into the ledger.
   void deposit_fresh_dust();
   // The table's dust made this step, into the product when inside its window.
