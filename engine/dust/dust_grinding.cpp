@@ -63,6 +63,8 @@ DustGrinding::DustGrinding(const DustLedger& ledger, const std::vector<double>& 
       shares_(dust_fragment_shares(edges_m, ledger.classes(),
                                    FragmentSizeSampler(dust.breakage->fragments))) {
   for (const DustClass& c : ledger.classes())
+    threshold_j_per_kg_.push_back(threshold_energy_j_per_kg(strength_, c.diameter_m));
+  for (const DustClass& c : ledger.classes())
     class_mass_kg_.push_back(dust.density_kg_per_m3 * std::numbers::pi / 6.0 * c.diameter_m *
                              c.diameter_m * c.diameter_m);
   for (std::size_t k = 0; k < shares_.size(); ++k) {
@@ -137,6 +139,7 @@ void DustGrinding::sweep_class(std::size_t k, const DustLedger& ledger, const Pa
   const std::size_t cells = g.padded_size;
   const double c_dust = materials.material(dust_material_).normal_compliance;
   const double r_k = 0.5 * dust_class.diameter_m;
+  const double threshold_j_per_kg = threshold_j_per_kg_[k];
   std::vector<std::size_t>& touched = touched_by_class_[k];
   for (std::size_t i = 0; i < p.size(); ++i) {
     const std::size_t c = particle_cell_[i];
@@ -148,8 +151,13 @@ void DustGrinding::sweep_class(std::size_t k, const DustLedger& ledger, const Pa
       have_velocity_[kc] = 1;
       touched.push_back(kc);
     }
+    // The equivalent speed is never above the relative one (equivalent_speed_pair shares it out
+    // between the partners), so a pair below the class's threshold at its relative speed breaks
+    // nothing: skipped before any root is taken.
+    const double s2 = norm2(p.motion[i].velocity_m_per_s - dust_velocity_[kc]);
+    if (!(0.5 * s2 > threshold_j_per_kg)) continue;
     const double r_i = p.radius_m[i];
-    const double s = norm(p.motion[i].velocity_m_per_s - dust_velocity_[kc]);
+    const double s = std::sqrt(s2);
     const double v_eq =
         equivalent_speed_pair(equivalence_, class_mass_kg_[k], r_k, c_dust, p.mass_kg[i], r_i,
                               materials.material(p.material[i]).normal_compliance, s);

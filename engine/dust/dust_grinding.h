@@ -85,7 +85,8 @@ class DustGrinding {
   StrengthConfig strength_;
   ImpactEquivalence equivalence_;
   int dust_material_ = 0;
-  std::vector<double> class_mass_kg_;  // a grain's mass per class
+  std::vector<double> class_mass_kg_;       // a grain's mass per class
+  std::vector<double> threshold_j_per_kg_;  // per class: W_min at its diameter
   std::vector<std::vector<double>> shares_;
   // Per class: the share of its broken mass that leaves it (1 − shares[k][k]), and how that
   // part spreads over the finer classes (Σ = 1).

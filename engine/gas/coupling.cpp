@@ -186,8 +186,8 @@ std::uint64_t DemCellFluidTable::key_of(const Vec3& x, long& i, long& j, long& k
   return pack_cell(i, j, k) + 1;
 }
 
-std::uint32_t DemCellFluidTable::find_or_fill(std::uint64_t key, long i, long j, long k,
-                                              const GasView& gas, bool with_vorticity) {
+std::uint32_t DemCellFluidTable::find_or_insert(std::uint64_t key, bool& inserted) {
+  inserted = false;
   // Particles are kept in space-filling order, so the next one is often in the same cell.
   if (key == last_key_) return last_state_;
   const std::size_t mask = keys_.size() - 1;
@@ -201,11 +201,44 @@ std::uint32_t DemCellFluidTable::find_or_fill(std::uint64_t key, long i, long j,
   }
   keys_[h] = key;
   slot_state_[h] = std::uint32_t(states_.size());
-  states_.push_back(average(i, j, k, gas, with_vorticity));
+  states_.emplace_back();
   ++fills_;
+  inserted = true;
   last_key_ = key, last_state_ = std::uint32_t(states_.size() - 1);
   if (2 * states_.size() > keys_.size()) grow();
   return last_state_;
+}
+
+std::uint32_t DemCellFluidTable::find_or_fill(std::uint64_t key, long i, long j, long k,
+                                              const GasView& gas, bool with_vorticity) {
+  bool inserted = false;
+  const std::uint32_t state = find_or_insert(key, inserted);
+  if (inserted) states_[state] = average(i, j, k, gas, with_vorticity);
+  return state;
+}
+
+void DemCellFluidTable::reserve(const Vec3& x, FluidCellRef& hint) {
+  long i, j, k;
+  const std::uint64_t key = key_of(x, i, j, k);
+  if (key == hint.key && hint.generation == generation_) return;
+  bool inserted = false;
+  hint = {key, find_or_insert(key, inserted), generation_};
+  if (inserted) pending_.push_back({hint.state, i, j, k});
+}
+
+// A DEM cell's average samples the gas at one point or more (velocity, pressure and its gradient,
+// density: a few hundred operations), the work of about this many particles in a particle loop.
+constexpr std::size_t kCellAverageWeight = 64;
+
+void DemCellFluidTable::fill_pending(const GasView& gas, bool with_vorticity) {
+  parallel_ranges_if(worth_threads(pending_.size() * kCellAverageWeight), pending_.size(),
+                     block_items(256), [&](std::size_t begin, std::size_t end, std::size_t) {
+                       for (std::size_t n = begin; n < end; ++n) {
+                         const PendingCell& c = pending_[n];
+                         states_[c.state] = average(c.i, c.j, c.k, gas, with_vorticity);
+                       }
+                     });
+  pending_.clear();
 }
 
 const FluidCellState* DemCellFluidTable::find(const Vec3& x, FluidCellRef& hint,
@@ -305,13 +338,21 @@ std::optional<std::string> GasCoupling::advance_gas(double dt) {
 // A particle's volume onto the fluid cells it overlaps (sphere_overlap_stencil). One wholly inside
 // cells the staircase counts as solid (next to a curved wall) goes to the fluid cells among the
 // eight around its centre, trilinear; one with none there either is counted and left out.
-void GasCoupling::deposit_solid_volume(const GasGrid& g, const Vec3& wrapped_x, double radius_m) {
+static Stencil solid_volume_stencil(const GasGrid& g, const Vec3& wrapped_x, double radius_m) {
   const auto fluid_cell = [&](std::size_t c) { return g.fluid[c] != 0; };
   Stencil s = sphere_overlap_stencil(g, wrapped_x, radius_m, fluid_cell);
   if (s.count == 0) s = make_stencil(g, wrapped_x, -1, fluid_cell);
+  return s;
+}
+
+void GasCoupling::add_solid_volume(const Stencil& s, double radius_m) {
   if (s.count == 0) ++stats_.unplaced_deposits;
   const double volume_m3 = 4.0 / 3.0 * std::numbers::pi * radius_m * radius_m * radius_m;
   for (int k = 0; k < s.count; ++k) solid_volume_[s.node[k]] += volume_m3 * s.weight[k];
+}
+
+void GasCoupling::deposit_solid_volume(const GasGrid& g, const Vec3& wrapped_x, double radius_m) {
+  add_solid_volume(solid_volume_stencil(g, wrapped_x, radius_m), radius_m);
 }
 
 // ε = 1 − solids volume / cell volume per fluid cell, floored at min_volume_fraction (each floored
@@ -331,6 +372,9 @@ void GasCoupling::update_volume_fraction(const GasGrid& g, std::vector<double>& 
   stats_.min_volume_fraction = std::min(stats_.min_volume_fraction, min_fraction);
 }
 
+// A particle's two deposit stencils cost about this many particles' work in a particle loop.
+constexpr std::size_t kDepositWeight = 8;
+
 // The compressible model: solids volume → ε per cell (for the drag laws), and the impulse the
 // particles took since the last CFD step → a momentum source per cell, with the work the drag
 // did on them (impulse · velocity) as the gas's energy loss, so the drag's dissipation stays in
@@ -347,12 +391,7 @@ void GasCoupling::deposit_compressible(const ParticleStore& p, double interval_s
   std::fill(energy.begin(), energy.end(), 0.0);
   const double volume = g.cell_volume_m3();
   const auto fluid_cell = [&](std::size_t c) { return g.fluid[c] != 0; };
-  const auto push = [&](const Vec3& x_raw, const Vec3& impulse, const Vec3& velocity,
-                        double radius_m, double beta) {
-    Vec3 x = x_raw;
-    box_.wrap(x);
-    if (radius_m > 0.0) deposit_solid_volume(g, x, radius_m);
-    const Stencil s = make_stencil(g, x, -1, fluid_cell);
+  const auto add = [&](const Stencil& s, const Vec3& impulse, const Vec3& velocity, double beta) {
     const double work = dot(impulse, velocity);
     for (int k = 0; k < s.count; ++k) {
       const std::size_t c = s.node[k];
@@ -364,11 +403,30 @@ void GasCoupling::deposit_compressible(const ParticleStore& p, double interval_s
       stats_.deposited_impulse_n_s -= impulse * w;
     }
   };
-  for (std::size_t i = 0; i < p.size(); ++i)
-    push(p.position_m[i], p.fluid_impulse_n_s[i], p.motion[i].velocity_m_per_s, p.radius_m[i],
-         std::max(0.0, p.fluid_coefficient_kg_per_s[i]));
-  for (const Released& r : released_)
-    push(r.position_m, r.impulse_n_s, r.velocity_m_per_s, 0.0, 0.0);
+  // Each particle's two stencils (the cells its volume overlaps, the cells around its centre) on
+  // the engine's threads, then added in slot order: the sums of one thread, on any number.
+  deposit_stencils_.resize(2 * p.size());
+  parallel_ranges_if(worth_threads(p.size() * kDepositWeight), p.size(), block_items(4096),
+                     [&](std::size_t begin, std::size_t end, std::size_t) {
+                       for (std::size_t i = begin; i < end; ++i) {
+                         Vec3 x = p.position_m[i];
+                         box_.wrap(x);
+                         deposit_stencils_[2 * i] = p.radius_m[i] > 0.0
+                                                        ? solid_volume_stencil(g, x, p.radius_m[i])
+                                                        : Stencil{};
+                         deposit_stencils_[2 * i + 1] = make_stencil(g, x, -1, fluid_cell);
+                       }
+                     });
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (p.radius_m[i] > 0.0) add_solid_volume(deposit_stencils_[2 * i], p.radius_m[i]);
+    add(deposit_stencils_[2 * i + 1], p.fluid_impulse_n_s[i], p.motion[i].velocity_m_per_s,
+        std::max(0.0, p.fluid_coefficient_kg_per_s[i]));
+  }
+  for (const Released& r : released_) {
+    Vec3 x = r.position_m;
+    box_.wrap(x);
+    add(make_stencil(g, x, -1, fluid_cell), r.impulse_n_s, r.velocity_m_per_s, 0.0);
+  }
   released_.clear();
   update_volume_fraction(g, gas.volume_fraction());
   double rate = 0.0;
@@ -659,15 +717,18 @@ void GasCoupling::fluid_pass(ParticleStore& p, std::size_t count, SlotOf&& slot_
     }
     pass_tally_[block] = tally;
   });
+  // The missing cells take their places in slot order (the order one thread would have filled
+  // them in), then their states are averaged on the threads.
   bool any_missed = false;
   for (std::size_t block = 0; block < blocks; ++block) {
     const std::uint32_t* missed = pass_missed_.data() + block * block_size;
     for (std::size_t m = 0; m < pass_tally_[block].missed; ++m) {
       const std::size_t i = slot_of(missed[m]);
-      table_.at(wrapped_position(i), gas, lift, p.fluid_cell[i]);
+      table_.reserve(wrapped_position(i), p.fluid_cell[i]);
       any_missed = true;
     }
   }
+  if (any_missed) table_.fill_pending(gas, lift);
   auto finish_block = [&](std::size_t block) {
     const std::uint32_t* missed = pass_missed_.data() + block * block_size;
     for (std::size_t m = 0; m < pass_tally_[block].missed; ++m) {

@@ -79,6 +79,12 @@ class DemCellFluidTable {
   // may call it from several threads at once while nothing fills the table; `last` is the
   // caller's own memory of the cell it found last (the next particle is often in it too).
   const FluidCellState* find(const Vec3& x, FluidCellRef& hint, FluidCellRef& last) const;
+  // Like at(x, ..., hint) but a cell not filled yet gets its slot and index now and its state
+  // from fill_pending(), which must run before any state is read: the states of many new cells
+  // are then averaged on the engine's threads, each into its own index, so the table is the same
+  // as at() would have made, bit for bit, on any thread count.
+  void reserve(const Vec3& x, FluidCellRef& hint);
+  void fill_pending(const GasView& gas, bool with_vorticity);
   const FluidCellState& state(std::uint32_t index) const { return states_[index]; }
   std::size_t size() const { return states_.size(); }
   std::uint64_t fills() const { return fills_; }
@@ -93,6 +99,9 @@ class DemCellFluidTable {
   std::uint64_t key_of(const Vec3& x, long& i, long& j, long& k) const;
   std::uint32_t find_or_fill(std::uint64_t key, long i, long j, long k, const GasView& gas,
                              bool with_vorticity);
+  // The index of the cell's state; `inserted` when the cell was not in the table (its state then
+  // still to be written).
+  std::uint32_t find_or_insert(std::uint64_t key, bool& inserted);
   void grow();
 
   Vec3 cell_m_{1.0, 1.0, 1.0};
@@ -105,6 +114,11 @@ class DemCellFluidTable {
   std::uint64_t last_key_ = 0;  // the last cell looked up (0 = none) and its state
   std::uint32_t last_state_ = 0;
   std::uint32_t generation_ = 1;  // bumped by clear(): particles' hints from before are stale
+  struct PendingCell {
+    std::uint32_t state;
+    long i, j, k;
+  };
+  std::vector<PendingCell> pending_;  // reserved since the last fill_pending (empty between)
 };
 
 struct CouplingStats {
@@ -202,6 +216,7 @@ class GasCoupling {
   void deposit(const ParticleStore& p, double interval_s);
   void deposit_compressible(const ParticleStore& p, double interval_s);
   void deposit_solid_volume(const GasGrid& g, const Vec3& wrapped_x, double radius_m);
+  void add_solid_volume(const Stencil& s, double radius_m);
   double response_gain(int a, std::size_t f, double read_fraction) const;
   void update_volume_fraction(const GasGrid& g, std::vector<double>& fraction);
   std::optional<std::string> advance_gas(double dt);
@@ -242,6 +257,7 @@ class GasCoupling {
   };
   std::vector<Released> released_;
   std::vector<double> solid_volume_;       // per padded cell, scratch
+  std::vector<Stencil> deposit_stencils_;  // compressible deposit: per particle, two, scratch
   std::vector<double> exchange_per_cell_;  // compressible: Σ β w / V per padded cell, scratch
   std::int64_t last_cfd_step_ = 0;
   int last_steps_ = 0;
