@@ -1172,7 +1172,10 @@ HoldupFill Simulation::fill_holdup(const std::vector<double>& target_kg, std::ui
         particles_.add(materials_, particles_.material[source], next_id_++, c.position_m,
                        c.velocity_m_per_s, c.angular_velocity_rad_per_s, d, scale);
     if (breakage_) {
-      breakage_->draw_strength(particles_, slot);
+      // A copy stands for its source as the mill holds it: worn by the impacts it survived
+      // (fatigue), not a fresh particle of its size, which would break less often than the
+      // hold-up it fills.
+      particles_.remaining_capacity_j_per_kg[slot] = particles_.remaining_capacity_j_per_kg[source];
       particles_.generation[slot] = particles_.generation[source];
     }
     const double m = particles_.mass_kg[slot];

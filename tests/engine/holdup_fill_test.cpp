@@ -7,8 +7,11 @@
 // - In a mill: after a fill of particles and ledger dust, the hold-up by compartment is the
 //   target (the dust to rounding, a particle slot to half a particle), the mass balance and the
 //   ledger's close to 1e-12 with the added mass booked as filled, the momentum the walls, gravity
-//   and the gas gave is unchanged by the fill, and the run goes on with both balances closed.
+//   and the gas gave is unchanged by the fill, each copy keeps its source's worn strength and
+//   generation, and the run goes on with both balances closed.
 #include <gtest/gtest.h>
+
+#include <map>
 
 #include <cmath>
 #include <numbers>
@@ -252,6 +255,13 @@ TEST(HoldupFill, AFilledMillHoldsItsTargetAndKeepsEveryKilogramAndItsMomentum) {
   const MassBalance m0 = sim.mass_balance();
   const Vec3 impulse0 = sim.momentum_balance().external_impulse();
   const std::size_t held_particles = sim.particles().size();
+  // Each held particle's strength as the mill has worn it, by radius (a copy's radius is its
+  // source's, to the bit).
+  std::multimap<double, std::pair<double, int>> held_strength;
+  for (std::size_t i = 0; i < held_particles; ++i)
+    held_strength.insert(
+        {sim.particles().radius_m[i],
+         {sim.particles().remaining_capacity_j_per_kg[i], int(sim.particles().generation[i])}});
   const HoldupFill fill = sim.fill_holdup(target, 42);
 
   // The hold-up is the target: a particle slot to within half its largest particle, a dust class
@@ -282,6 +292,17 @@ TEST(HoldupFill, AFilledMillHoldsItsTargetAndKeepsEveryKilogramAndItsMomentum) {
     EXPECT_EQ(fill.dust_without_mass, std::vector<int>{emptied});
   }
   EXPECT_EQ(fill.after_kg, after);
+  // A copy stands for its source as the mill holds it: the strength left after the impacts it
+  // survived (fatigue) and its generation, not a fresh particle's draw (which no held particle's
+  // strength would equal).
+  for (std::size_t i = held_particles; i < p.size(); ++i) {
+    const auto [first, last] = held_strength.equal_range(p.radius_m[i]);
+    bool has_source = false;
+    for (auto it = first; it != last; ++it)
+      has_source |=
+          it->second == std::make_pair(p.remaining_capacity_j_per_kg[i], int(p.generation[i]));
+    EXPECT_TRUE(has_source) << "copy " << i;
+  }
   // No copy overlaps a particle or a wall: the force pass after the fill found the contacts the
   // held particles had, and the copies none (every pair of a copy checked here).
   for (std::size_t i = held_particles; i < p.size(); ++i) {
