@@ -8,6 +8,7 @@
 #include <charconv>
 #include <cmath>
 #include <fstream>
+#include <numbers>
 #include <sstream>
 #include <unordered_map>
 
@@ -144,6 +145,52 @@ double sample_diameter(const SizeDistribution& s, Rng& rng) {
 
 double smallest_diameter_m(const SizeDistribution& s) {
   return s.kind == SizeDistributionKind::Fixed ? s.diameter_m : s.min_m;
+}
+
+namespace {
+
+// ∫ x³ n(x) dx from the distribution's lower end to d (within its range), unnormalised.
+double third_moment_below(const SizeDistribution& s, double d) {
+  switch (s.kind) {
+    case SizeDistributionKind::Fixed:
+      return s.diameter_m < d ? 1.0 : 0.0;
+    case SizeDistributionKind::Uniform:
+      return std::pow(d, 4) - std::pow(s.min_m, 4);
+    case SizeDistributionKind::PowerLaw: {
+      const double p = s.exponent + 4.0;
+      if (std::abs(p) < 1e-12) return std::log(d / s.min_m);
+      return (std::pow(d, p) - std::pow(s.min_m, p)) / p;
+    }
+    case SizeDistributionKind::LogNormal: {
+      const double sigma = std::log(s.geometric_std);
+      const double mass_median_log = std::log(s.median_m) + 3.0 * sigma * sigma;
+      const auto below = [&](double x) {  // Φ((ln x − ln d_m) / σ); 0 at x = 0
+        if (!(x > 0.0)) return 0.0;
+        return 0.5 * std::erfc(-(std::log(x) - mass_median_log) / (sigma * std::numbers::sqrt2));
+      };
+      return below(d) - below(s.min_m);
+    }
+  }
+  return 0.0;
+}
+
+}  // namespace
+
+double mass_share_below(const SizeDistribution& s, double d) {
+  // One size alone: a fixed one, a range of no width, a log-normal with σ_g = 1 (its median
+  // clamped into its range).
+  const bool log_normal = s.kind == SizeDistributionKind::LogNormal;
+  if (s.kind == SizeDistributionKind::Fixed || !(s.max_m > s.min_m) ||
+      (log_normal && !(std::log(s.geometric_std) > 1e-12))) {
+    const double only = s.kind == SizeDistributionKind::Fixed ? s.diameter_m
+                        : log_normal ? std::clamp(s.median_m, s.min_m, s.max_m)
+                                     : s.min_m;
+    return only < d ? 1.0 : 0.0;
+  }
+  if (!(d > s.min_m)) return 0.0;
+  if (d >= s.max_m) return 1.0;
+  const double whole = third_moment_below(s, s.max_m);
+  return whole > 0.0 ? std::clamp(third_moment_below(s, d) / whole, 0.0, 1.0) : 0.0;
 }
 
 bool region_wraps(const SourceConfig& source, const PeriodicBox& box, int axis) {

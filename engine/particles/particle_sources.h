@@ -35,6 +35,11 @@ SceneConfig scene_from_particle_file(const std::filesystem::path& path, std::int
 double sample_diameter(const SizeDistribution& sizes, Rng& rng);
 // The smallest diameter the distribution can draw (0 when it has no lower bound).
 double smallest_diameter_m(const SizeDistribution& sizes);
+// The share of the mass of particles drawn from the distribution that lies in those smaller
+// than `diameter_m`: ∫ x³ n(x) dx up to it over the whole, with n the number density
+// sample_diameter draws from (the log-normal's x³ n(x) is a log-normal of median
+// exp(3 ln²σ_g) times n's, both truncated alike). What a feed's mass flow holds below a size.
+double mass_share_below(const SizeDistribution& sizes, double diameter_m);
 
 // Whether a random source's region spans the whole of periodic axis `axis` of the box: centres
 // then fill its length; along any other axis each sphere lies wholly inside the region.

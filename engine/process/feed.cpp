@@ -84,4 +84,23 @@ std::vector<ParticleSpec> Feeder::take_due(double t, const ParticleStore& p,
   return out;
 }
 
+std::vector<double> declared_feed_kg_per_s(const std::vector<FeedConfig>& feeds,
+                                           const std::vector<double>& edges, double from_s,
+                                           double to_s) {
+  std::vector<double> rate(edges.size() + 1, 0.0);
+  if (!(to_s > from_s)) return rate;
+  for (const FeedConfig& feed : feeds) {
+    const double on_s = std::min(to_s, feed.end_s) - std::max(from_s, feed.start_s);
+    if (!(on_s > 0.0)) continue;
+    const double mean_kg_per_s = feed.mass_rate_kg_per_s * on_s / (to_s - from_s);
+    double below_previous = 0.0;
+    for (std::size_t slot = 0; slot < rate.size(); ++slot) {
+      const double below = slot < edges.size() ? mass_share_below(feed.sizes, edges[slot]) : 1.0;
+      rate[slot] += mean_kg_per_s * (below - below_previous);
+      below_previous = below;
+    }
+  }
+  return rate;
+}
+
 }  // namespace millsim

@@ -47,4 +47,14 @@ class Feeder {
   FeedStats stats_;
 };
 
+// The mass rate the feeds deliver into each PSD slot of `edges_m` (the slots of
+// process/mass_flows.h: below the first edge, each class, at or above the last), on average over
+// [from_s, to_s]: each feed's rate times the share of the span it is on, times the mass share of
+// its size distribution in the slot (mass_share_below). It is what the particles a window saw
+// inserted sample: a feeder inserts a drawn particle once its accrued mass covers it, so over a
+// long span it delivers its rate in mass with each size's share of it.
+std::vector<double> declared_feed_kg_per_s(const std::vector<FeedConfig>& feeds,
+                                           const std::vector<double>& edges_m, double from_s,
+                                           double to_s);
+
 }  // namespace millsim

@@ -127,7 +127,10 @@ void take_particle_rates(CompartmentRates& r, const CompartmentRates& pooled) {
     throw std::logic_error("take_particle_rates: rates over different compartments");
   const std::size_t n = std::size_t(r.compartments());
   for (std::size_t c = 0; c < std::size_t(r.slots); ++c) {
-    if (!(r.mean_held_kg[c] > 0.0)) continue;  // empty in the window: passes through, or nothing
+    // A class the span held but r's window did not (a feed size no particle of which arrived
+    // in it) takes the span's rates too; one the span never held has none.
+    if (!(pooled.mean_held_kg[c] > 0.0)) continue;
+    r.pass_through[c] = 0;
     r.leave_per_s[c] = pooled.leave_per_s[c];
     r.events[c] = pooled.events[c];
     r.wall_events[c] = pooled.wall_events[c];

@@ -6,7 +6,8 @@
 // or grinding moved from it to c', the mass that left from it and the mass fed into it give its
 // first-order rates
 //     k_{c→c'} = moved / ∫M_c dt,   E_c = left / ∫M_c dt,   F_c = fed / window,
-// and the balance
+// (a run takes F_c from its scene's feeds instead, their mean over the window: process/feed.h's
+// declared_feed_kg_per_s), and the balance
 //     dM_c/dt = F_c − (E_c + Σ_{c'} k_{c→c'}) M_c + Σ_{c'} k_{c'→c} M_{c'}.
 // Two kinds of move grow with the particles instead: the dust's grinding (the particles sweep
 // it) and the breakage of particles by meeting each other (or crushed against one). Their moves
@@ -91,7 +92,7 @@ CompartmentRates fit_rates(const MassFlows& window, double window_s);
 
 // `r` with its particle compartments' rates (rows [0, S): outflow, moves, their counts) taken
 // from `pooled`, fitted over a longer span of the same run that contains r's window, wherever
-// r's window held them; the dust's rates, the feed and the hold-ups stay r's. The first-order
+// the span held them; the dust's rates, the feed and the hold-ups stay r's. The first-order
 // estimate over the longer span, Σ moved / Σ ∫M dt, counts every event since the span began
 // (time.fill_particle_rate_windows).
 void take_particle_rates(CompartmentRates& r, const CompartmentRates& pooled);

@@ -18,6 +18,7 @@
 #include "io/text_file.h"
 #include "parallel/thread_team.h"
 #include "process/classification.h"
+#include "process/feed.h"
 #include "process/holdup_fill.h"
 #include "process/holdup_history.h"
 #include "process/impact_spectrum_plot.h"
@@ -759,6 +760,18 @@ struct LoopState {
   }
 };
 
+// The feed the scene declares over [from_s, to_s] (process/feed.h) in place of the particles a
+// window saw inserted. A projection's feed is its one input the run knows exactly, and a short
+// window counts a handful of feed particles: 5 mg/s of 100-300 um particles is one every 2.6 ms,
+// and a fill's window 3.3 ms, which can hold none (the feed then projects an empty mill).
+void take_declared_feed(CompartmentRates& rates, const SceneConfig& scene,
+                        const std::vector<double>& edges_m, double from_s, double to_s) {
+  const std::vector<double> feed = declared_feed_kg_per_s(scene.feeds, edges_m, from_s, to_s);
+  if (int(feed.size()) != rates.slots)
+    throw std::logic_error("take_declared_feed: the rates are not over these edges");
+  std::copy(feed.begin(), feed.end(), rates.feed_kg_per_s.begin());
+}
+
 // The steps of the hold-up fills (time.fill_to_projection_s): each fill's own, and where the
 // window its projection is fitted over starts: two thirds of the way from the fill before it (or
 // from the start) to it.
@@ -801,6 +814,7 @@ void fill_to_projection(Simulation& sim, const SceneConfig& scene, std::vector<F
         rates, fit_rates(flows_between(*first.start_flows, *now), sim.time_s() - first.start_s));
     record.particle_rates_from_s = first.start_s;
   }
+  take_declared_feed(rates, scene, sim.outlet_tally().edges_m, record.start_s, sim.time_s());
   record.particle_events.assign(rates.events.begin(), rates.events.begin() + rates.slots);
   record.particles_left.assign(rates.left_count.begin(), rates.left_count.begin() + rates.slots);
   const std::vector<double> held = sim.holdup_by_compartment_kg();
@@ -961,9 +975,10 @@ nlohmann::ordered_json projection_json(const Simulation& sim, const SceneConfig&
       !(loop.window_end_s > loop.window_start_s))
     return nullptr;
   const MassFlows window = flows_between(*loop.window_start_flows, *loop.window_end_flows);
-  const CompartmentRates rates = fit_rates(window, loop.window_end_s - loop.window_start_s);
-  const std::vector<double> held = sim.holdup_by_compartment_kg();
+  CompartmentRates rates = fit_rates(window, loop.window_end_s - loop.window_start_s);
   const std::vector<double>& edges = sim.outlet_tally().edges_m;
+  take_declared_feed(rates, scene, edges, loop.window_start_s, loop.window_end_s);
+  const std::vector<double> held = sim.holdup_by_compartment_kg();
   const SteadyProjection projection = project_steady(rates, held);
   const ProjectionSpread spread =
       projection_spread(rates, held, edges, kProjectionDraws, scene.seed);

@@ -280,6 +280,40 @@ TEST(SteadyProjection, ParticleRatesPooledOverWindowsCountEveryEventAndKeepTheDu
   EXPECT_GT(single_mean, pooled_mean) << "few counts bias ln(F/k̂) upwards";
 }
 
+// A feed size no particle of which arrived in the last window: A (slot 3) is fed in the span
+// before it and held there, breaking at k into dust B that leaves at E; in the last window A
+// holds nothing and receives nothing. With the scene's feed F into A the window alone has no
+// rates for A (it would accumulate); pooled, A takes the span's and the steady state is F/k.
+// A class the span never held (slot 2's particles) takes nothing.
+TEST(SteadyProjection, AClassTheSpanHeldButTheWindowDidNotTakesTheSpansRates) {
+  const double feed = 2e-6, k = 40.0, e = 10.0, window_s = 0.004;
+  const int a = 3, unheld = 2, b = MassFlows::dust(2, make_mass_flows(kEdges).slots);
+  MassFlows before = make_mass_flows(kEdges);
+  before.fed_kg[std::size_t(a)] = feed * window_s;
+  hold(before, a, feed / k, window_s);
+  before.moved(a, b) = feed * window_s;
+  before.events[std::size_t(a)] = before.wall_events[std::size_t(a)] = 12.0;
+  MassFlows last = make_mass_flows(kEdges);  // A empty, B draining
+  hold(last, b, feed / e, window_s);
+  last.left_kg[std::size_t(b)] = feed * window_s;
+  const MassFlows start = make_mass_flows(kEdges), now = summed(summed(start, before), last);
+
+  CompartmentRates r = fit_rates(last, window_s);
+  r.feed_kg_per_s[std::size_t(a)] = feed;  // the scene's, not the window's none
+  const std::vector<double> empty(std::size_t(r.compartments()), 0.0);
+  EXPECT_FALSE(project_steady(r, empty, 2).exists) << "A receives and neither breaks nor leaves";
+  take_particle_rates(r, fit_rates(flows_between(start, now), 2.0 * window_s));
+  // Over the span A held F/k for half of it and moved F w: k̂ = F w / (F/k w) = k.
+  EXPECT_NEAR(r.out_per_s(a, 0.0), k, 1e-12 * k);
+  EXPECT_EQ(r.events[std::size_t(a)], 12.0);
+  EXPECT_EQ(r.out_per_s(unheld, 0.0), 0.0);
+  EXPECT_EQ(r.pass_through[std::size_t(unheld)], 0);
+  const SteadyProjection p = project_steady(r, empty, 2);
+  ASSERT_TRUE(p.exists);
+  EXPECT_NEAR(p.held_kg[std::size_t(a)], feed / k, 1e-12 * feed / k);
+  EXPECT_NEAR(p.held_kg[std::size_t(b)], feed / e, 1e-9 * feed / e);
+}
+
 // Particles A (slot 3, cross-section a per kg) fed at F break at k into dust of slot 2, which
 // the particles grind into dust of slot 1 at g A per second, A = a M_A; dust of slot 1 leaves at
 // E. The window saw A at a tenth of its steady hold-up F/k, so its grinding ran at a tenth of
