@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Copied from the team's shared/research/slurm-local.sh (the tested one-node Slurm recipe).
 # slurm-local-stop.sh — stop exactly the daemons that slurm-local.sh started.
-# Works only from the pid files in $SLURM_LOCAL_DIR/run; never kills by process name.
+# Works from the pid files in $SLURM_LOCAL_DIR/run, and stops a munged whose command line names
+# this directory's socket; never kills by process name alone.
 # Order: cancel remaining jobs (so no slurmstepd outlives slurmd), then slurmrestd (if started),
 # slurmd, slurmctld, slurmdbd and mariadbd (if started), munged.
 # Each pid is checked against /proc/<pid>/comm before it is signalled (guards against pid reuse).
@@ -56,4 +57,18 @@ stop_one slurmctld "$DIR/run/slurmctld.pid" slurmctld
 stop_one slurmdbd  "$DIR/run/slurmdbd.pid"  slurmdbd     # only if SLURM_LOCAL_ACCOUNTING=1
 stop_one mariadbd  "$DIR/run/mariadbd.pid"  mariadbd     # only if SLURM_LOCAL_ACCOUNTING=1
 stop_one munged    "$DIR/run/munged.pid"    munged
+
+# A munged of this directory whose pid file is gone (seen after a CI run: the daemon alive, its
+# run/munged.pid missing, so the line above skipped it). It is found by its own command line,
+# which names this directory's socket; no other process is touched.
+for proc in /proc/[0-9]*; do
+  [ "$(cat "$proc/comm" 2>/dev/null || true)" = munged ] || continue
+  tr '\0' '\n' < "$proc/cmdline" 2>/dev/null | grep -qxF -- "--socket=$DIR/munge/munge.socket" || continue
+  pid="${proc#/proc/}"
+  orphan="$(mktemp)"
+  printf '%s\n' "$pid" > "$orphan"
+  echo "[slurm-local-stop] munged (pid $pid) serves $DIR without a pid file" >&2
+  stop_one munged "$orphan" munged
+  rm -f "$orphan"
+done
 exit $rc

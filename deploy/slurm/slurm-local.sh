@@ -74,6 +74,10 @@ case "$DIR" in /|/tmp|/tmp/|"$HOME"|"") die "refusing SLURM_LOCAL_DIR=$DIR";; es
 if [ -d "$DIR" ] && [ -n "$(ls -A "$DIR" 2>/dev/null)" ] && [ ! -e "$DIR/.slurm-local" ]; then
   die "$DIR exists, is not empty and was not made by slurm-local.sh; choose another SLURM_LOCAL_DIR"
 fi
+# A daemon left from an earlier start whose pid file is gone would outlive its directory.
+if [ -e "$DIR/.slurm-local" ]; then
+  SLURM_LOCAL_DIR="$DIR" bash "$(dirname "$0")/slurm-local-stop.sh" || true
+fi
 rm -rf "$DIR"
 mkdir -p "$DIR"/{etc,run,log,munge,ctld,spool,jobs}
 : > "$DIR/.slurm-local"
