@@ -149,11 +149,12 @@ double smallest_diameter_m(const SizeDistribution& s) {
 
 namespace {
 
-// ∫ x³ n(x) dx from the distribution's lower end to d (within its range), unnormalised.
+// ∫ x³ n(x) dx from the distribution's lower end to d (within its range), unnormalised; a
+// distribution of one size is mass_share_below's own case.
 double third_moment_below(const SizeDistribution& s, double d) {
   switch (s.kind) {
     case SizeDistributionKind::Fixed:
-      return s.diameter_m < d ? 1.0 : 0.0;
+      break;
     case SizeDistributionKind::Uniform:
       return std::pow(d, 4) - std::pow(s.min_m, 4);
     case SizeDistributionKind::PowerLaw: {
