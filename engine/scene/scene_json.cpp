@@ -414,8 +414,8 @@ TimeConfig parse_time(JsonObjectReader& top, InputErrors& errors) {
     }
   }
   // The fill's settings: only with fills to set.
-  for (const char* key :
-       {"fill_relaxation", "fill_removes", "fill_min_events", "fill_particle_rate_windows"})
+  for (const char* key : {"fill_relaxation", "fill_removes", "fill_min_events",
+                          "fill_particle_rate_windows", "fill_dust_only_from_s"})
     if (t.fill_to_projection_s.empty() && r.child(key))
       errors.push_back({r.path_of(key), json_value_text(*r.child(key)),
                         "sets how a hold-up fill moves the mill's hold-up: add "
@@ -425,6 +425,15 @@ TimeConfig parse_time(JsonObjectReader& top, InputErrors& errors) {
   t.fill_min_events = int(r.integer("fill_min_events", 0, 0, 1000000));
   t.fill_particle_rate_windows =
       int(r.integer("fill_particle_rate_windows", 1, 1, std::int64_t(kMaxHoldupFills)));
+  t.fill_dust_only_from_s =
+      r.optional_number("fill_dust_only_from_s", NumberRange::open_closed(0.0, 1e6));
+  // A time after the last fill would move nothing: say so rather than run the fills unchanged.
+  if (t.fill_dust_only_from_s && !t.fill_to_projection_s.empty() &&
+      *t.fill_dust_only_from_s > t.fill_to_projection_s.back())
+    errors.push_back(
+        {r.path_of("fill_dust_only_from_s"), concat(*t.fill_dust_only_from_s),
+         concat("expected a time at or before the last fill (", t.fill_to_projection_s.back(),
+                " s): no fill would move the dust alone")});
   r.finish();
   return t;
 }

@@ -792,6 +792,13 @@ std::vector<FillSteps> fill_steps(const SceneConfig& scene, double dt, std::int6
   return steps;
 }
 
+// Whether fill `index` moves the ledger's dust alone (time.fill_dust_only_from_s): declared at or
+// after that time.
+bool moves_dust_only(const SceneConfig& scene, std::size_t index) {
+  const std::optional<double>& from = scene.time.fill_dust_only_from_s;
+  return from && scene.time.fill_to_projection_s[index] >= *from;
+}
+
 // At the fill's step: the steady state projected from the window before it (the particle
 // classes' rates from an earlier fill's window on, time.fill_particle_rate_windows), and the fill
 // to it (Simulation::fill_holdup); without a steady state, the reason instead.
@@ -819,12 +826,18 @@ void fill_to_projection(Simulation& sim, const SceneConfig& scene, std::vector<F
   record.particles_left.assign(rates.left_count.begin(), rates.left_count.begin() + rates.slots);
   const std::vector<double> held = sim.holdup_by_compartment_kg();
   // A particle class whose rates rest on fewer counts than time.fill_min_events keeps what it
-  // holds and passes mass on at its measured rates.
+  // holds and passes mass on at its measured rates. In a fill of the dust alone every particle
+  // class is held at its mean over the fill's window, so it passes on to the dust what the window
+  // saw it pass: a class that holds nothing at the fill's instant but carries mass through (a
+  // feed size that breaks at its first impact) still feeds the dust.
+  const bool dust_only = moves_dust_only(scene, index);
   rates.fixed_held_kg.assign(held.size(), -1.0);
   for (int c = 0; c < rates.slots; ++c) {
     const std::size_t k = std::size_t(c);
     const double counts = rates.events[k] + rates.left_count[k];
-    if (held[k] > 0.0 && counts < double(scene.time.fill_min_events))
+    if (dust_only)
+      rates.fixed_held_kg[k] = rates.mean_held_kg[k];
+    else if (held[k] > 0.0 && counts < double(scene.time.fill_min_events))
       rates.fixed_held_kg[k] = held[k], record.few_counts.push_back(c);
   }
   SteadyProjection projection = project_steady(rates, held, 2);
@@ -858,18 +871,22 @@ void fill_to_projection(Simulation& sim, const SceneConfig& scene, std::vector<F
     return;
   }
   record.projected_kg = projection.held_kg;
-  record.fill =
-      sim.fill_holdup(relaxed_target_kg(held, projection.held_kg, scene.time.fill_relaxation),
-                      scene.seed ^ (0x66696c6cULL + index),  // "fill", one seed each
-                      scene.time.fill_removes);
+  std::vector<double> target =
+      relaxed_target_kg(held, projection.held_kg, scene.time.fill_relaxation);
+  // The particles' targets are what they hold, to the bit (a relaxation of a class towards its
+  // own hold-up need not round back to it), so the fill copies and removes none.
+  if (dust_only) std::copy_n(held.begin(), rates.slots, target.begin());
+  record.fill = sim.fill_holdup(target,
+                                scene.seed ^ (0x66696c6cULL + index),  // "fill", one seed each
+                                scene.time.fill_removes);
   record.fixed = projection.fixed;
 }
 
 // One line for the log: what a fill moved (µg), or why it did not.
-std::string fill_notice(const FillRecord& record, std::size_t index) {
+std::string fill_notice(const SceneConfig& scene, const FillRecord& record, std::size_t index) {
   std::ostringstream line;
   line << std::fixed << std::setprecision(1) << "fill " << index + 1 << " at " << record.at_s * 1e3
-       << " ms: ";
+       << " ms" << (moves_dust_only(scene, index) ? " (the dust alone)" : "") << ": ";
   if (!record.fill) return line.str() + "skipped: " + record.skipped;
   const HoldupFill& f = *record.fill;
   const auto micrograms = [](const std::vector<double>& v, std::size_t from, std::size_t to) {
@@ -888,8 +905,11 @@ std::string fill_notice(const FillRecord& record, std::size_t index) {
   return line.str();
 }
 
-nlohmann::ordered_json fill_json(const Simulation& sim, const FillRecord& record) {
+nlohmann::ordered_json fill_json(const Simulation& sim, const SceneConfig& scene,
+                                 const FillRecord& record, std::size_t index) {
   nlohmann::ordered_json j;
+  // What the fill moves (time.fill_dust_only_from_s), as declared, whether or not it was reached.
+  j["moves"] = moves_dust_only(scene, index) ? "dust" : "particles and dust";
   if (!record.done()) {
     j["status"] = "not reached";  // a run stopped before the fill
     return j;
@@ -1214,7 +1234,7 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
       if (step == fill[k].fill && !record.done()) {
         sim.profile().time(Phase::Population,
                            [&] { fill_to_projection(sim, scene, loop.fills, k); });
-        if (options.on_notice) options.on_notice(fill_notice(record, k));
+        if (options.on_notice) options.on_notice(fill_notice(scene, record, k));
       }
     }
   };
@@ -1441,7 +1461,8 @@ RunOutcome run_simulation(Simulation& sim, const SceneConfig& scene, const RunOp
       initial_energy.total_j() + sim.filled_energy_j() - final_energy.total_j();
   if (fills) {
     nlohmann::ordered_json& list = s["holdup_fills"] = nlohmann::ordered_json::array();
-    for (const FillRecord& record : loop.fills) list.push_back(fill_json(sim, record));
+    for (std::size_t k = 0; k < loop.fills.size(); ++k)
+      list.push_back(fill_json(sim, scene, loop.fills[k], k));
   }
   if (has_product(sim)) {
     add_product_summary(sim, s);

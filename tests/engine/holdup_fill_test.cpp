@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include <map>
+#include <set>
 
 #include <cmath>
 #include <numbers>
@@ -668,6 +669,77 @@ TEST(HoldupFill, PooledParticleRatesCountEveryBeadThatLeftSinceTheirSpanBegan) {
   }
 }
 
+// A fill of the dust alone (time.fill_dust_only_from_s): the ledger mill filled at 0.6 ms (both
+// phases) and at 0.9 ms, from 0.8 ms the dust alone, relaxed at ω = ½. The second fill holds
+// every particle class in its projection (at its mean over the window, so the shots, which break
+// at their first impact and are seldom held at the fill's instant, still feed the dust), targets
+// each at what it holds, to the bit, and so copies and removes nothing; it moves each dust class
+// to the geometric mean of what it holds and what it projects; every kilogram is booked.
+TEST(HoldupFill, ALateFillMovesTheDustAloneForTheParticlesTheMillHolds) {
+  nlohmann::json doc = test::mill_with_ledger_outflows(1.4e-3, std::nullopt);
+  doc["gas"]["spin_up_s"] = 0.002;
+  doc["output"] = {{"h5", false}};
+  doc["time"]["fill_to_projection_s"] = {0.0006, 0.0009};
+  doc["time"]["fill_relaxation"] = 0.5;
+  doc["time"]["fill_dust_only_from_s"] = 0.0008;
+  const nlohmann::json result = test::run_scene_document(doc);
+  ASSERT_TRUE(result.contains("holdup_fills"));
+  const nlohmann::json& fills = result["holdup_fills"];
+  ASSERT_EQ(fills.size(), 2u);
+  ASSERT_EQ(fills[0]["status"], "filled") << fills[0].dump();
+  ASSERT_EQ(fills[1]["status"], "filled") << fills[1].dump();
+  EXPECT_EQ(fills[0]["moves"], "particles and dust");
+  EXPECT_EQ(fills[1]["moves"], "dust");
+  // The first fill moved particles; the second none.
+  EXPECT_NE(fills[0]["particles"]["after_kg"], fills[0]["particles"]["before_kg"]);
+  const nlohmann::json& particles = fills[1]["particles"];
+  EXPECT_GT(particles["before_kg"].get<double>(), 0.0);
+  EXPECT_EQ(particles["target_by_slot_kg"], particles["before_by_slot_kg"]);
+  EXPECT_EQ(particles["after_by_slot_kg"], particles["before_by_slot_kg"]);
+  EXPECT_EQ(fills[1]["particles_added"].get<int>(), 0);
+  EXPECT_EQ(fills[1]["particles_removed"].get<int>(), 0);
+  EXPECT_EQ(fills[1]["particles_kg"].get<double>(), 0.0);
+  // Every particle class the projection holds is held as it was, the shots' (100 um) among them.
+  std::set<int> held_particle_slots;
+  for (const nlohmann::json& c : fills[1]["held_as_they_were"])
+    if (c["phase"] == "particles") held_particle_slots.insert(c["slot"].get<int>());
+  const nlohmann::json& projected = particles["projected_by_slot_kg"];
+  for (int s = 0; s < int(projected.size()); ++s) {
+    if (projected[std::size_t(s)].get<double>() > 0.0) {
+      EXPECT_EQ(held_particle_slots.count(s), 1u) << s;
+    }
+  }
+  // And every class that broke in the window (the shots' among them), whatever it held at the
+  // fill's instant: it feeds the dust.
+  const nlohmann::json& events = fills[1]["particle_events_by_slot"];
+  int broke = 0;
+  for (int s = 0; s < int(events.size()); ++s) {
+    if (!(events[std::size_t(s)].get<double>() > 0.0)) continue;
+    ++broke;
+    EXPECT_EQ(held_particle_slots.count(s), 1u) << s;
+  }
+  EXPECT_GT(broke, 0);
+  // The dust: each class held and projected moves to √(held · projected), to rounding.
+  const nlohmann::json& dust = fills[1]["dust"];
+  int moved = 0;
+  for (std::size_t k = 0; k < dust["before_by_slot_kg"].size(); ++k) {
+    const double before = dust["before_by_slot_kg"][k], projected = dust["projected_by_slot_kg"][k];
+    if (!(before > 0.0 && projected > 0.0)) continue;
+    const double target = std::sqrt(before * projected);
+    EXPECT_NEAR(dust["target_by_slot_kg"][k].get<double>(), target, 1e-12 * target) << k;
+    EXPECT_NEAR(dust["after_by_slot_kg"][k].get<double>(), target, 1e-12 * target) << k;
+    moved += std::abs(target - before) > 1e-9 * before;
+  }
+  EXPECT_GT(dust["projected_kg"].get<double>(), 0.0);
+  EXPECT_GT(moved, 0) << "the dust's projection differs from its hold-up in some class";
+  // Every kilogram: what the two fills added is booked as filled.
+  const nlohmann::json& m = result["mass_balance"];
+  const double filled = fills[0]["particles_kg"].get<double>() + fills[0]["dust_kg"].get<double>() +
+                        fills[1]["dust_kg"].get<double>();
+  EXPECT_NEAR(m["filled_kg"].get<double>(), filled, 1e-12 * filled);
+  EXPECT_LT(std::abs(m["relative_error"].get<double>()), 1e-12);
+}
+
 // The fill's settings need fills to set, and each its range.
 TEST(HoldupFill, TheFillsSettingsAreCheckedByName) {
   nlohmann::json doc = test::rising_stream_mill();
@@ -675,6 +747,7 @@ TEST(HoldupFill, TheFillsSettingsAreCheckedByName) {
   doc["time"]["fill_removes"] = true;
   doc["time"]["fill_min_events"] = 10;
   doc["time"]["fill_particle_rate_windows"] = 16;
+  doc["time"]["fill_dust_only_from_s"] = doc["time"]["fill_to_projection_s"];  // the last fill's
   EXPECT_TRUE(test::scene_errors(doc).empty());
   const std::vector<std::pair<const char*, nlohmann::json>> bad = {
       {"fill_relaxation", 0.0},
@@ -685,7 +758,10 @@ TEST(HoldupFill, TheFillsSettingsAreCheckedByName) {
       {"fill_min_events", 2.5},
       {"fill_particle_rate_windows", 0},
       {"fill_particle_rate_windows", 17},
-      {"fill_particle_rate_windows", "all"}};
+      {"fill_particle_rate_windows", "all"},
+      {"fill_dust_only_from_s", 0.0},
+      {"fill_dust_only_from_s", "late"},
+      {"fill_dust_only_from_s", 0.004}};  // after the only fill (3.625 ms): moves nothing
   for (const auto& [key, value] : bad) {
     nlohmann::json d = doc;
     d["time"][key] = value;
@@ -695,7 +771,7 @@ TEST(HoldupFill, TheFillsSettingsAreCheckedByName) {
   }
   doc["time"].erase("fill_to_projection_s");
   const InputErrors errors = test::scene_errors(doc);
-  ASSERT_EQ(errors.size(), 4u);
+  ASSERT_EQ(errors.size(), 5u);
   for (const InputError& e : errors) {
     EXPECT_NE(e.allowed.find("/time/fill_to_projection_s"), std::string::npos) << e.path;
     EXPECT_NE(e.path.find("/time/fill_"), std::string::npos);
