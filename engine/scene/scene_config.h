@@ -175,10 +175,9 @@ struct TimeConfig {
   // Fills declared at or after this time move the ledger's dust alone: every particle class is
   // held, in the projection at its mean over the fill's window (passing mass on at its measured
   // rates) and in the fill at its hold-up, so the dust is projected for the particles the mill
-  // holds. The particles settle within
-  // a few fills while the dust's rates, fitted from one fill's window, can lag the mill the fill
-  // made (bench/RESULTS.md, steadyF); a last fill of the dust alone moves it without moving them
-  // again. Unset: every fill moves both.
+  // holds. The particles settle within a few fills while the dust's rates, fitted from one
+  // fill's window, can lag the mill the fill made (bench/RESULTS.md, steadyF); a last fill of the
+  // dust alone moves it without moving them again. Unset: every fill moves both.
   std::optional<double> fill_dust_only_from_s;
 };
 

@@ -834,10 +834,12 @@ void fill_to_projection(Simulation& sim, const SceneConfig& scene, std::vector<F
   rates.fixed_held_kg.assign(held.size(), -1.0);
   for (int c = 0; c < rates.slots; ++c) {
     const std::size_t k = std::size_t(c);
-    const double counts = rates.events[k] + rates.left_count[k];
-    if (dust_only)
+    if (dust_only) {
       rates.fixed_held_kg[k] = rates.mean_held_kg[k];
-    else if (held[k] > 0.0 && counts < double(scene.time.fill_min_events))
+      continue;
+    }
+    const double counts = rates.events[k] + rates.left_count[k];
+    if (held[k] > 0.0 && counts < double(scene.time.fill_min_events))
       rates.fixed_held_kg[k] = held[k], record.few_counts.push_back(c);
   }
   SteadyProjection projection = project_steady(rates, held, 2);
