@@ -8,8 +8,11 @@ the vortex, and the force-balance cut x_c = sqrt(18 mu |u_r| r / (rho_p u_t^2)) 
 falls: more of the classes at the cut would leave per kilogram. This script sets the two side by
 side, interval by interval, from the run's own records:
 
-- the vortex: the gas's mean tangential and radial speed over the fluid cells in a ring of one
-  cell's width about each radius (run.h5's gas snapshots), and the cut at the outlet's radius;
+- the vortex: the gas's mean tangential and radial speed over the fluid cells whose centres lie
+  in a ring of one cell's width about each radius and below the outlet tube's mouth (run.h5's gas
+  snapshots), and the cut at the outlet's radius. These are cell values, not the interpolated
+  samples of result.json's mill.vortex_profile (process/classification.h), which average in the
+  no-slip walls' zero and so read lower speeds: the table is for how they move, not their level;
 - the loading: the ledger's dust over the gas's mass (sum of density x cell volume x gas volume
   fraction over the fluid cells);
 - each dust class's exit rate E_k = (mass it let out) / (integral of its hold-up dt), from
@@ -51,10 +54,12 @@ def vortex_and_gas_mass(f, scene):
         cell_volume = float(np.prod(h))
         gas_mass = float(np.sum(density * fraction * fluid) * cell_volume) if density is not None \
             else float("nan")
+        zs = lo[2] + (np.arange(nz) + 0.5) * h[2]
+        below_outlet = zs < hi[2] - lo[2] - scene["mill"]["outlet"]["depth_m"]
         ring = {}
         for radius_mm in RADII_MM:
             band = np.abs(r - radius_mm * 1e-3) < 0.5 * h[0]
-            sel = fluid & band[None, :, :]
+            sel = fluid & band[None, :, :] & below_outlet[:, None, None]
             if not sel.any():
                 ring[radius_mm] = (float("nan"), float("nan"), float("nan"))
                 continue
