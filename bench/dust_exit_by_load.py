@@ -11,8 +11,9 @@ side, interval by interval, from the run's own records:
 - the vortex: the gas's mean tangential and radial speed over the fluid cells whose centres lie
   in a ring of one cell's width about each radius and below the outlet tube's mouth (run.h5's gas
   snapshots), and the cut at the outlet's radius. These are cell values, not the interpolated
-  samples of result.json's mill.vortex_profile (process/classification.h), which average in the
-  no-slip walls' zero and so read lower speeds: the table is for how they move, not their level;
+  samples of result.json's mill.vortex_profile (process/classification.h: interpolated to the
+  exact radius at 16 heights from the floor up), and they read higher speeds than those: the
+  table is for how they move, not their level;
 - the loading: the ledger's dust over the gas's mass (sum of density x cell volume x gas volume
   fraction over the fluid cells);
 - each dust class's exit rate E_k = (mass it let out) / (integral of its hold-up dt), from
