@@ -3,7 +3,7 @@
 
 A hold-up fill projects the dust's steady hold-up from its rates per kilogram over a window
 (engine/process/steady_projection.h) and so assumes they stay as they were while the hold-up
-moves. With the dust's weight on the gas (dust.gas_coupling "two_way") a heavier ledger slows
+moves. With the dust's weight on the gas (dust.gas_coupling "two_way") a heavier ledger may slow
 the vortex, and the force-balance cut x_c = sqrt(18 mu |u_r| r / (rho_p u_t^2)) grows as u_t
 falls: more of the classes at the cut would leave per kilogram. This script sets the two side by
 side, interval by interval, from the run's own records:
@@ -31,7 +31,7 @@ import numpy as np
 RADII_MM = [5.0, 7.5, 10.0, 15.0]
 
 
-def vortex_and_gas_mass(f, scene):
+def vortex_and_gas_mass(f, scene, radii_mm):
     """Per gas snapshot: time, {radius: (u_t, u_r)}, gas mass (kg), mean gas density there."""
     lo, hi = np.array(scene["domain"]["min_m"]), np.array(scene["domain"]["max_m"])
     centre = np.array(scene["mill"]["center_xy_m"])
@@ -58,7 +58,7 @@ def vortex_and_gas_mass(f, scene):
         zs = lo[2] + (np.arange(nz) + 0.5) * h[2]
         below_outlet = zs < hi[2] - lo[2] - scene["mill"]["outlet"]["depth_m"]
         ring = {}
-        for radius_mm in RADII_MM:
+        for radius_mm in radii_mm:
             band = np.abs(r - radius_mm * 1e-3) < 0.5 * h[0]
             sel = fluid & band[None, :, :] & below_outlet[:, None, None]
             if not sel.any():
@@ -102,12 +102,12 @@ def main():
     shown = [k for k in range(len(diam)) if diam[k] <= a.max_um * 1e-6 and held[k].max() > 0]
 
     f = h5py.File(f"{a.run_dir}/run.h5", "r")
-    gas_rows = vortex_and_gas_mass(f, scene)
+    outlet_mm = scene["mill"]["outlet"]["radius_m"] * 1e3
+    radii = sorted(set(RADII_MM) | {outlet_mm})
+    gas_rows = vortex_and_gas_mass(f, scene, radii)
     gt = np.array([row[0] for row in gas_rows])
     mu = scene["gas"]["viscosity_pa_s"]
     rho_p = scene["materials"][0]["density_kg_per_m3"]
-    outlet_mm = scene["mill"]["outlet"]["radius_m"] * 1e3
-    radii = sorted(set(RADII_MM) | ({outlet_mm} if outlet_mm in RADII_MM else set()))
 
     print("The vortex and the dust's loading, interval by interval (gas snapshots inside it):")
     print()
