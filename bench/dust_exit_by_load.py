@@ -24,43 +24,57 @@ Default intervals: between the run's hold-up fills, then to its end. Needs pytho
 """
 import argparse
 import json
+import pathlib
+import sys
 
 import h5py
 import numpy as np
 
+sys.path.insert(0, str(pathlib.Path(__file__).parent))
+from rates_by_interval import interval_bounds  # noqa: E402
+
 RADII_MM = [5.0, 7.5, 10.0, 15.0]
 
 
-def vortex_and_gas_mass(f, scene, radii_mm):
-    """Per gas snapshot: time, {radius: (u_t, u_r)}, gas mass (kg), mean gas density there."""
+def ring_geometry(scene, shape, radii_mm):
+    """The gas grid's radial and tangential unit vectors (y, x), each ring's cells below the
+    outlet tube's mouth (z, y, x) and the cell volume, for cells of shape (z, y, x)."""
     lo, hi = np.array(scene["domain"]["min_m"]), np.array(scene["domain"]["max_m"])
     centre = np.array(scene["mill"]["center_xy_m"])
-    rows = []
+    nz, ny, nx = shape
+    h = (hi - lo) / np.array([nx, ny, nz])
+    xs = lo[0] + (np.arange(nx) + 0.5) * h[0] - centre[0]
+    ys = lo[1] + (np.arange(ny) + 0.5) * h[1] - centre[1]
+    X, Y = np.meshgrid(xs, ys)  # (y, x)
+    r = np.hypot(X, Y)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ex, ey = X / r, Y / r
+    zs = lo[2] + (np.arange(nz) + 0.5) * h[2]
+    below_outlet = zs < hi[2] - lo[2] - scene["mill"]["outlet"]["depth_m"]
+    rings = {x: (np.abs(r - x * 1e-3) < 0.5 * h[0])[None, :, :] & below_outlet[:, None, None]
+             for x in radii_mm}
+    return ex, ey, rings, float(np.prod(h))
+
+
+def vortex_and_gas_mass(f, scene, radii_mm):
+    """Per gas snapshot: time, {radius: (u_t, u_r, mean gas density there)}, gas mass (kg)."""
+    rows, geometry = [], None
     for name in sorted(f["snapshots"].keys(), key=lambda s: f["snapshots"][s].attrs["time_s"]):
         g = f["snapshots"][name]
         if "gas_velocity" not in g:
             continue
         u = g["gas_velocity"][:]  # (z, y, x, 3)
-        nz, ny, nx = u.shape[:3]
-        h = (hi - lo) / np.array([nx, ny, nz])
-        xs = lo[0] + (np.arange(nx) + 0.5) * h[0] - centre[0]
-        ys = lo[1] + (np.arange(ny) + 0.5) * h[1] - centre[1]
-        X, Y = np.meshgrid(xs, ys)  # (y, x)
-        r = np.hypot(X, Y)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            ex, ey = X / r, Y / r
+        if geometry is None:
+            geometry = ring_geometry(scene, u.shape[:3], radii_mm)
+        ex, ey, rings, cell_volume = geometry
         fluid = g["gas_fluid"][:] > 0
         density = g["gas_density"][:] if "gas_density" in g else None
         fraction = g["gas_volume_fraction"][:]
-        cell_volume = float(np.prod(h))
         gas_mass = float(np.sum(density * fraction * fluid) * cell_volume) if density is not None \
             else float("nan")
-        zs = lo[2] + (np.arange(nz) + 0.5) * h[2]
-        below_outlet = zs < hi[2] - lo[2] - scene["mill"]["outlet"]["depth_m"]
         ring = {}
         for radius_mm in radii_mm:
-            band = np.abs(r - radius_mm * 1e-3) < 0.5 * h[0]
-            sel = fluid & band[None, :, :] & below_outlet[:, None, None]
+            sel = fluid & rings[radius_mm]
             if not sel.any():
                 ring[radius_mm] = (float("nan"), float("nan"), float("nan"))
                 continue
@@ -78,6 +92,11 @@ def cut_size_m(mu, rho_p, rho_g, ut, ur, radius_m):
     return float(np.sqrt(18.0 * mu * abs(ur) * radius_m / ((rho_p - rho_g) * ut * ut)))
 
 
+def history_span(t, t0, t1):
+    """The first and last rows of the history's times t inside (t0, t1]."""
+    return np.searchsorted(t, t0 + 1e-9), np.searchsorted(t, t1 + 1e-9) - 1
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("run_dir")
@@ -88,11 +107,7 @@ def main():
     a = ap.parse_args()
     r = json.load(open(f"{a.run_dir}/result.json"))
     scene = json.load(open(f"{a.run_dir}/scene.json"))
-    if a.edges_ms:
-        bounds = [float(x) * 1e-3 for x in a.edges_ms.split(",")]
-    else:
-        bounds = [x["time_s"] for x in r.get("holdup_fills") or [] if x.get("status") == "filled"]
-        bounds.append(r["simulated_time_s"])
+    bounds = interval_bounds(r, a.edges_ms)
     hist = r["dust_ledger"]["history"]
     t = np.array(hist["time_s"])
     held = np.array(hist["held_by_class_kg"])  # (classes, times)
@@ -127,7 +142,7 @@ def main():
         ur_out = np.mean([row[1][outlet_mm][1] for row in rows])
         rho_out = np.mean([row[1][outlet_mm][2] for row in rows])
         cut = cut_size_m(mu, rho_p, rho_out, ut[outlet_mm], ur_out, outlet_mm * 1e-3)
-        i0, i1 = np.searchsorted(t, t0 + 1e-9), np.searchsorted(t, t1 + 1e-9) - 1
+        i0, i1 = history_span(t, t0, t1)
         rate = (total_out[i1] - total_out[i0]) / (t[i1] - t[i0]) if i1 > i0 else float("nan")
         print(f"| {t0 * 1e3:.1f}–{t1 * 1e3:.1f} | {ledger * 1e6:.2f} | {gas * 1e6:.2f} | "
               f"{ledger / gas:.3f} | " + " | ".join(f"{ut[x]:.1f}" for x in radii)
@@ -153,7 +168,7 @@ def main():
     print("| interval (ms) | " + " | ".join(f"{diam[k] * 1e6:.2f} µm" for k in shown) + " |")
     print("| --- " * (len(shown) + 1) + "|")
     for t0, t1 in zip(bounds, bounds[1:]):
-        i0, i1 = np.searchsorted(t, t0 + 1e-9), np.searchsorted(t, t1 + 1e-9) - 1
+        i0, i1 = history_span(t, t0, t1)
         if i1 <= i0:
             continue
         cells = []

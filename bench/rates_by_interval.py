@@ -34,6 +34,15 @@ def particle_seconds(times, counts):
     return exposure
 
 
+def interval_bounds(result, edges_ms):
+    """Interval bounds in s: edges_ms (comma-separated ms) when given, else the run's filled
+    hold-up fills and its end."""
+    if edges_ms:
+        return [float(x) * 1e-3 for x in edges_ms.split(",")]
+    bounds = [f["time_s"] for f in result.get("holdup_fills") or [] if f.get("status") == "filled"]
+    return bounds + [result["simulated_time_s"]]
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("run_dir")
@@ -41,11 +50,7 @@ def main():
     a = ap.parse_args()
     r = json.load(open(f"{a.run_dir}/result.json"))
     h = r["holdup_history"]
-    if a.edges_ms:
-        bounds = [float(x) * 1e-3 for x in a.edges_ms.split(",")]
-    else:
-        bounds = [f["time_s"] for f in r.get("holdup_fills") or [] if f.get("status") == "filled"]
-        bounds.append(r["simulated_time_s"])
+    bounds = interval_bounds(r, a.edges_ms)
     f = h5py.File(f"{a.run_dir}/run.h5", "r")
     edges = [x * 1e-6 for x in SIZE_GROUPS_UM]
     times, counts = snapshot_counts(f, edges)
