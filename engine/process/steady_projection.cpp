@@ -259,7 +259,7 @@ SteadyProjection project_steady(const CompartmentRates& r, const std::vector<dou
   p.area_m2 = r.area_m2(p.held_kg);
   forwards = solve_group(r, dust, p.area_m2, inflow, done, p) && forwards;
   p.exists = forwards && p.accumulating.empty() && p.feed_kg_per_s > 0.0;
-  if (!forwards) return p;
+  if (!forwards || course_points <= 0) return p;
 
   // The compartments that can ever hold mass: those that start with some, are fed, or receive
   // from one of them (moves go forwards in the particles-then-dust order).

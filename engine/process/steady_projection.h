@@ -114,7 +114,8 @@ struct SteadyProjection {
 };
 
 // Solves the balance for its steady state and, from `start_held_kg` (per compartment), its
-// course. `course_points`: how many points of the course to keep.
+// course. `course_points`: how many points of the course to keep; 0: the steady state alone (no
+// course, no time to steady).
 SteadyProjection project_steady(const CompartmentRates& r, const std::vector<double>& start_held_kg,
                                 int course_points = 48);
 

@@ -179,6 +179,10 @@ struct TimeConfig {
   // fill's window, can lag the mill the fill made (bench/RESULTS.md, steadyF); a last fill of the
   // dust alone moves it without moving them again. Unset: every fill moves both.
   std::optional<double> fill_dust_only_from_s;
+  // In a fill of the dust alone, each dust class's exit rate follows the dust hold-up as a power
+  // fitted from the fill's window and the one before it, and the dust is projected at the hold-up
+  // its own rates give (process/dust_exit_load.h); false: at the window's rates.
+  bool fill_dust_exit_follows_load = true;
 };
 
 enum class ContactModel {

@@ -414,8 +414,9 @@ TimeConfig parse_time(JsonObjectReader& top, InputErrors& errors) {
     }
   }
   // The fill's settings: only with fills to set.
-  for (const char* key : {"fill_relaxation", "fill_removes", "fill_min_events",
-                          "fill_particle_rate_windows", "fill_dust_only_from_s"})
+  for (const char* key :
+       {"fill_relaxation", "fill_removes", "fill_min_events", "fill_particle_rate_windows",
+        "fill_dust_only_from_s", "fill_dust_exit_follows_load"})
     if (t.fill_to_projection_s.empty() && r.child(key))
       errors.push_back({r.path_of(key), json_value_text(*r.child(key)),
                         "sets how a hold-up fill moves the mill's hold-up: add "
@@ -434,6 +435,14 @@ TimeConfig parse_time(JsonObjectReader& top, InputErrors& errors) {
         {r.path_of("fill_dust_only_from_s"), concat(*t.fill_dust_only_from_s),
          concat("expected a time at or before the last fill (", t.fill_to_projection_s.back(),
                 " s): no fill would move the dust alone")});
+  // The exit rates' load: with fills of the dust alone only.
+  if (!t.fill_to_projection_s.empty() && !r.child("fill_dust_only_from_s") &&
+      r.child("fill_dust_exit_follows_load"))
+    errors.push_back({r.path_of("fill_dust_exit_follows_load"),
+                      json_value_text(*r.child("fill_dust_exit_follows_load")),
+                      "sets how a fill of the dust alone projects the dust: add "
+                      "/time/fill_dust_only_from_s, or remove it"});
+  t.fill_dust_exit_follows_load = r.boolean("fill_dust_exit_follows_load", true);
   r.finish();
   return t;
 }

@@ -18,6 +18,7 @@
 #include "io/text_file.h"
 #include "parallel/thread_team.h"
 #include "process/classification.h"
+#include "process/dust_exit_load.h"
 #include "process/feed.h"
 #include "process/holdup_fill.h"
 #include "process/holdup_history.h"
@@ -733,11 +734,18 @@ struct FillRecord {
   // earlier fill's window start; else start_s), and the counts they rest on, per particle slot.
   double particle_rates_from_s = 0.0;
   std::vector<double> particle_events, particles_left;
+  // The dust of the fill's own window (its mean hold-up and exit rates), for the fill after it;
+  // in a fill of the dust alone, how its exit rates followed the load and the dust it projected
+  // (time.fill_dust_exit_follows_load).
+  DustExitWindow dust_window;
+  std::optional<DustExitLoad> dust_load;
+  double projected_dust_kg = 0.0;
   bool done() const { return fill || !skipped.empty(); }
   template <class A>
   void checkpoint_io(A& a) {
     io_all(a, start_flows, start_s, at_s, fill, skipped, fixed, few_counts, projected_kg);
     io_all(a, particle_rates_from_s, particle_events, particles_left);
+    io_all(a, dust_window, dust_load, projected_dust_kg);
   }
 };
 
@@ -815,6 +823,7 @@ void fill_to_projection(Simulation& sim, const SceneConfig& scene, std::vector<F
   }
   CompartmentRates rates =
       fit_rates(flows_between(*record.start_flows, *now), sim.time_s() - record.start_s);
+  record.dust_window = dust_exit_window(rates);
   record.particle_rates_from_s = record.start_s;
   if (&first != &record && first.start_flows) {
     take_particle_rates(
@@ -842,15 +851,25 @@ void fill_to_projection(Simulation& sim, const SceneConfig& scene, std::vector<F
     if (held[k] > 0.0 && counts < double(scene.time.fill_min_events))
       rates.fixed_held_kg[k] = held[k], record.few_counts.push_back(c);
   }
-  SteadyProjection projection = project_steady(rates, held, 2);
+  // In a fill of the dust alone, the dust's exit rates follow its hold-up as the window and the
+  // one before it measured them; the first fill (no window before) projects at its own rates.
+  DustExitLoad load;
+  if (dust_only && scene.time.fill_dust_exit_follows_load && index > 0 &&
+      !fills[index - 1].dust_window.empty()) {
+    load = fit_dust_exit_load(fills[index - 1].dust_window, record.dust_window);
+    record.dust_load = load;
+  }
+  LoadedProjection loaded = project_steady_at_own_load(rates, load, held, 2);
   // A class the window saw receive mass but neither break nor leave (say the sliver of a size
   // class above the dust threshold) has no steady hold-up of its own: it keeps what it holds, and
   // the rest of the mill is projected around it (it passes nothing on).
-  if (!projection.exists && !projection.accumulating.empty()) {
-    for (int c : projection.accumulating)
+  if (!loaded.projection.exists && !loaded.projection.accumulating.empty()) {
+    for (int c : loaded.projection.accumulating)
       rates.fixed_held_kg[std::size_t(c)] = held[std::size_t(c)];
-    projection = project_steady(rates, held, 2);
+    loaded = project_steady_at_own_load(rates, load, held, 2);
   }
+  const SteadyProjection& projection = loaded.projection;
+  record.projected_dust_kg = loaded.dust_kg;
   if (!projection.exists) {
     const std::vector<double>& edges = sim.outlet_tally().edges_m;
     std::string names;
@@ -958,6 +977,9 @@ nlohmann::ordered_json fill_json(const Simulation& sim, const SceneConfig& scene
   j["held_as_they_were"] = fixed;
   // Of those, the particle classes held because their window counted too few events.
   j["held_for_few_counts"] = record.few_counts;
+  // How the dust's exit rates followed its hold-up (a fill of the dust alone after another fill).
+  j["dust_exit_load"] =
+      record.dust_load ? dust_exit_load_json(*record.dust_load, record.projected_dust_kg) : nullptr;
   for (const bool dust : {false, true}) {
     nlohmann::ordered_json& held = j[dust ? "dust" : "particles"];
     if (!record.projected_kg.empty()) {

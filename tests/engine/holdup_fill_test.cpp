@@ -673,8 +673,9 @@ TEST(HoldupFill, PooledParticleRatesCountEveryBeadThatLeftSinceTheirSpanBegan) {
 // phases) and at 0.9 ms, from 0.8 ms the dust alone, relaxed at ω = ½. The second fill holds
 // every particle class in its projection (at its mean over the window, so the shots, which break
 // at their first impact and are seldom held at the fill's instant, still feed the dust), targets
-// each at what it holds, to the bit, and so copies and removes nothing; it moves each dust class
-// to the geometric mean of what it holds and what it projects; every kilogram is booked.
+// each at what it holds, to the bit, and so copies and removes nothing; it targets each dust
+// class at the geometric mean of what it holds and what it projects (at the exit rates its own
+// hold-up gives) and fills those below it; every kilogram is booked.
 TEST(HoldupFill, ALateFillMovesTheDustAloneForTheParticlesTheMillHolds) {
   nlohmann::json doc = test::mill_with_ledger_outflows(1.4e-3, std::nullopt);
   doc["gas"]["spin_up_s"] = 0.002;
@@ -727,11 +728,25 @@ TEST(HoldupFill, ALateFillMovesTheDustAloneForTheParticlesTheMillHolds) {
     if (!(before > 0.0 && projected > 0.0)) continue;
     const double target = std::sqrt(before * projected);
     EXPECT_NEAR(dust["target_by_slot_kg"][k].get<double>(), target, 1e-12 * target) << k;
-    EXPECT_NEAR(dust["after_by_slot_kg"][k].get<double>(), target, 1e-12 * target) << k;
+    // The fill only adds (fill_removes is off): a class above its target keeps what it holds.
+    const double after = std::max(before, target);
+    EXPECT_NEAR(dust["after_by_slot_kg"][k].get<double>(), after, 1e-12 * after) << k;
     moved += std::abs(target - before) > 1e-9 * before;
   }
   EXPECT_GT(dust["projected_kg"].get<double>(), 0.0);
   EXPECT_GT(moved, 0) << "the dust's projection differs from its hold-up in some class";
+  // The dust's exit rates followed its hold-up from the first fill's window to the second's
+  // (time.fill_dust_exit_follows_load, on by default): the first fill had no window before it.
+  EXPECT_TRUE(fills[0]["dust_exit_load"].is_null());
+  const nlohmann::json& load = fills[1]["dust_exit_load"];
+  ASSERT_TRUE(load.is_object()) << fills[1].dump();
+  EXPECT_GT(load["earlier_window_dust_kg"].get<double>(), 0.0);
+  EXPECT_GT(load["window_dust_kg"].get<double>(), 0.0);
+  ASSERT_EQ(load["exponent_by_slot"].size(), dust["projected_by_slot_kg"].size());
+  for (const nlohmann::json& beta : load["exponent_by_slot"]) EXPECT_GE(beta.get<double>(), 0.0);
+  // The dust it projected at is the dust it projects.
+  const double projected_dust = dust["projected_kg"].get<double>();
+  EXPECT_NEAR(load["projected_dust_kg"].get<double>(), projected_dust, 1e-9 * projected_dust);
   // Every kilogram: what the two fills added is booked as filled.
   const nlohmann::json& m = result["mass_balance"];
   const double filled = fills[0]["particles_kg"].get<double>() + fills[0]["dust_kg"].get<double>() +
@@ -748,6 +763,7 @@ TEST(HoldupFill, TheFillsSettingsAreCheckedByName) {
   doc["time"]["fill_min_events"] = 10;
   doc["time"]["fill_particle_rate_windows"] = 16;
   doc["time"]["fill_dust_only_from_s"] = doc["time"]["fill_to_projection_s"];  // the last fill's
+  doc["time"]["fill_dust_exit_follows_load"] = false;
   EXPECT_TRUE(test::scene_errors(doc).empty());
   const std::vector<std::pair<const char*, nlohmann::json>> bad = {
       {"fill_relaxation", 0.0},
@@ -761,7 +777,8 @@ TEST(HoldupFill, TheFillsSettingsAreCheckedByName) {
       {"fill_particle_rate_windows", "all"},
       {"fill_dust_only_from_s", 0.0},
       {"fill_dust_only_from_s", "late"},
-      {"fill_dust_only_from_s", 0.004}};  // after the only fill (3.625 ms): moves nothing
+      {"fill_dust_only_from_s", 0.004},  // after the only fill (3.625 ms): moves nothing
+      {"fill_dust_exit_follows_load", "yes"}};
   for (const auto& [key, value] : bad) {
     nlohmann::json d = doc;
     d["time"][key] = value;
@@ -769,9 +786,18 @@ TEST(HoldupFill, TheFillsSettingsAreCheckedByName) {
     ASSERT_EQ(errors.size(), 1u) << key << " " << value;
     EXPECT_EQ(errors.front().path, std::string("/time/") + key);
   }
+  // The exit rates' load needs fills of the dust alone.
+  {
+    nlohmann::json d = doc;
+    d["time"].erase("fill_dust_only_from_s");
+    const InputErrors errors = test::scene_errors(d);
+    ASSERT_EQ(errors.size(), 1u);
+    EXPECT_EQ(errors.front().path, "/time/fill_dust_exit_follows_load");
+    EXPECT_NE(errors.front().allowed.find("/time/fill_dust_only_from_s"), std::string::npos);
+  }
   doc["time"].erase("fill_to_projection_s");
   const InputErrors errors = test::scene_errors(doc);
-  ASSERT_EQ(errors.size(), 5u);
+  ASSERT_EQ(errors.size(), 6u);
   for (const InputError& e : errors) {
     EXPECT_NE(e.allowed.find("/time/fill_to_projection_s"), std::string::npos) << e.path;
     EXPECT_NE(e.path.find("/time/fill_"), std::string::npos);
