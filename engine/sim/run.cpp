@@ -852,10 +852,12 @@ void fill_to_projection(Simulation& sim, const SceneConfig& scene, std::vector<F
       rates.fixed_held_kg[k] = held[k], record.few_counts.push_back(c);
   }
   // In a fill of the dust alone, the dust's exit rates follow its hold-up as the window and the
-  // one before it measured them; the first fill (no window before) projects at its own rates.
+  // one before it measured them, when the fill between the two moved the dust alone (the
+  // particles, which weigh on the gas too, then changed only as the mill moved them); the first
+  // fill of the dust alone projects at its window's rates.
   DustExitLoad load;
   if (dust_only && scene.time.fill_dust_exit_follows_load && index > 0 &&
-      !fills[index - 1].dust_window.empty()) {
+      moves_dust_only(scene, index - 1) && !fills[index - 1].dust_window.empty()) {
     load = fit_dust_exit_load(fills[index - 1].dust_window, record.dust_window);
     record.dust_load = load;
   }

@@ -670,27 +670,29 @@ TEST(HoldupFill, PooledParticleRatesCountEveryBeadThatLeftSinceTheirSpanBegan) {
 }
 
 // A fill of the dust alone (time.fill_dust_only_from_s): the ledger mill filled at 0.6 ms (both
-// phases) and at 0.9 ms, from 0.8 ms the dust alone, relaxed at ω = ½. The second fill holds
-// every particle class in its projection (at its mean over the window, so the shots, which break
-// at their first impact and are seldom held at the fill's instant, still feed the dust), targets
-// each at what it holds, to the bit, and so copies and removes nothing; it targets each dust
-// class at the geometric mean of what it holds and what it projects (at the exit rates its own
+// phases) and at 0.9 and 1.2 ms, from 0.8 ms the dust alone, relaxed at ω = ½. The second fill
+// holds every particle class in its projection (at its mean over the window, so the shots, which
+// break at their first impact and are seldom held at the fill's instant, still feed the dust),
+// targets each at what it holds, to the bit, and so copies and removes nothing; it targets each
+// dust class at the geometric mean of what it holds and what it projects (at the exit rates its own
 // hold-up gives) and fills those below it; every kilogram is booked.
 TEST(HoldupFill, ALateFillMovesTheDustAloneForTheParticlesTheMillHolds) {
-  nlohmann::json doc = test::mill_with_ledger_outflows(1.4e-3, std::nullopt);
+  nlohmann::json doc = test::mill_with_ledger_outflows(1.9e-3, std::nullopt);
   doc["gas"]["spin_up_s"] = 0.002;
   doc["output"] = {{"h5", false}};
-  doc["time"]["fill_to_projection_s"] = {0.0006, 0.0009};
+  doc["time"]["fill_to_projection_s"] = {0.0006, 0.0009, 0.0012};
   doc["time"]["fill_relaxation"] = 0.5;
   doc["time"]["fill_dust_only_from_s"] = 0.0008;
   const nlohmann::json result = test::run_scene_document(doc);
   ASSERT_TRUE(result.contains("holdup_fills"));
   const nlohmann::json& fills = result["holdup_fills"];
-  ASSERT_EQ(fills.size(), 2u);
+  ASSERT_EQ(fills.size(), 3u);
   ASSERT_EQ(fills[0]["status"], "filled") << fills[0].dump();
   ASSERT_EQ(fills[1]["status"], "filled") << fills[1].dump();
+  ASSERT_EQ(fills[2]["status"], "filled") << fills[2].dump();
   EXPECT_EQ(fills[0]["moves"], "particles and dust");
   EXPECT_EQ(fills[1]["moves"], "dust");
+  EXPECT_EQ(fills[2]["moves"], "dust");
   // The first fill moved particles; the second none.
   EXPECT_NE(fills[0]["particles"]["after_kg"], fills[0]["particles"]["before_kg"]);
   const nlohmann::json& particles = fills[1]["particles"];
@@ -735,22 +737,26 @@ TEST(HoldupFill, ALateFillMovesTheDustAloneForTheParticlesTheMillHolds) {
   }
   EXPECT_GT(dust["projected_kg"].get<double>(), 0.0);
   EXPECT_GT(moved, 0) << "the dust's projection differs from its hold-up in some class";
-  // The dust's exit rates followed its hold-up from the first fill's window to the second's
-  // (time.fill_dust_exit_follows_load, on by default): the first fill had no window before it.
+  // The dust's exit rates follow its hold-up (time.fill_dust_exit_follows_load, on by default)
+  // in the third fill alone: the first had no window before it, and the second's window and the
+  // one before it lie on either side of a fill that moved the particles too.
   EXPECT_TRUE(fills[0]["dust_exit_load"].is_null());
-  const nlohmann::json& load = fills[1]["dust_exit_load"];
-  ASSERT_TRUE(load.is_object()) << fills[1].dump();
+  EXPECT_TRUE(fills[1]["dust_exit_load"].is_null());
+  const nlohmann::json& load = fills[2]["dust_exit_load"];
+  ASSERT_TRUE(load.is_object()) << fills[2].dump();
+  // Its windows' dust: the second fill's window held what the second fill found on average.
   EXPECT_GT(load["earlier_window_dust_kg"].get<double>(), 0.0);
   EXPECT_GT(load["window_dust_kg"].get<double>(), 0.0);
-  ASSERT_EQ(load["exponent_by_slot"].size(), dust["projected_by_slot_kg"].size());
+  const nlohmann::json& third = fills[2]["dust"];
+  ASSERT_EQ(load["exponent_by_slot"].size(), third["projected_by_slot_kg"].size());
   for (const nlohmann::json& beta : load["exponent_by_slot"]) EXPECT_GE(beta.get<double>(), 0.0);
   // The dust it projected at is the dust it projects.
-  const double projected_dust = dust["projected_kg"].get<double>();
+  const double projected_dust = third["projected_kg"].get<double>();
   EXPECT_NEAR(load["projected_dust_kg"].get<double>(), projected_dust, 1e-9 * projected_dust);
   // Every kilogram: what the two fills added is booked as filled.
   const nlohmann::json& m = result["mass_balance"];
   const double filled = fills[0]["particles_kg"].get<double>() + fills[0]["dust_kg"].get<double>() +
-                        fills[1]["dust_kg"].get<double>();
+                        fills[1]["dust_kg"].get<double>() + fills[2]["dust_kg"].get<double>();
   EXPECT_NEAR(m["filled_kg"].get<double>(), filled, 1e-12 * filled);
   EXPECT_LT(std::abs(m["relative_error"].get<double>()), 1e-12);
 }

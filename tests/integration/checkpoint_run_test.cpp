@@ -177,47 +177,59 @@ TEST(Checkpoint, SigtermWritesACheckpointAndResumeFinishesTheRun) {
   EXPECT_FALSE(json::parse(fresh.out).contains("resumed"));
 }
 
-// A run with hold-up fills resumed between two of them: the second, a fill of the dust alone,
-// fits its dust's exit rates against the first fill's window (time.fill_dust_exit_follows_load),
+// A run with hold-up fills resumed between two of them: the third, the second of the dust alone,
+// fits its dust's exit rates against the second fill's window (time.fill_dust_exit_follows_load),
 // which the checkpoint carries; the resumed run fills, and ends, as the run that never stopped.
 TEST(Checkpoint, ARunResumedBetweenTwoFillsFillsAsTheWholeRun) {
   MILLSIM_RELEASE_ONLY("HoldupFill.ALateFillMovesTheDustAloneForTheParticlesTheMillHolds");
   test::TempDir dir;
-  json scene = test::mill_with_ledger_outflows(1.4e-3, std::nullopt);
+  json scene = test::mill_with_ledger_outflows(1.6e-3, std::nullopt);
   scene["gas"]["spin_up_s"] = 0.002;
-  scene["time"]["fill_to_projection_s"] = {0.0006, 0.0009};
+  scene["time"]["fill_to_projection_s"] = {0.0004, 0.0007, 0.001};
   scene["time"]["fill_relaxation"] = 0.5;
-  scene["time"]["fill_dust_only_from_s"] = 0.0008;
-  scene["output"] = {{"h5", false}, {"checkpoint_interval_s", 3.5e-4}};
+  scene["time"]["fill_dust_only_from_s"] = 0.0006;
+  scene["output"] = {{"h5", false}, {"checkpoint_interval_s", 2.5e-4}};
   test::write_file(dir.path() / "scene.json", scene.dump(2));
   const test::CommandResult whole =
       test::run_millsim("run scene.json --out whole --quiet", dir.path());
   ASSERT_EQ(whole.exit_code, 0) << whole.err;
   const json reference = json::parse(whole.out);
-  ASSERT_EQ(reference["holdup_fills"].size(), 2u);
-  ASSERT_TRUE(reference["holdup_fills"][1]["dust_exit_load"].is_object());
+  ASSERT_EQ(reference["holdup_fills"].size(), 3u);
+  ASSERT_TRUE(reference["holdup_fills"][2]["dust_exit_load"].is_object());
 
-  // Killed once the checkpoint after the first fill (0.7 ms) is on disk; any checkpoint past the
-  // second fill is removed, so that the resumed run makes it.
+  // Killed once the checkpoint after the second fill (0.75 ms) is on disk; any checkpoint past
+  // the third fill is removed, so that the resumed run makes it.
   const pid_t pid = start_run(dir.path(), {"scene.json", "--out", "crashed", "--quiet"});
-  ASSERT_TRUE(wait_for_checkpoints(pid, dir.path() / "crashed/checkpoints", 2));
+  const std::filesystem::path saved = dir.path() / "crashed/checkpoints";
+  const auto newest_s = [&] {
+    try {
+      const std::vector<std::filesystem::path> files = list_checkpoints(saved);
+      return files.empty() ? 0.0 : read_checkpoint(files.front()).header.time_s;
+    } catch (const std::exception&) {  // pruned or renamed while read: look again
+      return 0.0;
+    }
+  };
+  for (int k = 0; k < 2400 && newest_s() < 0.0007; ++k) {
+    ASSERT_NE(waitpid(pid, nullptr, WNOHANG), pid) << "the run ended before its checkpoint";
+    std::this_thread::sleep_for(std::chrono::milliseconds(25));
+  }
   kill(pid, SIGKILL);
   waitpid(pid, nullptr, 0);
   int between = 0;
-  for (const auto& path : list_checkpoints(dir.path() / "crashed/checkpoints")) {
+  for (const auto& path : list_checkpoints(saved)) {
     const double t = read_checkpoint(path).header.time_s;
-    if (t > 0.00085)
+    if (t > 0.00095)
       std::filesystem::remove(path);
     else
-      between += t > 0.0006;
+      between += t > 0.0007;
   }
-  ASSERT_GT(between, 0) << "a checkpoint between the fills";
+  ASSERT_GT(between, 0) << "a checkpoint between the second and third fills";
   const test::CommandResult resumed =
       test::run_millsim("run scene.json --out crashed --quiet --resume", dir.path());
   ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
   const json result = json::parse(resumed.out);
   ASSERT_TRUE(result.contains("resumed"));
-  EXPECT_LT(result["resumed"]["time_s"].get<double>(), 0.00085);
+  EXPECT_LT(result["resumed"]["time_s"].get<double>(), 0.00095);
   EXPECT_EQ(result["holdup_fills"], reference["holdup_fills"]);
   EXPECT_EQ(test::physics_of(result), test::physics_of(reference));
 }
