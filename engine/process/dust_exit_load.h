@@ -11,7 +11,8 @@
 //
 // Each dust class's rate is taken to follow the dust hold-up D as a power,
 //     E_s(D) = E_s(D_1) (D / D_1)^β_s,
-// with β_s from two windows (the fill's own and the one before it) that held D_0 and D_1:
+// with β_s from two windows (the fill's own and the one before it, when the fill between them
+// moved the dust alone: sim/run.cpp) that held D_0 and D_1:
 //     β_s = ln(E_s,1 / E_s,0) / ln(D_1 / D_0).
 // β_s < 0 is read as counting noise and taken as 0: loading slows the vortex, so it coarsens the
 // cut and no class leaves slower for more dust. Two windows whose dust differs by less than
