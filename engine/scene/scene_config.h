@@ -181,8 +181,10 @@ struct TimeConfig {
   std::optional<double> fill_dust_only_from_s;
   // In a fill of the dust alone, each dust class's exit rate follows the dust hold-up as a power
   // fitted from the fill's window and the one before it, and the dust is projected at the hold-up
-  // its own rates give (process/dust_exit_load.h); false: at the window's rates.
-  bool fill_dust_exit_follows_load = true;
+  // its own rates give (process/dust_exit_load.h); false: at the window's rates. Off unless set:
+  // on `steadyJ` its per-class fit over two windows 8 % apart in dust read most classes' rates as
+  // falling with the dust and projected 7.9 mg where 3.2-3.5 mg was near steady (bench/RESULTS.md).
+  bool fill_dust_exit_follows_load = false;
 };
 
 enum class ContactModel {

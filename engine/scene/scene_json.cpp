@@ -442,7 +442,7 @@ TimeConfig parse_time(JsonObjectReader& top, InputErrors& errors) {
                       json_value_text(*r.child("fill_dust_exit_follows_load")),
                       "sets how a fill of the dust alone projects the dust: add "
                       "/time/fill_dust_only_from_s, or remove it"});
-  t.fill_dust_exit_follows_load = r.boolean("fill_dust_exit_follows_load", true);
+  t.fill_dust_exit_follows_load = r.boolean("fill_dust_exit_follows_load", false);
   r.finish();
   return t;
 }

@@ -979,7 +979,7 @@ nlohmann::ordered_json fill_json(const Simulation& sim, const SceneConfig& scene
   j["held_as_they_were"] = fixed;
   // Of those, the particle classes held because their window counted too few events.
   j["held_for_few_counts"] = record.few_counts;
-  // How the dust's exit rates followed its hold-up (a fill of the dust alone after another fill).
+  // How the dust's exit rates followed its hold-up (a fill of the dust alone after another).
   j["dust_exit_load"] =
       record.dust_load ? dust_exit_load_json(*record.dust_load, record.projected_dust_kg) : nullptr;
   for (const bool dust : {false, true}) {

@@ -683,6 +683,7 @@ TEST(HoldupFill, ALateFillMovesTheDustAloneForTheParticlesTheMillHolds) {
   doc["time"]["fill_to_projection_s"] = {0.0006, 0.0009, 0.0012};
   doc["time"]["fill_relaxation"] = 0.5;
   doc["time"]["fill_dust_only_from_s"] = 0.0008;
+  doc["time"]["fill_dust_exit_follows_load"] = true;
   const nlohmann::json result = test::run_scene_document(doc);
   ASSERT_TRUE(result.contains("holdup_fills"));
   const nlohmann::json& fills = result["holdup_fills"];
@@ -737,7 +738,7 @@ TEST(HoldupFill, ALateFillMovesTheDustAloneForTheParticlesTheMillHolds) {
   }
   EXPECT_GT(dust["projected_kg"].get<double>(), 0.0);
   EXPECT_GT(moved, 0) << "the dust's projection differs from its hold-up in some class";
-  // The dust's exit rates follow its hold-up (time.fill_dust_exit_follows_load, on by default)
+  // The dust's exit rates follow its hold-up (time.fill_dust_exit_follows_load)
   // in the third fill alone: the first had no window before it, and the second's window and the
   // one before it lie on either side of a fill that moved the particles too.
   EXPECT_TRUE(fills[0]["dust_exit_load"].is_null());

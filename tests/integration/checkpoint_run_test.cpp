@@ -188,6 +188,7 @@ TEST(Checkpoint, ARunResumedBetweenTwoFillsFillsAsTheWholeRun) {
   scene["time"]["fill_to_projection_s"] = {0.0004, 0.0007, 0.001};
   scene["time"]["fill_relaxation"] = 0.5;
   scene["time"]["fill_dust_only_from_s"] = 0.0006;
+  scene["time"]["fill_dust_exit_follows_load"] = true;
   scene["output"] = {{"h5", false}, {"checkpoint_interval_s", 2.5e-4}};
   test::write_file(dir.path() / "scene.json", scene.dump(2));
   const test::CommandResult whole =
