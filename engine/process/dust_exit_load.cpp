@@ -52,49 +52,43 @@ CompartmentRates rates_at_dust_kg(const CompartmentRates& r, const DustExitLoad&
   return at;
 }
 
-namespace {
-
-double dust_held_kg(const SteadyProjection& p, int slots) {
-  double dust = 0.0;
-  for (int s = 0; s < slots; ++s) dust += p.held_kg[std::size_t(slots + s)];
-  return dust;
-}
-
-}  // namespace
-
 LoadedProjection project_steady_at_own_load(const CompartmentRates& r, const DustExitLoad& load,
                                             const std::vector<double>& start_held_kg,
                                             int course_points) {
-  LoadedProjection out;
+  const auto dust_kg = [&](const SteadyProjection& p) {
+    return held_by_phase_kg(p, r.slots).second;
+  };
+  const auto at_own_rates = [&] {
+    LoadedProjection out{project_steady(r, start_held_kg, course_points), 0.0};
+    out.dust_kg = dust_kg(out.projection);
+    return out;
+  };
   bool loads = false;
   for (double beta : load.exponent) loads = loads || beta > 0.0;
-  if (!load.fitted || !loads || !(load.reference_dust_kg > 0.0)) {
-    out.projection = project_steady(r, start_held_kg, course_points);
-    out.dust_kg = dust_held_kg(out.projection, r.slots);
-    return out;
-  }
+  if (!load.fitted || !loads || !(load.reference_dust_kg > 0.0)) return at_own_rates();
+  const SteadyProjection at_d1 = project_steady(r, start_held_kg, 0);
+  // No steady state at any D: the caller names what accumulates.
+  if (!at_d1.exists) return at_own_rates();
   // Σ_s M_s(D) − D falls as D grows (every E_s rises with D); a balance without a steady state
   // at D is one that holds too much for it.
-  const auto excess = [&](double dust_kg) {
-    const SteadyProjection p = project_steady(rates_at_dust_kg(r, load, dust_kg), start_held_kg, 0);
-    return p.exists ? dust_held_kg(p, r.slots) - dust_kg : 1e300;
+  const auto excess = [&](double d) {
+    const SteadyProjection p = project_steady(rates_at_dust_kg(r, load, d), start_held_kg, 0);
+    return p.exists ? dust_kg(p) - d : 1e300;
   };
   const double d1 = load.reference_dust_kg;
-  const SteadyProjection at_d1 = project_steady(r, start_held_kg, 0);
-  if (!at_d1.exists) {  // no steady state at any D: the caller names what accumulates
-    out.projection = project_steady(r, start_held_kg, course_points);
-    out.dust_kg = dust_held_kg(out.projection, r.slots);
-    return out;
-  }
   double lo = d1, hi = d1;
-  if (dust_held_kg(at_d1, r.slots) > d1)
+  if (dust_kg(at_d1) > d1) {
+    hi = 2.0 * d1;
     for (int i = 0; i < 200 && excess(hi) > 0.0; ++i) lo = hi, hi *= 2.0;
-  else
+  } else {
+    lo = 0.5 * d1;
     for (int i = 0; i < 200 && excess(lo) < 0.0; ++i) hi = lo, lo *= 0.5;
+  }
   for (int i = 0; i < 60 && hi > lo * (1.0 + 1e-13); ++i) {
     const double mid = std::sqrt(lo * hi);
     (excess(mid) > 0.0 ? lo : hi) = mid;
   }
+  LoadedProjection out;
   out.dust_kg = std::sqrt(lo * hi);
   out.projection =
       project_steady(rates_at_dust_kg(r, load, out.dust_kg), start_held_kg, course_points);

@@ -231,15 +231,14 @@ double steady_area_m2(const CompartmentRates& r, const std::vector<int>& particl
 // The course renews its propagator when A has moved by this share since the last renewal.
 constexpr double kCourseAreaChange = 0.05;
 
-// A steady state's hold-up of the particles' compartments [0, slots) and of the dust's.
+}  // namespace
+
 std::pair<double, double> held_by_phase_kg(const SteadyProjection& p, int slots) {
   double particles = 0.0, dust = 0.0;
   for (std::size_t c = 0; c < p.held_kg.size(); ++c)
     (int(c) < slots ? particles : dust) += p.held_kg[c];
   return {particles, dust};
 }
-
-}  // namespace
 
 SteadyProjection project_steady(const CompartmentRates& r, const std::vector<double>& start_held_kg,
                                 int course_points) {

@@ -37,6 +37,7 @@
 #pragma once
 
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -118,6 +119,9 @@ struct SteadyProjection {
 // course, no time to steady).
 SteadyProjection project_steady(const CompartmentRates& r, const std::vector<double>& start_held_kg,
                                 int course_points = 48);
+
+// A steady state's hold-up of the particles' compartments [0, slots) and of the dust's.
+std::pair<double, double> held_by_phase_kg(const SteadyProjection& p, int slots);
 
 // Draws of the counting error a run reports.
 inline constexpr int kProjectionDraws = 200;

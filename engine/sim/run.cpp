@@ -735,17 +735,16 @@ struct FillRecord {
   double particle_rates_from_s = 0.0;
   std::vector<double> particle_events, particles_left;
   // The dust of the fill's own window (its mean hold-up and exit rates), for the fill after it;
-  // in a fill of the dust alone, how its exit rates followed the load and the dust it projected
+  // in a fill of the dust alone, how its exit rates followed the load
   // (time.fill_dust_exit_follows_load).
   DustExitWindow dust_window;
   std::optional<DustExitLoad> dust_load;
-  double projected_dust_kg = 0.0;
   bool done() const { return fill || !skipped.empty(); }
   template <class A>
   void checkpoint_io(A& a) {
     io_all(a, start_flows, start_s, at_s, fill, skipped, fixed, few_counts, projected_kg);
     io_all(a, particle_rates_from_s, particle_events, particles_left);
-    io_all(a, dust_window, dust_load, projected_dust_kg);
+    io_all(a, dust_window, dust_load);
   }
 };
 
@@ -871,7 +870,6 @@ void fill_to_projection(Simulation& sim, const SceneConfig& scene, std::vector<F
     loaded = project_steady_at_own_load(rates, load, held, 2);
   }
   const SteadyProjection& projection = loaded.projection;
-  record.projected_dust_kg = loaded.dust_kg;
   if (!projection.exists) {
     const std::vector<double>& edges = sim.outlet_tally().edges_m;
     std::string names;
@@ -981,7 +979,9 @@ nlohmann::ordered_json fill_json(const Simulation& sim, const SceneConfig& scene
   j["held_for_few_counts"] = record.few_counts;
   // How the dust's exit rates followed its hold-up (a fill of the dust alone after another).
   j["dust_exit_load"] =
-      record.dust_load ? dust_exit_load_json(*record.dust_load, record.projected_dust_kg) : nullptr;
+      record.dust_load
+          ? dust_exit_load_json(*record.dust_load, total(part(record.projected_kg, true)))
+          : nullptr;
   for (const bool dust : {false, true}) {
     nlohmann::ordered_json& held = j[dust ? "dust" : "particles"];
     if (!record.projected_kg.empty()) {
