@@ -155,8 +155,9 @@ struct TimeConfig {
   // How far each fill moves a class towards its projected hold-up: to held^(1−ω) target^ω
   // (geometric, so that a class projected at 50 times its hold-up moves 7 times at ω = ½); 1:
   // all the way. Fills repeated with ω < 1 iterate the hold-up towards the one the mill's own
-  // rates reproduce, each projected from a mill nearer to it.
-  double fill_relaxation = 1.0;
+  // rates reproduce, each projected from a mill nearer to it. One per fill (the scene gives one
+  // for all or a list).
+  std::vector<double> fill_relaxation;
   // Whether a fill also takes mass from the classes above their target (particles drawn at
   // random from the class, the ledger's dust scaled down); false: it only adds.
   bool fill_removes = false;

@@ -363,6 +363,32 @@ void check_random_regions(const SceneConfig& scene, InputErrors& errors) {
   }
 }
 
+// time.fill_relaxation: one ω for every fill, or a list with one per fill (a first fill far
+// from the steady state relaxed, the last one taken whole, say). One entry per fill.
+std::vector<double> parse_fill_relaxation(JsonObjectReader& r, std::size_t fills,
+                                          InputErrors& errors) {
+  const NumberRange range = NumberRange::open_closed(0.0, 1.0);
+  const json* v = r.child("fill_relaxation");
+  if (!v || fills == 0) return std::vector<double>(fills, 1.0);  // no fills: reported above
+  const std::string path = r.path_of("fill_relaxation");
+  if (!v->is_array()) {
+    const std::optional<double> omega = read_number(*v, path, range, errors);
+    if (!omega) errors.back().allowed = "expected a number in (0, 1] or a list of one per fill";
+    return std::vector<double>(fills, omega.value_or(1.0));
+  }
+  if (v->size() != fills) {
+    errors.push_back({path, json_value_text(*v),
+                      concat("expected one number in (0, 1] per fill in "
+                             "/time/fill_to_projection_s (",
+                             fills, "), or one number for all")});
+    return std::vector<double>(fills, 1.0);
+  }
+  std::vector<double> omega(fills, 1.0);
+  for (std::size_t k = 0; k < fills; ++k)
+    omega[k] = read_number((*v)[k], concat(path, "/", k), range, errors).value_or(1.0);
+  return omega;
+}
+
 TimeConfig parse_time(JsonObjectReader& top, InputErrors& errors) {
   TimeConfig t;
   const json* v = top.child("time");
@@ -421,7 +447,11 @@ TimeConfig parse_time(JsonObjectReader& top, InputErrors& errors) {
       errors.push_back({r.path_of(key), json_value_text(*r.child(key)),
                         "sets how a hold-up fill moves the mill's hold-up: add "
                         "/time/fill_to_projection_s, or remove it"});
-  t.fill_relaxation = r.number("fill_relaxation", 1.0, NumberRange::open_closed(0.0, 1.0));
+  // Against the fills declared (an unreadable time among them is reported on its own).
+  const json* fills = r.child("fill_to_projection_s");
+  const std::size_t declared = !fills ? 0 : fills->is_array() ? fills->size() : 1;
+  t.fill_relaxation = parse_fill_relaxation(r, declared, errors);
+  t.fill_relaxation.resize(t.fill_to_projection_s.size(), 1.0);
   t.fill_removes = r.boolean("fill_removes", false);
   t.fill_min_events = int(r.integer("fill_min_events", 0, 0, 1000000));
   t.fill_particle_rate_windows =

@@ -806,6 +806,12 @@ bool moves_dust_only(const SceneConfig& scene, std::size_t index) {
   return from && scene.time.fill_to_projection_s[index] >= *from;
 }
 
+// How far fill `index` moves each class towards its projection (time.fill_relaxation).
+double fill_relaxation(const SceneConfig& scene, std::size_t index) {
+  const std::vector<double>& omega = scene.time.fill_relaxation;
+  return index < omega.size() ? omega[index] : 1.0;
+}
+
 // At the fill's step: the steady state projected from the window before it (the particle
 // classes' rates from an earlier fill's window on, time.fill_particle_rate_windows), and the fill
 // to it (Simulation::fill_holdup); without a steady state, the reason instead.
@@ -893,7 +899,7 @@ void fill_to_projection(Simulation& sim, const SceneConfig& scene, std::vector<F
   }
   record.projected_kg = projection.held_kg;
   std::vector<double> target =
-      relaxed_target_kg(held, projection.held_kg, scene.time.fill_relaxation);
+      relaxed_target_kg(held, projection.held_kg, fill_relaxation(scene, index));
   // The particles' targets are what they hold, to the bit (a relaxation of a class towards its
   // own hold-up need not round back to it), so the fill copies and removes none.
   if (dust_only) std::copy_n(held.begin(), rates.slots, target.begin());
@@ -931,6 +937,7 @@ nlohmann::ordered_json fill_json(const Simulation& sim, const SceneConfig& scene
   nlohmann::ordered_json j;
   // What the fill moves (time.fill_dust_only_from_s), as declared, whether or not it was reached.
   j["moves"] = moves_dust_only(scene, index) ? "dust" : "particles and dust";
+  j["relaxation"] = fill_relaxation(scene, index);
   if (!record.done()) {
     j["status"] = "not reached";  // a run stopped before the fill
     return j;

@@ -670,7 +670,8 @@ TEST(HoldupFill, PooledParticleRatesCountEveryBeadThatLeftSinceTheirSpanBegan) {
 }
 
 // A fill of the dust alone (time.fill_dust_only_from_s): the ledger mill filled at 0.6 ms (both
-// phases) and at 0.9 and 1.2 ms, from 0.8 ms the dust alone, relaxed at ω = ½. The second fill
+// phases) and at 0.9 and 1.2 ms, from 0.8 ms the dust alone, the first two relaxed at ω = ½ and
+// the last taken whole (time.fill_relaxation one per fill). The second fill
 // holds every particle class in its projection (at its mean over the window, so the shots, which
 // break at their first impact and are seldom held at the fill's instant, still feed the dust),
 // targets each at what it holds, to the bit, and so copies and removes nothing; it targets each
@@ -681,7 +682,7 @@ TEST(HoldupFill, ALateFillMovesTheDustAloneForTheParticlesTheMillHolds) {
   doc["gas"]["spin_up_s"] = 0.002;
   doc["output"] = {{"h5", false}};
   doc["time"]["fill_to_projection_s"] = {0.0006, 0.0009, 0.0012};
-  doc["time"]["fill_relaxation"] = 0.5;
+  doc["time"]["fill_relaxation"] = {0.5, 0.5, 1.0};
   doc["time"]["fill_dust_only_from_s"] = 0.0008;
   doc["time"]["fill_dust_exit_follows_load"] = true;
   const nlohmann::json result = test::run_scene_document(doc);
@@ -691,6 +692,9 @@ TEST(HoldupFill, ALateFillMovesTheDustAloneForTheParticlesTheMillHolds) {
   ASSERT_EQ(fills[0]["status"], "filled") << fills[0].dump();
   ASSERT_EQ(fills[1]["status"], "filled") << fills[1].dump();
   ASSERT_EQ(fills[2]["status"], "filled") << fills[2].dump();
+  EXPECT_EQ(fills[0]["relaxation"], 0.5);
+  EXPECT_EQ(fills[1]["relaxation"], 0.5);
+  EXPECT_EQ(fills[2]["relaxation"], 1.0);
   EXPECT_EQ(fills[0]["moves"], "particles and dust");
   EXPECT_EQ(fills[1]["moves"], "dust");
   EXPECT_EQ(fills[2]["moves"], "dust");
@@ -754,6 +758,10 @@ TEST(HoldupFill, ALateFillMovesTheDustAloneForTheParticlesTheMillHolds) {
   // The dust it projected at is the dust it projects.
   const double projected_dust = third["projected_kg"].get<double>();
   EXPECT_NEAR(load["projected_dust_kg"].get<double>(), projected_dust, 1e-9 * projected_dust);
+  // Taken whole (ω = 1): each dust class's target is its projection, the particles' what they
+  // hold.
+  EXPECT_EQ(third["target_by_slot_kg"], third["projected_by_slot_kg"]);
+  EXPECT_EQ(fills[2]["particles"]["target_by_slot_kg"], fills[2]["particles"]["before_by_slot_kg"]);
   // Every kilogram: what the two fills added is booked as filled.
   const nlohmann::json& m = result["mass_balance"];
   const double filled = fills[0]["particles_kg"].get<double>() + fills[0]["dust_kg"].get<double>() +
@@ -776,6 +784,8 @@ TEST(HoldupFill, TheFillsSettingsAreCheckedByName) {
       {"fill_relaxation", 0.0},
       {"fill_relaxation", 1.5},
       {"fill_relaxation", "half"},
+      {"fill_relaxation", {0.5, 0.5}},  // two for the one fill
+      {"fill_relaxation", nlohmann::json::array()},
       {"fill_removes", "yes"},
       {"fill_min_events", -1},
       {"fill_min_events", 2.5},
@@ -792,6 +802,16 @@ TEST(HoldupFill, TheFillsSettingsAreCheckedByName) {
     const InputErrors errors = test::scene_errors(d);
     ASSERT_EQ(errors.size(), 1u) << key << " " << value;
     EXPECT_EQ(errors.front().path, std::string("/time/") + key);
+  }
+  // One ω per fill, each in its range, named by its place in the list.
+  {
+    nlohmann::json d = doc;
+    d["time"]["fill_relaxation"] = {0.0};
+    const InputErrors errors = test::scene_errors(d);
+    ASSERT_EQ(errors.size(), 1u);
+    EXPECT_EQ(errors.front().path, "/time/fill_relaxation/0");
+    d["time"]["fill_relaxation"] = {0.25};
+    EXPECT_TRUE(test::scene_errors(d).empty());
   }
   // The exit rates' load needs fills of the dust alone.
   {
