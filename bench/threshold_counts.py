@@ -6,7 +6,9 @@ centre. With the tracked particles the run ended with, that is the population a 
 mill at that threshold starts from at its steady state (issue 31, item 3), and the smallest tracked
 diameter sets its contact time step (Hertz: t_c scales with the diameter at a given speed).
 
-    /usr/bin/python3 bench/threshold_counts.py RUN_DIR [--density 2160] [--thresholds-um 25,10,5]
+    /usr/bin/python3 bench/threshold_counts.py RUN_DIR [--thresholds-um 25,10,5] [--density KG_M3]
+
+The run's threshold and its feed material's density come from RUN_DIR/scene.json.
 """
 import argparse
 import json
@@ -16,10 +18,16 @@ import math
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("run_dir")
-    ap.add_argument("--density", type=float, default=2160.0, help="particle density, kg/m3")
+    ap.add_argument("--density", type=float, help="particle density, kg/m3 (default: the feed's)")
     ap.add_argument("--thresholds-um", default="25,10,5")
     a = ap.parse_args()
     r = json.load(open(a.run_dir + "/result.json"))
+    scene = json.load(open(a.run_dir + "/scene.json"))
+    run_threshold_um = scene["dust"]["threshold_diameter_m"] * 1e6
+    if a.density is None:
+        feed_material = scene["feeds"][0]["material"]
+        a.density = next(m["density_kg_per_m3"] for m in scene["materials"]
+                         if m["name"] == feed_material)
     proj = r["steady_projection"]
     lower = proj["slots"]["lower_edge_m"]  # 0, then the PSD edges: slot s is [lower[s], lower[s+1])
     held = proj["slots"]["dust"]["mean_held_kg"]
@@ -27,19 +35,18 @@ def main():
     print(f"window {proj['window_s'][0] * 1e3:.1f}-{proj['window_s'][1] * 1e3:.1f} ms; "
           f"ledger held {sum(held) * 1e9:.1f} ug; tracked particles at the end: {tracked}")
     print("| threshold (µm) | ledger dust at or above it (µg) | spheres it makes | "
-          "smallest tracked diameter / 50 µm |")
+          f"smallest tracked diameter / {run_threshold_um:g} µm |")
     print("| --- | --- | --- | --- |")
     for t_um in [float(x) for x in a.thresholds_um.split(",")]:
         mass = count = 0.0
         for s, m in enumerate(held):
             lo = lower[s]
-            hi = lower[s + 1] if s + 1 < len(lower) else None
-            if hi is None or lo <= 0.0 or lo < 0.99 * t_um * 1e-6:
-                continue
-            d = math.sqrt(lo * hi)
+            if s + 1 >= len(lower) or lo < 0.99 * t_um * 1e-6:
+                continue  # below the threshold, or the overflow slot (no upper edge)
+            d = math.sqrt(lo * lower[s + 1])
             mass += m
             count += m / (a.density * math.pi / 6.0 * d ** 3)
-        print(f"| {t_um:g} | {mass * 1e9:.1f} | {count:,.0f} | {t_um / 50.0:.2f} |")
+        print(f"| {t_um:g} | {mass * 1e9:.1f} | {count:,.0f} | {t_um / run_threshold_um:.2f} |")
 
 
 if __name__ == "__main__":
