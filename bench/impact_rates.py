@@ -6,14 +6,14 @@ v_n^2/2 reaches the strength threshold W_min(x) = (x W_min) / x of Vogel & Peuke
 size x, and the breakage events on walls and between particles with the rate S they give
 (events per particle-second).
 
-    /usr/bin/python3 bench/impact_rates.py RUN_DIR [RUN_DIR ...] [--window-ms A B] [--groups-um 25,50,100,200]
+    /usr/bin/python3 bench/impact_rates.py RUN_DIR [RUN_DIR ...] [--window-ms A B] [--groups-um 25,50,100,200,400]
 
 The window defaults to the run's steady_projection window (its product window). Impacts come
 from RUN_DIR/run.h5 /impact_spectrum/interval_normal_counts (interval x group x size x bin: the
 intervals whose end lies in the window); the hold-up from result.json holdup_history
 (particles_by_class_kg, each class's mass as spheres of its geometric-centre size, the feed
 material's density from RUN_DIR/scene.json); the events from steady_projection.slots.particles
-(`events`, `wall_events`), so they cover the projection's window only. A pair impact's energy
+(`events`, `wall_events`), so they are shown only when the window is the projection's. A pair impact's energy
 is that of the relative motion, not the strength model's wall-equivalent energy (docs/comminution.md,
 "Impact statistics"): its column above W_min is a count of hard impacts, not of breakage chances.
 Needs python3-h5py (Debian).
@@ -34,16 +34,16 @@ def strength_x_w_min(scene, material):
     return m["breakage"]["strength"]["x_w_min_j_m_per_kg"], m["density_kg_per_m3"]
 
 
-def particle_seconds(history, size_edges, density, t0, t1):
+def particle_seconds(history, centres_m, density, t0, t1):
     """Particle-seconds per PSD class over [t0, t1] by the trapezoid rule on holdup_history."""
     t, held = history["time_s"], history["particles_by_class_kg"]
-    counts = [0.0] * (len(size_edges) - 1)
+    masses = [sphere_mass(d, density) for d in centres_m]
+    counts = [0.0] * len(centres_m)
     for a in range(1, len(t)):
         lo, hi = max(t[a - 1], t0), min(t[a], t1)
         if hi <= lo:
             continue
-        for k in range(len(counts)):
-            m = sphere_mass(math.sqrt(size_edges[k] * size_edges[k + 1]), density)
+        for k, m in enumerate(masses):  # held[.][0] is the underflow
             counts[k] += (hi - lo) * 0.5 * (held[a - 1][k + 1] + held[a][k + 1]) / m
     return counts
 
@@ -56,6 +56,9 @@ def report(run_dir, window_ms, groups_um):
         t0, t1 = window_ms[0] * 1e-3, window_ms[1] * 1e-3
     else:
         t0, t1 = projection["window_s"]
+    slots = projection.get("slots", {}).get("particles", {})
+    if [t0, t1] != projection.get("window_s"):
+        slots = {}  # its events are the projection window's, not this one's
     feed_material = scene["feeds"][0]["material"]
     x_w_min, density = strength_x_w_min(scene, feed_material)
     with h5py.File(f"{run_dir}/run.h5", "r") as f:
@@ -66,14 +69,14 @@ def report(run_dir, window_ms, groups_um):
         names = [n for n in spectrum.attrs["groups"].split("\n") if n]
         rows = [i for i, e in enumerate(ends) if t0 < e <= t1 + 1e-9]
         counts = spectrum["interval_normal_counts"][rows[0]:rows[-1] + 1].sum(axis=0)
-    held = particle_seconds(result["holdup_history"], size, density, t0, t1)
-    slots = projection.get("slots", {}).get("particles", {})
+    centres = [math.sqrt(a * b) for a, b in zip(size, size[1:])]
+    held = particle_seconds(result["holdup_history"], centres, density, t0, t1)
     print(f"## {run_dir}: {ends[rows[0]] * 1e3 - 1:.0f}-{ends[rows[-1]] * 1e3:.0f} ms "
           f"({len(rows)} intervals), x W_min {x_w_min} J m/kg, density {density:g} kg/m3")
     print("| group (um) | particle-s | partner | impacts per particle-s | of them >= W_min(x) |")
     print("| --- | --- | --- | --- | --- |")
     for lo, hi in zip(groups_um, groups_um[1:]):
-        classes = [k for k in range(len(size) - 1) if lo * 1e-6 <= math.sqrt(size[k] * size[k + 1]) < hi * 1e-6]
+        classes = [k for k, d in enumerate(centres) if lo * 1e-6 <= d < hi * 1e-6]
         seconds = sum(held[k] for k in classes)
         if seconds <= 0:
             print(f"| {lo:g}-{hi:g} | 0 | | | |")
@@ -81,7 +84,7 @@ def report(run_dir, window_ms, groups_um):
         for g, name in enumerate(names):
             total = hard = 0
             for k in classes:
-                w_min = x_w_min / math.sqrt(size[k] * size[k + 1])
+                w_min = x_w_min / centres[k]
                 total += int(counts[g][k].sum())
                 hard += int(sum(c for j, c in enumerate(counts[g][k]) if energy[j] >= w_min))
             print(f"| {lo:g}-{hi:g} | {seconds:.4g} | {name} | {total / seconds:.4g} | {hard / seconds:.4g} |")
@@ -89,7 +92,7 @@ def report(run_dir, window_ms, groups_um):
             in_group = [k + 1 for k in classes]  # slot 0 is the underflow
             events = sum(slots["events"][s] for s in in_group)
             wall = sum(slots["wall_events"][s] for s in in_group)
-            print(f"| {lo:g}-{hi:g} | | breakage events (projection window): {events:.0f}, on walls "
+            print(f"| {lo:g}-{hi:g} | | breakage events: {events:.0f}, on walls "
                   f"{wall:.0f} | S = {events / seconds:.3g} /s | |")
     print()
 
