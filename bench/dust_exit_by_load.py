@@ -36,9 +36,9 @@ from rates_by_interval import interval_bounds  # noqa: E402
 RADII_MM = [5.0, 7.5, 10.0, 15.0]
 
 
-def ring_geometry(scene, shape, radii_mm):
-    """The gas grid's radial and tangential unit vectors (y, x), each ring's cells below the
-    outlet tube's mouth (z, y, x) and the cell volume, for cells of shape (z, y, x)."""
+def gas_cell_polar(scene, shape):
+    """The gas grid's cell centres about the mill's axis, for cells of shape (z, y, x): radius
+    and radial unit vector (y, x), cell-centre heights (z) and the cell size (x, y, z)."""
     lo, hi = np.array(scene["domain"]["min_m"]), np.array(scene["domain"]["max_m"])
     centre = np.array(scene["mill"]["center_xy_m"])
     nz, ny, nx = shape
@@ -50,6 +50,14 @@ def ring_geometry(scene, shape, radii_mm):
     with np.errstate(invalid="ignore", divide="ignore"):
         ex, ey = X / r, Y / r
     zs = lo[2] + (np.arange(nz) + 0.5) * h[2]
+    return r, ex, ey, zs, h
+
+
+def ring_geometry(scene, shape, radii_mm):
+    """The gas grid's radial and tangential unit vectors (y, x), each ring's cells below the
+    outlet tube's mouth (z, y, x) and the cell volume, for cells of shape (z, y, x)."""
+    lo, hi = np.array(scene["domain"]["min_m"]), np.array(scene["domain"]["max_m"])
+    r, ex, ey, zs, h = gas_cell_polar(scene, shape)
     below_outlet = zs < hi[2] - lo[2] - scene["mill"]["outlet"]["depth_m"]
     rings = {x: (np.abs(r - x * 1e-3) < 0.5 * h[0])[None, :, :] & below_outlet[:, None, None]
              for x in radii_mm}

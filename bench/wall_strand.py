@@ -20,6 +20,7 @@ import h5py
 import numpy as np
 from scipy.spatial import cKDTree
 
+from dust_exit_by_load import gas_cell_polar
 from impact_rates import strength_x_w_min
 
 NEAR_WALL_M = 0.5e-3
@@ -36,22 +37,20 @@ def cylindrical(position, velocity, centre):
     return r, v_r, v_t
 
 
-def gas_tangential_in_ring(snapshot, domain, centre, radius):
-    """Tangential gas speeds of the fluid cells whose centre lies in the outer GAS_RING_M."""
+def outer_ring(scene, shape, radius):
+    """The gas cells' radial unit vectors (y, x) and the cells (y, x) whose centre lies in the
+    outer GAS_RING_M of the chamber, for cells of shape (z, y, x)."""
+    r, ex, ey, _, _ = gas_cell_polar(scene, shape)
+    return ex, ey, (r > radius - GAS_RING_M) & (r < radius)
+
+
+def gas_tangential_in_ring(snapshot, ring_cells):
+    """Tangential gas speeds of the fluid cells of ring_cells (outer_ring's answer)."""
+    ex, ey, ring = ring_cells
     velocity = snapshot["gas_velocity"][()]
-    fluid = snapshot["gas_fluid"][()]
-    nz, ny, nx = fluid.shape
-    lo, hi = domain["min_m"], domain["max_m"]
-    xs = lo[0] + (np.arange(nx) + 0.5) * (hi[0] - lo[0]) / nx - centre[0]
-    ys = lo[1] + (np.arange(ny) + 0.5) * (hi[1] - lo[1]) / ny - centre[1]
-    x, y = np.meshgrid(xs, ys)
-    r = np.hypot(x, y)
-    ring = (r > radius - GAS_RING_M) & (r < radius)
-    out = []
-    for z in range(nz):
-        v_t = (-velocity[z, :, :, 0] * y + velocity[z, :, :, 1] * x) / np.maximum(r, 1e-12)
-        out.append(v_t[ring & (fluid[z] > 0.5)])
-    return np.concatenate(out)
+    fluid = snapshot["gas_fluid"][()] > 0.5
+    v_t = -ey[None] * velocity[..., 0] + ex[None] * velocity[..., 1]
+    return v_t[fluid & ring[None]]
 
 
 def report(run_dir, window_ms, group_um):
@@ -68,6 +67,7 @@ def report(run_dir, window_ms, group_um):
     v_t_near, neighbours, coarse_at_wall_kg, gas_v_t = [], [], [], []
     with h5py.File(f"{run_dir}/run.h5", "r") as f:
         snapshots = [s for s in f["snapshots"].values() if t0 <= s.attrs["time_s"] <= t1 + 1e-9]
+        ring_cells = outer_ring(scene, snapshots[0]["gas_fluid"].shape, radius) if snapshots else None
         for s in snapshots:
             d, p, v = s["diameter"][()], s["position"][()], s["velocity"][()]
             r, v_r, v_t = cylindrical(p, v, centre)
@@ -88,7 +88,7 @@ def report(run_dir, window_ms, group_um):
                 neighbours.append(counts - 1)
             coarse = (d >= 50e-6) & (gap < NEAR_WALL_M)
             coarse_at_wall_kg.append(density * np.pi / 6.0 * np.sum(d[coarse] ** 3))
-            gas_v_t.append(gas_tangential_in_ring(s, scene["domain"], centre, radius))
+            gas_v_t.append(gas_tangential_in_ring(s, ring_cells))
     if members == 0:
         print(f"## {run_dir}: no {group_um[0]:g}-{group_um[1]:g} um particles in the window\n")
         return
