@@ -1167,6 +1167,11 @@ TEST(Dashboard, ChromiumShowsStudiesSubmitsAndCancels) {
   const json api_study = json::parse(server.get("/v1/studies/" + submitted)->body);
   EXPECT_EQ(api_study["name"], slow["name"]);
   EXPECT_EQ(seen["submitted_rows"], 3);
+  // A list refresh answered only after the page moved to the study does not draw over it.
+  EXPECT_TRUE(seen["list_refresh_held"].get<bool>()) << "the token's change refreshed nothing";
+  EXPECT_TRUE(seen["held_list_answered"].get<bool>());
+  EXPECT_FALSE(seen["list_drawn_over_study"].get<bool>())
+      << "a refresh that was overtaken drew the studies list over the study page";
   EXPECT_EQ(api_study["progress"]["total"], 3);
   // A refused cancel: its error stays through refreshes until dismissed; the page asked first.
   EXPECT_NE(seen["refused_notice"].get<std::string>().find("HTTP 401"), std::string::npos)

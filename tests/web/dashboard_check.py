@@ -38,6 +38,7 @@ class Page:
             raise RuntimeError("no WebSocket upgrade: " + reply.decode(errors="replace"))
         self.buffer = reply.split(b"\r\n\r\n", 1)[1]
         self.next_id = 0
+        self.events = []  # the browser's events (no id), kept in order for wait_event
 
     def _send(self, text):
         data = text.encode()
@@ -78,7 +79,9 @@ class Page:
         self._send(json.dumps({"id": self.next_id, "method": method, "params": params}))
         while True:
             reply = self._receive()
-            if reply.get("id") == self.next_id:
+            if "id" not in reply:
+                self.events.append(reply)
+            elif reply["id"] == self.next_id:
                 if "error" in reply:
                     raise RuntimeError(f"{method}: {reply['error']}")
                 return reply["result"]
@@ -98,6 +101,17 @@ class Page:
             if value:
                 return value
             time.sleep(0.1)
+        return None
+
+    def wait_event(self, method, timeout=30.0):
+        """The first event named `method` not yet taken; None after `timeout` seconds."""
+        end = time.time() + timeout
+        while time.time() < end:
+            for k, event in enumerate(self.events):
+                if event.get("method") == method:
+                    return self.events.pop(k)
+            self.js("true")  # reads what the browser sent meanwhile
+            time.sleep(0.05)
         return None
 
 
@@ -127,11 +141,16 @@ def main():
             "complete: r.cells[4].textContent, bar: r.querySelector('.bar') !== null}))"
             ".filter(s => s.complete.length > 0)")
 
-        # Submit through the page with the token, then land on the new study.
+        # Submit through the page with the token, then land on the new study. The token's change
+        # refreshes the list; that refresh is held unanswered (DevTools' Fetch interception) until
+        # the page shows the new study, as on a loaded server, and must not draw the list over it.
+        page.call("Fetch.enable", patterns=[{"urlPattern": "*/v1/studies?limit=*"}])
         study_text = open(study_file).read()
         page.js(f"document.getElementById('token').value = {json.dumps(token)};"
                 "document.getElementById('token').dispatchEvent(new Event('change'));"
                 "true")
+        held = page.wait_event("Fetch.requestPaused")
+        seen["list_refresh_held"] = held is not None
         page.wait("document.getElementById('study-text') !== null")
         page.js(f"document.getElementById('study-text').value = {json.dumps(study_text)};"
                 "document.getElementById('submit').click(); true")
@@ -139,6 +158,20 @@ def main():
             "location.hash.startsWith('#/studies/') && document.querySelector('#results') "
             "? location.hash : ''")
         seen["submitted_rows"] = page.js("document.querySelectorAll('#results tr.clickable').length")
+        list_fetches = ("performance.getEntriesByType('resource')"
+                        ".filter(e => e.name.includes('/v1/studies?limit=')).length")
+        fetched_before = page.js(list_fetches)
+        page.js("window.listDrawn = false; new MutationObserver(() => {"
+                "const h = document.querySelector('#main h1');"
+                "if (h && h.textContent === 'Studies') window.listDrawn = true;"
+                "}).observe(document.getElementById('main'), {childList: true}); true")
+        while held is not None:
+            page.call("Fetch.continueRequest", requestId=held["params"]["requestId"])
+            held = page.wait_event("Fetch.requestPaused", timeout=0.5)
+        page.call("Fetch.disable")
+        seen["held_list_answered"] = bool(page.wait(f"{list_fetches} > {fetched_before}"))
+        time.sleep(0.5)  # the held refresh's own continuation, had it anything left to draw
+        seen["list_drawn_over_study"] = page.js("window.listDrawn")
 
         study_id = seen["submitted_hash"][len("#/studies/"):]
 
@@ -160,7 +193,11 @@ def main():
             "document.getElementById('notice') ? document.getElementById('notice').textContent : ''"
         ) or ""
         seen["confirm_question"] = page.js("window.askedToConfirm || ''")
-        page.js("document.getElementById('results').dataset.beforeRefresh = '1'; true")
+        lost = page.js(
+            "document.getElementById('results') ? (document.getElementById('results')"
+            ".dataset.beforeRefresh = '1', '') : document.getElementById('main').textContent")
+        if lost:
+            raise RuntimeError(f"the study page has no results table beside the notice: {lost!r}")
         time.sleep(7)
         seen["refreshed"] = page.js(
             "document.getElementById('results') !== null && "

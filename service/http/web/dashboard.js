@@ -9,6 +9,7 @@ const kStates = ["COMPLETE", "RUNNING", "CANCELING", "QUEUED", "EXECUTOR_ERROR",
                  "CANCELED"];
 let selectedRun = null;  // the run whose details are open on the study page
 let refreshTimer = null;
+let routeSerial = 0;  // the newest route(): an older one still waiting on the API draws nothing
 let submitSection = null;  // built once, so a refresh keeps what is typed in it
 // An error of the user's last action (e.g. a 401 on Cancel): shown on every refresh until it is
 // dismissed or the user does something else (navigates, clicks a run, submits, types a token).
@@ -130,7 +131,8 @@ function submitForm() {
   return el("section", {}, el("h2", {}, "Submit a study"), text, el("div", {}, file, button), result);
 }
 
-async function showStudies() {
+// The studies list, as the children of #main.
+async function studiesPage() {
   const list = await api("/v1/studies?limit=100");
   const rows = list.studies.map((s) => {
     const p = s.progress;
@@ -144,14 +146,14 @@ async function showStudies() {
       el("td", { class: "state" }, s.canceled ? "canceled" : finished ? "finished" : "running"),
       el("td", {}, finished ? "" : el("button", { class: "cancel", onclick: () => cancel(s.id) }, "Cancel")));
   });
-  main.replaceChildren(
+  return [
     el("h1", {}, "Studies"),
     rows.length
       ? el("table", { id: "studies" },
           el("tr", {}, ["study", "name", "created", "progress", "complete", "state", ""].map((h) => el("th", {}, h))),
           rows)
       : el("p", {}, "No study yet."),
-    submitSection || (submitSection = submitForm()));
+    submitSection || (submitSection = submitForm())];
 }
 
 // A run's cumulative mass fraction (the mass finer than each class edge, outlet and dust) against
@@ -218,7 +220,8 @@ async function runDetails(runId) {
   return box;
 }
 
-async function showStudy(id) {
+// A study's page (progress, results, plots, the selected run), as the children of #main.
+async function studyPage(id) {
   const [study, results] = await Promise.all([
     api(`/v1/studies/${encodeURIComponent(id)}`),
     api(`/v1/studies/${encodeURIComponent(id)}/results`),
@@ -255,19 +258,24 @@ async function showStudy(id) {
     await plot(`/v1/studies/${encodeURIComponent(id)}/plot/error-vs-time`, "error against run time"),
     await plot(`/v1/studies/${encodeURIComponent(id)}/plot/psd`, "outlet PSD of every run"));
   const details = selectedRun && selectedRun.startsWith(study.id + "-") ? await runDetails(selectedRun) : el("p", { class: "state" }, "Click a run for its PSD and log.");
-  main.replaceChildren(header, el("h2", {}, "Results"), table, el("h2", {}, "Plots"), plots, details);
+  return [header, el("h2", {}, "Results"), table, el("h2", {}, "Plots"), plots, details];
 }
 
+// Draws the page the location asks for, then refreshes it every 3 s. Routes overlap (a refresh,
+// a click, a typed token): one overtaken by a newer route while it waited on the API draws nothing
+// and sets no timer, so a slow refresh of the list never lands on the study the user moved to.
 async function route() {
+  const serial = ++routeSerial;
   clearTimeout(refreshTimer);
   const match = location.hash.match(/^#\/studies\/(s[0-9]{6})$/);
+  let children;
   try {
-    if (match) await showStudy(match[1]);
-    else await showStudies();
+    children = match ? await studyPage(match[1]) : await studiesPage();
   } catch (e) {
-    main.replaceChildren(message(e.message));
+    children = [message(e.message)];
   }
-  document.getElementById("notice")?.remove();  // another refresh's, when two overlapped
+  if (serial !== routeSerial) return;
+  main.replaceChildren(...children);
   if (notice) main.prepend(noticeBox());
   refreshTimer = setTimeout(route, 3000);
 }
