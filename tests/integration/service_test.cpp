@@ -169,8 +169,10 @@ class ServerProcess {
     return Reply(c.Post(path.c_str(), h, body, "application/json"), "POST " + path);
   }
 
-  // Polls the study until no run is queued, running or canceling.
-  json wait_finished(const std::string& id, double timeout_s = 120.0) const {
+  // Polls the study until no run is queued, running or canceling. The default wait is long (a
+  // study under the sanitizers on a machine shared with other work took over 120 s): it only
+  // decides how late a test that would fail anyway gives up.
+  json wait_finished(const std::string& id, double timeout_s = 600.0) const {
     const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
     while (std::chrono::steady_clock::now() < end) {
       auto res = get("/v1/studies/" + id);
