@@ -29,6 +29,12 @@ def sphere_mass(d_m, density):
     return density * math.pi / 6.0 * d_m ** 3
 
 
+def feed_density(scene):
+    """The density (kg/m³) of the scene's first feed's material."""
+    material = scene["feeds"][0]["material"]
+    return next(m["density_kg_per_m3"] for m in scene["materials"] if m["name"] == material)
+
+
 def strength_x_w_min(scene, material):
     m = next(m for m in scene["materials"] if m["name"] == material)
     return m["breakage"]["strength"]["x_w_min_j_m_per_kg"], m["density_kg_per_m3"]

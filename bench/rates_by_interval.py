@@ -18,8 +18,7 @@ import json
 import h5py
 import numpy as np
 
-def sphere_mass(d_m, density):
-    return density * np.pi / 6.0 * np.asarray(d_m) ** 3
+from impact_rates import feed_density, sphere_mass
 
 
 def snapshot_counts(f, edges_m, density):
@@ -62,9 +61,7 @@ def main():
     r = json.load(open(f"{a.run_dir}/result.json"))
     h = r["holdup_history"]
     bounds = interval_bounds(r, a.edges_ms)
-    scene = json.load(open(f"{a.run_dir}/scene.json"))
-    feed_material = scene["feeds"][0]["material"]
-    density = next(m["density_kg_per_m3"] for m in scene["materials"] if m["name"] == feed_material)
+    density = feed_density(json.load(open(f"{a.run_dir}/scene.json")))
     f = h5py.File(f"{a.run_dir}/run.h5", "r")
     edges = [x * 1e-6 for x in groups_um]
     times, counts, masses = snapshot_counts(f, edges, density)
@@ -94,9 +91,9 @@ def main():
         cells = [f"{e / x:.2f} ({e})" if x > 0 else "–" for e, x in zip(events, exposure)]
         if span > 0:
             broken = np.histogram(ev_d[sel], bins=edges, weights=sphere_mass(ev_d[sel], density))[0]
-            held_mean = particle_seconds(ts, masses[inside]) / span
-            balance.append((ts[0], ts[-1], held_mean, broken / span,
-                            (masses[inside][-1] - masses[inside][0]) / span))
+            group_mass = masses[inside]
+            balance.append((ts[0], ts[-1], particle_seconds(ts, group_mass) / span, broken / span,
+                            (group_mass[-1] - group_mass[0]) / span))
         energy = np.mean(ev_e[sel]) if sel.any() else float("nan")
         print(f"| {ts[0] * 1e3:.1f}–{ts[-1] * 1e3:.1f} | {held:.2f} | {dust:.2f} | "
               + " | ".join(cells) + f" | {int(sel.sum())} ({sel.sum() / span * 1e-3 if span else 0:.1f}"

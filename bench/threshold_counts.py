@@ -14,6 +14,8 @@ import argparse
 import json
 import math
 
+from impact_rates import feed_density
+
 
 def main():
     ap = argparse.ArgumentParser()
@@ -25,9 +27,7 @@ def main():
     scene = json.load(open(a.run_dir + "/scene.json"))
     run_threshold_um = scene["dust"]["threshold_diameter_m"] * 1e6
     if a.density is None:
-        feed_material = scene["feeds"][0]["material"]
-        a.density = next(m["density_kg_per_m3"] for m in scene["materials"]
-                         if m["name"] == feed_material)
+        a.density = feed_density(scene)
     proj = r["steady_projection"]
     lower = proj["slots"]["lower_edge_m"]  # 0, then the PSD edges: slot s is [lower[s], lower[s+1])
     held = proj["slots"]["dust"]["mean_held_kg"]
