@@ -47,6 +47,21 @@ inline std::size_t block_items(std::size_t nominal) {
   return items > 0 ? items : 1;
 }
 
+// The items per piece for a loop over `items` whose result does not depend on where its pieces
+// are cut (each writes its own places, joined in piece order): `nominal` (a power of two), halved
+// while the loop would make fewer than kPiecesPerThreadToBalance pieces per thread, down to
+// `smallest`. Pieces go to whichever thread is free, so a loop of few pieces ends unevenly: 3
+// pieces on 2 threads leave one thread two thirds of the work.
+inline constexpr std::size_t kPiecesPerThreadToBalance = 4;
+inline std::size_t balanced_piece_items(std::size_t items, std::size_t nominal,
+                                        std::size_t smallest) {
+  const std::size_t wanted = kPiecesPerThreadToBalance * std::size_t(thread_count());
+  std::size_t size = std::max<std::size_t>(1, nominal);
+  while (size / 2 >= std::max<std::size_t>(1, smallest) && (items + size - 1) / size < wanted)
+    size /= 2;
+  return size;
+}
+
 // Loops that ran on more than one thread since the process started (tests: that a loop did).
 std::uint64_t loops_run_on_team();
 

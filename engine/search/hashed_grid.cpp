@@ -14,8 +14,11 @@ constexpr int kAxisBits = 21;
 constexpr long kAxisLimit = (1L << kAxisBits) - 1;
 
 // A threaded search is cut into pieces of about this many particles (of a level, or of those
-// visiting another level), run in waves of kPiecesPerThreadWave pieces per thread.
+// visiting another level), run in waves of kPiecesPerThreadWave pieces per thread; a smaller
+// search into smaller pieces, down to kSearchPieceMinParticles, so that every thread has a few
+// (balanced_piece_items).
 constexpr std::size_t kSearchPieceParticles = 8192;
+constexpr std::size_t kSearchPieceMinParticles = 1024;
 constexpr std::size_t kPiecesPerThreadWave = 8;
 
 // LSD radix sort of (key, value) by key, 16 bits per pass, only as many passes as the keys need.
@@ -390,7 +393,8 @@ void CellLevel::build(const std::vector<Vec3>& x, const std::vector<double>& r,
   // the engine's threads; the largest index of each axis over the blocks).
   std::vector<std::uint64_t>& keys = scratch.input_keys;
   keys.resize(members.size());
-  const std::size_t block = block_items(16384);
+  const std::size_t block =
+      balanced_piece_items(members.size(), block_items(16384), block_items(2048));
   std::vector<std::array<long, 3>> block_max_index((members.size() + block - 1) / block);
   parallel_ranges(members.size(), block, [&](std::size_t begin, std::size_t end, std::size_t b) {
     long max_index[3] = {0, 0, 0};
@@ -467,7 +471,8 @@ void CellLevel::build(const std::vector<Vec3>& x, const std::vector<double>& r,
 
 void CellLevel::fill_spheres(const std::vector<Vec3>& x, const std::vector<double>& r) {
   sphere_.resize(members_.size());
-  parallel_ranges(members_.size(), block_items(16384),
+  parallel_ranges(members_.size(),
+                  balanced_piece_items(members_.size(), block_items(16384), block_items(2048)),
                   [&](std::size_t begin, std::size_t end, std::size_t) {
                     for (std::size_t k = begin; k < end; ++k) {
                       const Vec3& p = x[members_[k]];
@@ -564,7 +569,8 @@ void HashedGrid::find_pairs(const std::vector<Vec3>& x, const std::vector<double
   // particles; on one thread, one piece. The list is the same for any cut.
   const bool on_team = worth_threads(n);
   auto piece_count = [&](std::size_t particles) {
-    const std::size_t size = block_items(kSearchPieceParticles);
+    const std::size_t size = balanced_piece_items(particles, block_items(kSearchPieceParticles),
+                                                  block_items(kSearchPieceMinParticles));
     return on_team ? std::max<std::size_t>(1, (particles + size - 1) / size) : 1;
   };
   auto share = [](std::size_t count, std::size_t piece, std::size_t pieces) {
@@ -648,20 +654,20 @@ void spatial_order(const std::vector<Vec3>& x, const PeriodicBox& box,
   std::vector<std::uint64_t>& keys = scratch.input_keys;
   keys.resize(x.size());
   order.resize(x.size());
-  parallel_ranges(
-      x.size(), block_items(16384), [&](std::size_t begin, std::size_t end, std::size_t) {
-        for (std::size_t i = begin; i < end; ++i) {
-          std::uint64_t key = 0;
-          for (int a = 0; a < 3; ++a) {
-            const double c = std::clamp((x[i][a] - lo[a]) / edge, 0.0, double((1 << 21) - 1));
-            key |= spread(std::uint64_t(c)) << a;
-          }
-          // (The Morton key takes bits 0–62.)
-          if (behind && behind[i] != 0) key |= std::uint64_t(1) << 63;
-          keys[i] = key;
-          order[i] = std::uint32_t(i);
-        }
-      });
+  const std::size_t block = balanced_piece_items(x.size(), block_items(16384), block_items(2048));
+  parallel_ranges(x.size(), block, [&](std::size_t begin, std::size_t end, std::size_t) {
+    for (std::size_t i = begin; i < end; ++i) {
+      std::uint64_t key = 0;
+      for (int a = 0; a < 3; ++a) {
+        const double c = std::clamp((x[i][a] - lo[a]) / edge, 0.0, double((1 << 21) - 1));
+        key |= spread(std::uint64_t(c)) << a;
+      }
+      // (The Morton key takes bits 0–62.)
+      if (behind && behind[i] != 0) key |= std::uint64_t(1) << 63;
+      keys[i] = key;
+      order[i] = std::uint32_t(i);
+    }
+  });
   radix_sort(keys, order, scratch, worth_threads(keys.size()));
 }
 

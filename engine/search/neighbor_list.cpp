@@ -174,7 +174,9 @@ double NeighborList::max_displacement_m(const ParticleStore& p, const PeriodicBo
   const FrameTurn turn(frame_, frame_elapsed_s_);
   const double* scale2 = speed_report(p).scale2;
   const std::size_t block =
-      worth_threads(p.size()) ? block_items(16384) : std::max<std::size_t>(1, p.size());
+      worth_threads(p.size())
+          ? balanced_piece_items(p.size(), block_items(16384), block_items(2048))
+          : std::max<std::size_t>(1, p.size());
   std::vector<double> block_max2((p.size() + block - 1) / block, 0.0);
   parallel_ranges(p.size(), block, [&](std::size_t begin, std::size_t end, std::size_t b) {
     double max2 = 0.0;
@@ -204,9 +206,15 @@ void NeighborList::sort_pairs(const ParticleStore& p, const PeriodicBox& box) {
   const std::size_t count = pairs.size();
   const bool threaded = worth_threads(p.size());
   const std::size_t blocks = (p.size() + kSpeedBlockSlots - 1) / kSpeedBlockSlots;
-  const std::size_t bucket_slots = threaded ? block_items(kSpeedBlockSlots) : kSpeedBlockSlots;
+  // A small population in smaller buckets and chunks, so that every thread has a few of each
+  // (a bucket's slots divide a speed block's).
+  const std::size_t bucket_slots =
+      threaded ? balanced_piece_items(p.size(), block_items(kSpeedBlockSlots), block_items(512))
+               : kSpeedBlockSlots;
   const std::size_t buckets = (p.size() + bucket_slots - 1) / bucket_slots;
-  const std::size_t chunk_pairs = threaded ? block_items(16384) : std::max<std::size_t>(1, count);
+  const std::size_t chunk_pairs =
+      threaded ? balanced_piece_items(count, block_items(16384), block_items(2048))
+               : std::max<std::size_t>(1, count);
   const std::size_t chunks = (count + chunk_pairs - 1) / chunk_pairs;
   auto chunk_end = [&](std::size_t c) { return std::min(count, (c + 1) * chunk_pairs); };
 
@@ -709,14 +717,15 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
   // The positions and ids of this build, copied in blocks on the engine's threads.
   reference_position_m_.resize(p.size());
   reference_id_.resize(p.size());
-  parallel_ranges(
-      p.size(), block_items(16384), [&](std::size_t begin, std::size_t end, std::size_t) {
-        std::copy(p.position_m.begin() + std::ptrdiff_t(begin),
-                  p.position_m.begin() + std::ptrdiff_t(end),
-                  reference_position_m_.begin() + std::ptrdiff_t(begin));
-        std::copy(p.id.begin() + std::ptrdiff_t(begin), p.id.begin() + std::ptrdiff_t(end),
-                  reference_id_.begin() + std::ptrdiff_t(begin));
-      });
+  parallel_ranges(p.size(), balanced_piece_items(p.size(), block_items(16384), block_items(2048)),
+                  [&](std::size_t begin, std::size_t end, std::size_t) {
+                    std::copy(p.position_m.begin() + std::ptrdiff_t(begin),
+                              p.position_m.begin() + std::ptrdiff_t(end),
+                              reference_position_m_.begin() + std::ptrdiff_t(begin));
+                    std::copy(p.id.begin() + std::ptrdiff_t(begin),
+                              p.id.begin() + std::ptrdiff_t(end),
+                              reference_id_.begin() + std::ptrdiff_t(begin));
+                  });
   ++stats_.rebuilds;
 }
 

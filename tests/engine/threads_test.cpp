@@ -193,6 +193,34 @@ TEST(ThreadTeam, AScopeMovesTheMinimumForItsLoopsOnly) {
   EXPECT_TRUE(worth_threads(kMinItemsForThreads));
 }
 
+// A loop's pieces are halved from the nominal size until every thread has at least
+// kPiecesPerThreadToBalance of them, never below the smallest size and never for a loop that
+// already has that many.
+TEST(ThreadTeam, APieceSizeLeavesEveryThreadAFewPieces) {
+  auto pieces = [](std::size_t items, std::size_t size) { return (items + size - 1) / size; };
+  for (int threads : {1, 2, 3, 8}) {
+    SCOPED_TRACE(threads);
+    Threads team(threads);
+    const std::size_t wanted = kPiecesPerThreadToBalance * std::size_t(threads);
+    for (std::size_t items : {1ul, 100ul, 3000ul, 20000ul, 50000ul, 1000000ul}) {
+      SCOPED_TRACE(items);
+      const std::size_t size = balanced_piece_items(items, 8192, 1024);
+      EXPECT_LE(size, 8192u);
+      EXPECT_GE(size, 1024u);
+      EXPECT_EQ(8192 % size, 0u);  // a power-of-two part of the nominal size
+      if (pieces(items, 8192) >= wanted) {
+        EXPECT_EQ(size, 8192u);
+      } else if (size > 1024) {
+        EXPECT_GE(pieces(items, size), wanted);
+        EXPECT_LT(pieces(items, 2 * size), wanted);  // halved no further than needed
+      }
+    }
+  }
+  Threads two(2);
+  EXPECT_EQ(balanced_piece_items(20000, 8192, 1024), 2048u);  // 10 pieces, not 3
+  EXPECT_EQ(balanced_piece_items(20000, 8192, 4096), 4096u);  // 5: the smallest allowed
+}
+
 TEST(SlotShares, EachShareBeginsWhereTheWeightBelowReachesItsPart) {
   // By hand: units of 4 slots weighing 1, 1, 6, 1, 1 over 18 slots (the last unit short), two
   // owners: the weight below reaches 5 of 10 at the end of unit 2 (slot 12), not before (2).
@@ -303,6 +331,34 @@ TEST(Threads, GridSearchGivesTheOneThreadListInItsOrder) {
           EXPECT_EQ(grid.stats().cell_lookups, serial_grid.stats().cell_lookups);
         }
       }
+}
+
+// A search of 12 000 particles at the shipped block sizes is cut into pieces of 1024 (at least
+// four per thread, balanced_piece_items) instead of two of 8192: the list is still the one a
+// single thread makes.
+TEST(Threads, GridSearchInBalancedPiecesGivesTheOneThreadList) {
+  const GridCloud c = clustered_cloud(12000, 30.0, true, 17u);
+  const HashedGridSettings settings{0.002, 3, 3, std::nullopt};
+  const MinItemsForThreadsScope scope(kMinSlotsForOwnerPasses);
+  PairList serial_list;
+  HashedGrid serial_grid;
+  {
+    Threads one(1);
+    serial_grid.find_pairs(c.x, c.r, c.box, settings, serial_list);
+  }
+  ASSERT_GT(serial_list.size(), 12000u);
+  for (int threads : {2, 3}) {
+    SCOPED_TRACE(threads);
+    Threads team(threads);
+    PairList list;
+    HashedGrid grid;
+    const std::uint64_t loops_before = loops_run_on_team();
+    grid.find_pairs(c.x, c.r, c.box, settings, list);
+    EXPECT_GE(loops_run_on_team() - loops_before, 2u);
+    EXPECT_EQ(list.first, serial_list.first);
+    EXPECT_EQ(list.second, serial_list.second);
+    EXPECT_EQ(grid.stats().distance_tests, serial_grid.stats().distance_tests);
+  }
 }
 
 // A free vortex draining into a central outlet in the lid (the ledger's own test's flow), 24 × 24
