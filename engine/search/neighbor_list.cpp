@@ -132,11 +132,16 @@ void NeighborList::choose_shares(const ParticleStore& p) {
   speed_scale2_.clear(), search_radius_m_.clear();
   const std::size_t n = p.size();
   if (!settings_.skin_by_speed || n < 2 || !(settings_.skin_m > 0.0)) return;
-  // The 99th percentile of the speeds relative to the frame (counted, never timed).
+  // The speeds relative to the frame and their 99th percentile (counted, never timed); the
+  // per-particle loops in blocks on the engine's threads, each writing its own places.
+  const bool team = worth_threads(n);
+  const std::size_t block = balanced_piece_items(n, block_items(16384), block_items(2048));
   std::vector<double>& speed = speed_scratch_;
   speed.resize(n);
-  for (std::size_t i = 0; i < n; ++i)
-    speed[i] = std::sqrt(frame_speed2(frame_, p.position_m[i], p.motion[i].velocity_m_per_s));
+  parallel_ranges_if(team, n, block, [&](std::size_t begin, std::size_t end, std::size_t) {
+    for (std::size_t i = begin; i < end; ++i)
+      speed[i] = std::sqrt(frame_speed2(frame_, p.position_m[i], p.motion[i].velocity_m_per_s));
+  });
   std::vector<double>& sorted = sorted_speed_scratch_;
   sorted = speed;
   const std::size_t q = n - 1 - n / 100;
@@ -147,23 +152,27 @@ void NeighborList::choose_shares(const ParticleStore& p) {
   // largest radius (the grid's cells stay as they were).
   const double half_skin = 0.5 * settings_.skin_m;
   const double r_max = *std::max_element(p.radius_m.begin(), p.radius_m.end());
-  bool any = false;
   std::vector<double>& share = speed;  // each speed becomes its share
-  for (std::size_t i = 0; i < n; ++i) {
-    if (speed[i] <= reference) {
-      share[i] = 1.0;
-      continue;
+  std::vector<std::uint8_t> block_any((n + block - 1) / block, 0);
+  parallel_ranges_if(team, n, block, [&](std::size_t begin, std::size_t end, std::size_t b) {
+    for (std::size_t i = begin; i < end; ++i) {
+      if (speed[i] <= reference) {
+        share[i] = 1.0;
+        continue;
+      }
+      const double room = 1.0 + (r_max - p.radius_m[i]) / half_skin;
+      share[i] = std::min({speed[i] / reference, kLargestShare, room});
+      if (share[i] > 1.0) block_any[b] = 1;
     }
-    const double room = 1.0 + (r_max - p.radius_m[i]) / half_skin;
-    share[i] = std::min({speed[i] / reference, kLargestShare, room});
-    any = any || share[i] > 1.0;
-  }
-  if (!any) return;
+  });
+  if (std::find(block_any.begin(), block_any.end(), 1) == block_any.end()) return;
   speed_scale2_.resize(n), search_radius_m_.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    speed_scale2_[i] = 1.0 / (share[i] * share[i]);
-    search_radius_m_[i] = p.radius_m[i] + (share[i] - 1.0) * half_skin;
-  }
+  parallel_ranges_if(team, n, block, [&](std::size_t begin, std::size_t end, std::size_t) {
+    for (std::size_t i = begin; i < end; ++i) {
+      speed_scale2_[i] = 1.0 / (share[i] * share[i]);
+      search_radius_m_[i] = p.radius_m[i] + (share[i] - 1.0) * half_skin;
+    }
+  });
 }
 
 double NeighborList::max_displacement_m(const ParticleStore& p, const PeriodicBox& box) const {
