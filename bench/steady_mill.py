@@ -62,7 +62,7 @@ def selection_rates(run_dir, names):
     except (ImportError, OSError):
         return
     edges = [x * 1e-6 for x in SIZE_GROUPS_UM]
-    times, counts = snapshot_counts(f, edges)
+    times, counts, _ = snapshot_counts(f, edges, 1.0)  # counts only: the masses are not used
     exposure = particle_seconds(times, counts)  # particle-seconds per group
     if "breakage_events" not in f:
         return
