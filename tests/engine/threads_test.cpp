@@ -298,6 +298,25 @@ GridCloud clustered_cloud(std::size_t n, double size_ratio, bool periodic, unsig
   return c;
 }
 
+// The grid's search on 2 and 3 threads, on the team, gives the list, tests and lookups of one
+// thread's search (serial_grid, serial_list).
+void expect_the_one_thread_list(const GridCloud& c, const HashedGridSettings& settings,
+                                const HashedGrid& serial_grid, const PairList& serial_list) {
+  for (int threads : {2, 3}) {
+    SCOPED_TRACE(threads);
+    Threads team(threads);
+    PairList list;
+    HashedGrid grid;
+    const std::uint64_t loops_before = loops_run_on_team();
+    grid.find_pairs(c.x, c.r, c.box, settings, list);
+    EXPECT_GE(loops_run_on_team() - loops_before, 2u);
+    EXPECT_EQ(list.first, serial_list.first);
+    EXPECT_EQ(list.second, serial_list.second);
+    EXPECT_EQ(grid.stats().distance_tests, serial_grid.stats().distance_tests);
+    EXPECT_EQ(grid.stats().cell_lookups, serial_grid.stats().cell_lookups);
+  }
+}
+
 TEST(Threads, GridSearchGivesTheOneThreadListInItsOrder) {
   SmallBlocks small_blocks;  // 3000 particles: past the threads' minimum
   for (const bool periodic : {false, true})
@@ -317,19 +336,7 @@ TEST(Threads, GridSearchGivesTheOneThreadListInItsOrder) {
         if (k > 1 && size_ratio > 1.0) {
           ASSERT_GT(serial_grid.stats().levels, 1);  // the cross-level search is cut too
         }
-        for (int threads : {2, 3}) {
-          SCOPED_TRACE(threads);
-          Threads team(threads);
-          PairList list;
-          HashedGrid grid;
-          const std::uint64_t loops_before = loops_run_on_team();
-          grid.find_pairs(c.x, c.r, c.box, settings, list);
-          EXPECT_GE(loops_run_on_team() - loops_before, 2u);
-          EXPECT_EQ(list.first, serial_list.first);
-          EXPECT_EQ(list.second, serial_list.second);
-          EXPECT_EQ(grid.stats().distance_tests, serial_grid.stats().distance_tests);
-          EXPECT_EQ(grid.stats().cell_lookups, serial_grid.stats().cell_lookups);
-        }
+        expect_the_one_thread_list(c, settings, serial_grid, serial_list);
       }
 }
 
@@ -347,18 +354,7 @@ TEST(Threads, GridSearchInBalancedPiecesGivesTheOneThreadList) {
     serial_grid.find_pairs(c.x, c.r, c.box, settings, serial_list);
   }
   ASSERT_GT(serial_list.size(), 12000u);
-  for (int threads : {2, 3}) {
-    SCOPED_TRACE(threads);
-    Threads team(threads);
-    PairList list;
-    HashedGrid grid;
-    const std::uint64_t loops_before = loops_run_on_team();
-    grid.find_pairs(c.x, c.r, c.box, settings, list);
-    EXPECT_GE(loops_run_on_team() - loops_before, 2u);
-    EXPECT_EQ(list.first, serial_list.first);
-    EXPECT_EQ(list.second, serial_list.second);
-    EXPECT_EQ(grid.stats().distance_tests, serial_grid.stats().distance_tests);
-  }
+  expect_the_one_thread_list(c, settings, serial_grid, serial_list);
 }
 
 // A free vortex draining into a central outlet in the lid (the ledger's own test's flow), 24 × 24
