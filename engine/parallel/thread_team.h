@@ -62,6 +62,12 @@ inline std::size_t balanced_piece_items(std::size_t items, std::size_t nominal,
   return size;
 }
 
+// The engine's usual block of a loop over items (slots, candidates): 16384, halved down to 2048
+// until every thread has a few.
+inline std::size_t balanced_block_items(std::size_t items) {
+  return balanced_piece_items(items, block_items(16384), block_items(2048));
+}
+
 // Loops that ran on more than one thread since the process started (tests: that a loop did).
 std::uint64_t loops_run_on_team();
 

@@ -393,8 +393,7 @@ void CellLevel::build(const std::vector<Vec3>& x, const std::vector<double>& r,
   // the engine's threads; the largest index of each axis over the blocks).
   std::vector<std::uint64_t>& keys = scratch.input_keys;
   keys.resize(members.size());
-  const std::size_t block =
-      balanced_piece_items(members.size(), block_items(16384), block_items(2048));
+  const std::size_t block = balanced_block_items(members.size());
   std::vector<std::array<long, 3>> block_max_index((members.size() + block - 1) / block);
   parallel_ranges(members.size(), block, [&](std::size_t begin, std::size_t end, std::size_t b) {
     long max_index[3] = {0, 0, 0};
@@ -471,8 +470,7 @@ void CellLevel::build(const std::vector<Vec3>& x, const std::vector<double>& r,
 
 void CellLevel::fill_spheres(const std::vector<Vec3>& x, const std::vector<double>& r) {
   sphere_.resize(members_.size());
-  parallel_ranges(members_.size(),
-                  balanced_piece_items(members_.size(), block_items(16384), block_items(2048)),
+  parallel_ranges(members_.size(), balanced_block_items(members_.size()),
                   [&](std::size_t begin, std::size_t end, std::size_t) {
                     for (std::size_t k = begin; k < end; ++k) {
                       const Vec3& p = x[members_[k]];
@@ -654,7 +652,7 @@ void spatial_order(const std::vector<Vec3>& x, const PeriodicBox& box,
   std::vector<std::uint64_t>& keys = scratch.input_keys;
   keys.resize(x.size());
   order.resize(x.size());
-  const std::size_t block = balanced_piece_items(x.size(), block_items(16384), block_items(2048));
+  const std::size_t block = balanced_block_items(x.size());
   parallel_ranges(x.size(), block, [&](std::size_t begin, std::size_t end, std::size_t) {
     for (std::size_t i = begin; i < end; ++i) {
       std::uint64_t key = 0;

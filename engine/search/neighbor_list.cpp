@@ -135,7 +135,7 @@ void NeighborList::choose_shares(const ParticleStore& p) {
   // The speeds relative to the frame and their 99th percentile (counted, never timed); the
   // per-particle loops in blocks on the engine's threads, each writing its own places.
   const bool team = worth_threads(n);
-  const std::size_t block = balanced_piece_items(n, block_items(16384), block_items(2048));
+  const std::size_t block = balanced_block_items(n);
   std::vector<double>& speed = speed_scratch_;
   speed.resize(n);
   parallel_ranges_if(team, n, block, [&](std::size_t begin, std::size_t end, std::size_t) {
@@ -183,9 +183,7 @@ double NeighborList::max_displacement_m(const ParticleStore& p, const PeriodicBo
   const FrameTurn turn(frame_, frame_elapsed_s_);
   const double* scale2 = speed_report(p).scale2;
   const std::size_t block =
-      worth_threads(p.size())
-          ? balanced_piece_items(p.size(), block_items(16384), block_items(2048))
-          : std::max<std::size_t>(1, p.size());
+      worth_threads(p.size()) ? balanced_block_items(p.size()) : std::max<std::size_t>(1, p.size());
   std::vector<double> block_max2((p.size() + block - 1) / block, 0.0);
   parallel_ranges(p.size(), block, [&](std::size_t begin, std::size_t end, std::size_t b) {
     double max2 = 0.0;
@@ -222,8 +220,7 @@ void NeighborList::sort_pairs(const ParticleStore& p, const PeriodicBox& box) {
                : kSpeedBlockSlots;
   const std::size_t buckets = (p.size() + bucket_slots - 1) / bucket_slots;
   const std::size_t chunk_pairs =
-      threaded ? balanced_piece_items(count, block_items(16384), block_items(2048))
-               : std::max<std::size_t>(1, count);
+      threaded ? balanced_block_items(count) : std::max<std::size_t>(1, count);
   const std::size_t chunks = (count + chunk_pairs - 1) / chunk_pairs;
   auto chunk_end = [&](std::size_t c) { return std::min(count, (c + 1) * chunk_pairs); };
 
@@ -726,7 +723,7 @@ void NeighborList::rebuild(const ParticleStore& p, const PeriodicBox& box,
   // The positions and ids of this build, copied in blocks on the engine's threads.
   reference_position_m_.resize(p.size());
   reference_id_.resize(p.size());
-  parallel_ranges(p.size(), balanced_piece_items(p.size(), block_items(16384), block_items(2048)),
+  parallel_ranges(p.size(), balanced_block_items(p.size()),
                   [&](std::size_t begin, std::size_t end, std::size_t) {
                     std::copy(p.position_m.begin() + std::ptrdiff_t(begin),
                               p.position_m.begin() + std::ptrdiff_t(end),

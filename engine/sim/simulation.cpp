@@ -1318,8 +1318,7 @@ std::optional<StepFailure> Simulation::check_health() {
   const std::string dt_text = concat(time_.step_s, " s");
   // The first slot with a non-finite state, then the first outside the box: per block of slots
   // on the engine's threads, the lowest over the blocks (what one pass in slot order finds).
-  const std::size_t n = p.size(),
-                    block = balanced_piece_items(n, block_items(16384), block_items(2048));
+  const std::size_t n = p.size(), block = balanced_block_items(n);
   const bool team = worth_threads(n);
   const std::size_t non_finite = first_index_where(team, n, block, [&](std::size_t i) {
     return !(is_finite(p.position_m[i]) && is_finite(p.motion[i].velocity_m_per_s) &&
