@@ -12,7 +12,8 @@ import argparse
 import json
 import sys
 
-from steady_mill import quantiles
+from multi_rate_table import ks as outlet_ks
+from steady_mill import made_in_window, quantiles
 
 
 def load(run_dir):
@@ -24,10 +25,9 @@ def load(run_dir):
     window = r.get("product_window_s") or s.get("window_s")
     if not window:
         sys.exit(f"{run_dir}: no product window (product_window_s) in result.json")
-    t = h["time_s"]
-    i0 = min(range(len(t)), key=lambda i: abs(t[i] - window[0]))
-    made = [b - a for a, b in zip(h["dust_made_by_class_kg"][i0], h["dust_made_by_class_kg"][-1])]
+    made = made_in_window(h, window[0])
     return {
+        "result": r,
         "name": run_dir.rstrip("/").split("/")[-1],
         "threshold_um": scene.get("dust", {}).get("threshold_diameter_m", float("nan")) * 1e6,
         "window_ms": [w * 1e3 for w in window],
@@ -52,8 +52,9 @@ def cumulative(masses):
     return out
 
 
-def ks(a, b):
-    return max(abs(x - y) for x, y in zip(cumulative(a), cumulative(b)))
+def made_ks(a, b):
+    """KS distance of two runs' dust made in their windows (the outlet's: multi_rate_table.ks)."""
+    return max(abs(x - y) for x, y in zip(cumulative(a["made_kg"]), cumulative(b["made_kg"])))
 
 
 def main():
@@ -91,8 +92,8 @@ def main():
     print()
     for i, a in enumerate(runs):
         for b in runs[i + 1:]:
-            print(f"- {a['name']} – {b['name']}: {ks(a['out_kg'], b['out_kg']):.3f}; "
-                  f"{ks(a['made_kg'], b['made_kg']):.3f}")
+            print(f"- {a['name']} – {b['name']}: {outlet_ks(a['result'], b['result']):.3f}; "
+                  f"{made_ks(a, b):.3f}")
 
 
 if __name__ == "__main__":

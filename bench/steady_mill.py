@@ -50,6 +50,14 @@ def quantiles(edges_m, masses):
     return out
 
 
+def made_in_window(h, t_start):
+    """Dust made by class (under, classes..., over; kg) from the history row nearest t_start to
+    the last row."""
+    t = h["time_s"]
+    i0 = min(range(len(t)), key=lambda i: abs(t[i] - t_start))
+    return [b - a for a, b in zip(h["dust_made_by_class_kg"][i0], h["dust_made_by_class_kg"][-1])]
+
+
 def selection_rates(run_dir, names):
     """Breakage events per particle and second by size (run.h5: the event log against the
     particles in each size group, integrated over the snapshots): 1/S is a particle's mean
@@ -213,9 +221,7 @@ def main():
     if s:
         # The product over the window: dust made by class (the table's view) from the history,
         # and what left (outlet_psd when the run declared the window as its product window).
-        i0 = min(range(len(t)), key=lambda i: abs(t[i] - s["window_s"][0]))
-        made = [b - a for a, b in zip(h["dust_made_by_class_kg"][i0],
-                                      h["dust_made_by_class_kg"][-1])]
+        made = made_in_window(h, s["window_s"][0])
         d = quantiles(edges, made[1:-1])
         print(f"dust made in the window: {sum(made) * 1e9:.1f} µg, d10/d50/d90 "
               f"{' / '.join(fmt(x) for x in d)} µm (under the first edge: {made[0] * 1e9:.3f} µg)")
